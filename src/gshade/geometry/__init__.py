@@ -1,0 +1,42 @@
+"""Exact parametric curves and patches with derivatives, and their differential geometry."""
+
+from .bernstein import bernstein_basis, de_casteljau, elevate_degree
+from .bezier import BezierCurve, BezierPatch
+from .bspline import BSplineCurve, BSplinePatch
+from .coons import CoonsPatch
+from .differential import (
+    first_fundamental_form,
+    gaussian_and_mean_curvature,
+    gaussian_curvature,
+    irregular_mask,
+    mean_curvature,
+    principal_curvatures,
+    second_fundamental_form,
+    unit_normal,
+)
+from .patch import Curve, Patch
+from .regularity import patch_normals, regularised_derivatives, toward_interior
+
+__all__ = [
+    "BSplineCurve",
+    "BSplinePatch",
+    "BezierCurve",
+    "BezierPatch",
+    "CoonsPatch",
+    "Curve",
+    "Patch",
+    "bernstein_basis",
+    "de_casteljau",
+    "elevate_degree",
+    "first_fundamental_form",
+    "gaussian_and_mean_curvature",
+    "gaussian_curvature",
+    "irregular_mask",
+    "mean_curvature",
+    "patch_normals",
+    "principal_curvatures",
+    "regularised_derivatives",
+    "second_fundamental_form",
+    "toward_interior",
+    "unit_normal",
+]

@@ -1,0 +1,300 @@
+"""The evaluation interface shared by all curves and patches, and tensor-product evaluation.
+
+Every patch answers ``patch.derivatives(u, v, order)`` with an array of shape
+``(order + 1, order + 1, *broadcast(u, v).shape, 3)`` whose entry ``[i, j]`` (for
+i + j <= order) is the partial derivative d^(i+j) p / du^i dv^j; entries with i + j > order
+are zero.  Every curve answers ``curve.derivatives(t, order)`` with shape
+``(order + 1, *t.shape, dim)``.
+
+Internally results are computed component-major (coordinate axis before the point axes) so
+that the contractions are plain matrix products and every output is written once; the
+returned arrays are views with the coordinate axis moved last.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import GshadeError
+from .bernstein import bernstein_basis
+from .knots import basis_functions, basis_matrix, check_parameters
+from .rational import project_curve_derivatives, project_patch_derivatives
+
+__all__ = ["Curve", "Patch", "TensorProductPatch"]
+
+Domain = tuple[tuple[float, float], tuple[float, float]]
+
+#: Points are evaluated in chunks of this many, to bound temporary memory.
+_CHUNK = 1 << 15
+
+
+def check_order(order: int) -> int:
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
+        raise GshadeError(f"order: expected an integer >= 0, got {order!r}")
+    return int(order)
+
+
+def _grid_axes(u: NDArray, v: NDArray) -> tuple[NDArray, NDArray] | None:
+    """If (u, v) broadcast as an outer product (u down the rows, v along the columns),
+    return the 1-D parameter vectors; otherwise None."""
+    if u.ndim > 2 or v.ndim > 2 or max(u.ndim, v.ndim) < 2:
+        return None
+    u2 = u.reshape((1,) * (2 - u.ndim) + u.shape)
+    v2 = v.reshape((1,) * (2 - v.ndim) + v.shape)
+    if u2.shape[1] == 1 and v2.shape[0] == 1:
+        return u2[:, 0], v2[0, :]
+    return None
+
+
+class Curve(ABC):
+    """A parametric curve c(t) with derivatives; ``dim`` coordinates."""
+
+    dim: int
+    domain: tuple[float, float]
+
+    def derivatives(self, t: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        """Derivatives of order 0..order at t: shape (order + 1, *t.shape, dim)."""
+        order = check_order(order)
+        lo, hi = self.domain
+        t = check_parameters(t, lo, hi, "t")
+        flat = t.ravel()
+        out = np.empty((order + 1, self.dim, flat.size))
+        for start in range(0, flat.size, _CHUNK):
+            sl = slice(start, start + _CHUNK)
+            out[:, :, sl] = self._derivatives(flat[sl], order)
+        return np.moveaxis(out, 1, -1).reshape((order + 1, *t.shape, self.dim))
+
+    def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Points c(t), shape (*t.shape, dim)."""
+        return self.derivatives(t, 0)[0]
+
+    @abstractmethod
+    def _derivatives(self, t: NDArray, order: int) -> NDArray:
+        """Component-major derivatives (order + 1, dim, N) at a flat array of parameters."""
+
+
+class Patch(ABC):
+    """A parametric surface patch p(u, v) with exact partial derivatives."""
+
+    domain: Domain
+
+    def derivatives(self, u: ArrayLike, v: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        """Partial derivatives up to total order ``order`` at (u, v).
+
+        Returns
+        -------
+        ndarray, shape (order + 1, order + 1, *broadcast(u, v).shape, 3)
+            Entry ``[i, j]`` is d^(i+j)p / du^i dv^j for i + j <= order, zero otherwise.
+            When u and v form an outer product (``u[:, None]``, ``v[None, :]``) a faster
+            grid algorithm is used.
+        """
+        order = check_order(order)
+        (u0, u1), (v0, v1) = self.domain
+        u = check_parameters(u, u0, u1, "u")
+        v = check_parameters(v, v0, v1, "v")
+        axes = _grid_axes(u, v)
+        if axes is not None:
+            buf = self._derivatives_grid(axes[0], axes[1], order)
+            return np.moveaxis(buf, 2, -1)
+        try:
+            shape = np.broadcast_shapes(u.shape, v.shape)
+        except ValueError:
+            raise GshadeError(
+                f"u, v: expected shapes that broadcast together, got {u.shape} and {v.shape}"
+            ) from None
+        uf = np.broadcast_to(u, shape).ravel()
+        vf = np.broadcast_to(v, shape).ravel()
+        buf = np.zeros((order + 1, order + 1, 3, uf.size))
+        for start in range(0, uf.size, _CHUNK):
+            sl = slice(start, start + _CHUNK)
+            buf[:, :, :, sl] = self._derivatives_points(uf[sl], vf[sl], order)
+        return np.moveaxis(buf, 2, -1).reshape((order + 1, order + 1, *shape, 3))
+
+    def derivatives_grid(self, u: ArrayLike, v: ArrayLike, order: int = 0) -> NDArray:
+        """Derivatives on the grid u x v (1-D arrays): shape (order+1, order+1, Nu, Nv, 3)."""
+        u = np.asarray(u, dtype=np.float64).reshape(-1, 1)
+        v = np.asarray(v, dtype=np.float64).reshape(1, -1)
+        return self.derivatives(u, v, order)
+
+    def __call__(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+        """Points p(u, v), shape (*broadcast(u, v).shape, 3)."""
+        return self.derivatives(u, v, 0)[0, 0]
+
+    def parameter_grid(self, n_u: int, n_v: int) -> tuple[NDArray, NDArray]:
+        """Evenly spaced parameters over the domain, shaped for the grid algorithm."""
+        (u0, u1), (v0, v1) = self.domain
+        return np.linspace(u0, u1, n_u)[:, None], np.linspace(v0, v1, n_v)[None, :]
+
+    @abstractmethod
+    def _derivatives_points(self, u: NDArray, v: NDArray, order: int) -> NDArray:
+        """Component-major derivatives (order+1, order+1, 3, N) at flat parameter arrays."""
+
+    def _derivatives_grid(self, u: NDArray, v: NDArray, order: int) -> NDArray:
+        """Component-major derivatives (order+1, order+1, 3, Nu, Nv) on a grid."""
+        uu, vv = np.meshgrid(u, v, indexing="ij")
+        buf = self._derivatives_points(uu.ravel(), vv.ravel(), order)
+        return buf.reshape((order + 1, order + 1, 3, u.size, v.size))
+
+
+# --------------------------------------------------------------------------- bases
+
+
+@dataclass(frozen=True)
+class BernsteinBasis:
+    """The Bernstein basis of a degree over an interval [a, b]."""
+
+    degree: int
+    interval: tuple[float, float]
+
+    @property
+    def n_points(self) -> int:
+        return self.degree + 1
+
+    def dense(self, t: NDArray, order: int) -> NDArray:
+        a, b = self.interval
+        out = bernstein_basis(self.degree, (t - a) / (b - a), order)
+        for k in range(1, order + 1):
+            out[k] *= (b - a) ** -k
+        return out
+
+    def local(self, t: NDArray, order: int) -> tuple[NDArray, NDArray]:
+        return np.zeros(t.shape, dtype=np.intp), self.dense(t, order)
+
+
+@dataclass(frozen=True)
+class BSplineBasis:
+    """The B-spline basis of a degree over a (validated) knot vector."""
+
+    degree: int
+    knots: NDArray
+
+    @property
+    def n_points(self) -> int:
+        return len(self.knots) - self.degree - 1
+
+    def dense(self, t: NDArray, order: int) -> NDArray:
+        return basis_matrix(self.knots, self.degree, t, order)
+
+    def local(self, t: NDArray, order: int) -> tuple[NDArray, NDArray]:
+        spans, ders = basis_functions(self.knots, self.degree, t, order)
+        return spans - self.degree, ders
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+def check_points(points: ArrayLike, ndim: int, what: str, min_count: int = 2) -> NDArray:
+    """Validate a control net: shape (..., 3) with ``ndim`` index axes, finite values."""
+    try:
+        P = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise GshadeError(f"points: expected an array of numbers for the {what}") from None
+    expected = "(n+1, 3)" if ndim == 1 else "(m+1, n+1, 3)"
+    if P.ndim != ndim + 1 or P.shape[-1] not in ((3,) if ndim == 2 else (2, 3)):
+        raise GshadeError(f"points: expected shape {expected} for the {what}, got {P.shape}")
+    if any(s < min_count for s in P.shape[:-1]):
+        raise GshadeError(
+            f"points: expected at least {min_count} control points per direction for the "
+            f"{what}, got shape {P.shape}"
+        )
+    if not np.all(np.isfinite(P)):
+        raise GshadeError(f"points: expected finite coordinates for the {what}")
+    return P
+
+
+def check_weights(weights: ArrayLike | None, shape: tuple[int, ...], what: str) -> NDArray | None:
+    """Validate weights: None, or positive finite numbers of the given shape."""
+    if weights is None:
+        return None
+    try:
+        w = np.asarray(weights, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise GshadeError(f"weights: expected an array of numbers for the {what}") from None
+    if w.shape != shape:
+        raise GshadeError(f"weights: expected shape {shape} for the {what}, got {w.shape}")
+    if not np.all(np.isfinite(w) & (w > 0)):
+        bad = w[~(np.isfinite(w) & (w > 0))].flat[0]
+        raise GshadeError(f"weights: expected positive finite numbers, got {bad!r}")
+    return w
+
+
+def homogeneous(points: NDArray, weights: NDArray | None) -> NDArray:
+    """Control points in homogeneous form (w P, w), or the points themselves if polynomial."""
+    if weights is None:
+        return points
+    return np.concatenate([points * weights[..., None], weights[..., None]], axis=-1)
+
+
+class BasisCurve(Curve):
+    """A curve sum_i B_i(t) P_i over a basis (Bernstein or B-spline), rational if weighted."""
+
+    def __init__(self, basis, points: NDArray, weights: NDArray | None) -> None:
+        self._basis = basis
+        self.points = points
+        self.weights = weights
+        self.dim = points.shape[-1]
+        self._net = homogeneous(points, weights)
+
+    @property
+    def rational(self) -> bool:
+        return self.weights is not None
+
+    def _derivatives(self, t: NDArray, order: int) -> NDArray:
+        first, ders = self._basis.local(t, order)
+        idx = first[:, None] + np.arange(ders.shape[-1])
+        local = self._net[idx]  # (N, k, c)
+        h = np.einsum("onk,nkc->ocn", ders, local)
+        if self.weights is None:
+            return h
+        return project_curve_derivatives(h, order)
+
+
+class TensorProductPatch(Patch):
+    """A patch sum_ij B_i(u) B_j(v) P_ij over two bases, rational if weighted."""
+
+    def __init__(self, basis_u, basis_v, points: NDArray, weights: NDArray | None) -> None:
+        self._bu = basis_u
+        self._bv = basis_v
+        self.points = points
+        self.weights = weights
+        self._net = homogeneous(points, weights)
+
+    @property
+    def rational(self) -> bool:
+        return self.weights is not None
+
+    def _derivatives_grid(self, u: NDArray, v: NDArray, order: int) -> NDArray:
+        Bu = self._bu.dense(u, order)  # (o+1, Nu, mu)
+        Bv = self._bv.dense(v, order)  # (o+1, Nv, mv)
+        mu, mv, c = self._net.shape
+        net = self._net.reshape(mu, mv * c)
+        # Entries with i + j > order stay zero; np.zeros costs nothing for untouched pages.
+        buf = np.zeros((order + 1, order + 1, c, u.size, v.size))
+        for i in range(order + 1):
+            rows = (Bu[i] @ net).reshape(u.size, mv, c).transpose(2, 0, 1)  # (c, Nu, mv)
+            for j in range(order + 1 - i):
+                np.matmul(rows, Bv[j].T, out=buf[i, j])
+        if self.weights is None:
+            return buf
+        return project_patch_derivatives(buf, order)
+
+    def _derivatives_points(self, u: NDArray, v: NDArray, order: int) -> NDArray:
+        fu, Bu = self._bu.local(u, order)  # (N,), (o+1, N, ku)
+        fv, Bv = self._bv.local(v, order)
+        ku, kv = Bu.shape[-1], Bv.shape[-1]
+        iu = fu[:, None, None] + np.arange(ku)[None, :, None]
+        iv = fv[:, None, None] + np.arange(kv)[None, None, :]
+        local = self._net[iu, iv]  # (N, ku, kv, c)
+        c = local.shape[-1]
+        buf = np.zeros((order + 1, order + 1, c, u.size))
+        for i in range(order + 1):
+            rows = np.einsum("na,nabc->nbc", Bu[i], local)
+            for j in range(order + 1 - i):
+                buf[i, j] = np.einsum("nbc,nb->cn", rows, Bv[j])
+        if self.weights is None:
+            return buf
+        return project_patch_derivatives(buf, order)

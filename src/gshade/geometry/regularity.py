@@ -1,0 +1,75 @@
+"""Irregular points of a patch: limit normals and curvatures at collapsed edges.
+
+Where p_u x p_v = 0 (a collapsed edge, e.g. the teapot's lid top) the normal and the
+curvatures are limits taken from inside the patch.  The normal's limit comes from the
+Taylor expansion of p_u x p_v (:func:`~gshade.geometry.differential.unit_normal`); for
+the derivatives used by curvatures and shape functions, the point is moved a tiny step
+(``offset`` times the domain's size) toward the domain's centre and re-evaluated.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .differential import irregular_mask, unit_normal
+from .patch import Patch
+
+__all__ = ["RegularisedDerivatives", "patch_normals", "regularised_derivatives", "toward_interior"]
+
+
+def toward_interior(patch: Patch, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    """Unit parameter directions (du, dv) from (u, v) toward the centre of the domain."""
+    (u0, u1), (v0, v1) = patch.domain
+    u, v = np.broadcast_arrays(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
+    du = (0.5 * (u0 + u1) - u) / (u1 - u0)
+    dv = (0.5 * (v0 + v1) - v) / (v1 - v0)
+    length = np.hypot(du, dv)
+    centre = length == 0
+    length[centre] = 1.0
+    du[centre] = 1.0
+    return np.stack([du / length * (u1 - u0), dv / length * (v1 - v0)], axis=-1)
+
+
+def patch_normals(patch: Patch, u: ArrayLike, v: ArrayLike):
+    """Unit normals of a patch with exact limits at irregular points.
+
+    Returns :class:`~gshade.geometry.differential.Normal` (``n``, ``regular``).
+    """
+    d = patch.derivatives(u, v, 3)
+    return unit_normal(d, toward=toward_interior(patch, u, v))
+
+
+class RegularisedDerivatives(NamedTuple):
+    """Derivatives with irregular points replaced by limits, and the regularity mask."""
+
+    d: NDArray[np.float64]
+    regular: NDArray[np.bool_]
+
+
+def regularised_derivatives(
+    patch: Patch, u: ArrayLike, v: ArrayLike, order: int = 2, offset: float = 1e-5
+) -> RegularisedDerivatives:
+    """``patch.derivatives(u, v, order)`` with usable values at irregular points.
+
+    At irregular points the derivatives of order >= 1 are taken at a parameter moved by
+    ``offset`` (relative to the domain size) toward the domain's centre, so that normals,
+    curvatures and shape functions computed from them are their limits up to O(offset).
+    Positions stay exact.
+    """
+    d = patch.derivatives(u, v, order)
+    if order < 1:
+        return RegularisedDerivatives(d, np.ones(d.shape[2:-1], dtype=bool))
+    regular = ~irregular_mask(d)
+    if regular.all():
+        return RegularisedDerivatives(d, regular)
+    ub, vb = np.broadcast_arrays(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
+    irr = ~regular
+    step = toward_interior(patch, ub[irr], vb[irr]) * offset
+    moved = patch.derivatives(ub[irr] + step[:, 0], vb[irr] + step[:, 1], order)
+    position = d[0, 0][irr]
+    d[:, :, irr] = moved
+    d[0, 0][irr] = position
+    return RegularisedDerivatives(d, regular)
