@@ -16,6 +16,7 @@ from .differential import (
 )
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
+from .revolution import circle, cylinder, revolve, sphere, torus
 
 __all__ = [
     "BSplineCurve",
@@ -26,6 +27,8 @@ __all__ = [
     "Curve",
     "Patch",
     "bernstein_basis",
+    "circle",
+    "cylinder",
     "de_casteljau",
     "elevate_degree",
     "first_fundamental_form",
@@ -36,7 +39,10 @@ __all__ = [
     "patch_normals",
     "principal_curvatures",
     "regularised_derivatives",
+    "revolve",
     "second_fundamental_form",
+    "sphere",
+    "torus",
     "toward_interior",
     "unit_normal",
 ]

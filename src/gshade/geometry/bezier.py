@@ -105,8 +105,12 @@ class BezierPatch(TensorProductPatch):
 
     def boundary(self, side: str) -> BezierCurve:
         """The boundary curve on side 'u0', 'u1', 'v0' or 'v1' (e.g. 'v0' is p(u, v0))."""
-        sel = {"u0": (0, slice(None)), "u1": (-1, slice(None)),
-               "v0": (slice(None), 0), "v1": (slice(None), -1)}
+        sel = {
+            "u0": (0, slice(None)),
+            "u1": (-1, slice(None)),
+            "v0": (slice(None), 0),
+            "v1": (slice(None), -1),
+        }
         if side not in sel:
             raise GshadeError(f"side: expected one of u0, u1, v0, v1, got {side!r}")
         idx = sel[side]

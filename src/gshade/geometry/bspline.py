@@ -123,4 +123,3 @@ class BSplinePatch(TensorProductPatch):
                 row.append(BezierPatch(P, w, domain=((ub[a], ub[a + 1]), (vb[b], vb[b + 1]))))
             out.append(row)
         return out
-

@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from .bezier import BezierCurve, BezierPatch
 from .bernstein import elevate_degree
+from .bezier import BezierCurve, BezierPatch
 from .patch import Curve, Patch
 
 __all__ = ["CoonsPatch"]
@@ -78,11 +78,32 @@ class CoonsPatch(Patch):
 
     domain = ((0.0, 1.0), (0.0, 1.0))
 
-    def __init__(self, v0: Curve, v1: Curve, u0: Curve, u1: Curve, *, cross_v0=None,
-                 cross_v1=None, cross_u0=None, cross_u1=None, tol: float = 1e-9):
-        named = {"v0": v0, "v1": v1, "u0": u0, "u1": u1, "cross_v0": cross_v0,
-                 "cross_v1": cross_v1, "cross_u0": cross_u0, "cross_u1": cross_u1}
-        given = [k for k in ("cross_v0", "cross_v1", "cross_u0", "cross_u1") if named[k] is not None]
+    def __init__(
+        self,
+        v0: Curve,
+        v1: Curve,
+        u0: Curve,
+        u1: Curve,
+        *,
+        cross_v0=None,
+        cross_v1=None,
+        cross_u0=None,
+        cross_u1=None,
+        tol: float = 1e-9,
+    ):
+        named = {
+            "v0": v0,
+            "v1": v1,
+            "u0": u0,
+            "u1": u1,
+            "cross_v0": cross_v0,
+            "cross_v1": cross_v1,
+            "cross_u0": cross_u0,
+            "cross_u1": cross_u1,
+        }
+        given = [
+            k for k in ("cross_v0", "cross_v1", "cross_u0", "cross_u1") if named[k] is not None
+        ]
         if given and len(given) != 4:
             missing = sorted(set(("cross_v0", "cross_v1", "cross_u0", "cross_u1")) - set(given))
             raise GshadeError(
@@ -102,8 +123,10 @@ class CoonsPatch(Patch):
 
     def _corner_data(self, c: dict, tol: float) -> NDArray:
         """Corner matrix Q (K x K x 3) after checking that all curves agree at the corners."""
-        ends = {k: (_curve_on_unit(cv, np.array([0.0, 1.0]), 2) if cv is not None else None)
-                for k, cv in c.items()}
+        ends = {
+            k: (_curve_on_unit(cv, np.array([0.0, 1.0]), 2) if cv is not None else None)
+            for k, cv in c.items()
+        }
         scale = 1.0 + max(float(np.abs(e).max()) for e in ends.values() if e is not None)
 
         def agree(what: str, corner: str, a: NDArray, b: NDArray, na: str, nb: str) -> None:
@@ -128,8 +151,14 @@ class CoonsPatch(Patch):
                     agree("p_v", corner, pv, ends[f"u{k}"][1, l], f"cross_v{l}", f"u{k}'")
                     agree("p_u", corner, pu, ends[f"v{l}"][1, k], f"cross_u{k}", f"v{l}'")
                     twist = ends[f"cross_v{l}"][1, k]
-                    agree("the twist p_uv", corner, twist, ends[f"cross_u{k}"][1, l],
-                          f"cross_v{l}'", f"cross_u{k}'")
+                    agree(
+                        "the twist p_uv",
+                        corner,
+                        twist,
+                        ends[f"cross_u{k}"][1, l],
+                        f"cross_v{l}'",
+                        f"cross_u{k}'",
+                    )
                     Q[k, 2 + l] = pv
                     Q[2 + k, l] = pu
                     Q[2 + k, 2 + l] = twist

@@ -41,9 +41,7 @@ IRREGULAR_TOL = 1e-8
 
 def _order_of(d: NDArray, needed: int, what: str) -> None:
     if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
-        raise GshadeError(
-            f"derivatives: expected shape (order+1, order+1, ..., 3), got {d.shape}"
-        )
+        raise GshadeError(f"derivatives: expected shape (order+1, order+1, ..., 3), got {d.shape}")
     if d.shape[0] - 1 < needed:
         raise GshadeError(
             f"derivatives: {what} needs derivatives of order {needed}, got order {d.shape[0] - 1}"
@@ -73,7 +71,9 @@ def _dot(a: NDArray, b: NDArray) -> NDArray:
 
 def _derivative_scale(d: NDArray) -> NDArray:
     """A length scale of the first derivatives: the largest |p_u| or |p_v| in the array."""
-    s = max(float(np.max(np.abs(d[1, 0]), initial=0.0)), float(np.max(np.abs(d[0, 1]), initial=0.0)))
+    s = max(
+        float(np.max(np.abs(d[1, 0]), initial=0.0)), float(np.max(np.abs(d[0, 1]), initial=0.0))
+    )
     return s if s > 0 else 1.0
 
 
@@ -142,14 +142,24 @@ def unit_normal(
             Nv = _cross(take(1, 1), take(0, 1)) + _cross(take(1, 0), take(0, 2))
             terms.append(a[:, None] * Nu + b[:, None] * Nv)
         if order >= 3:
-            Nuu = (_cross(take(3, 0), take(0, 1)) + 2 * _cross(take(2, 0), take(1, 1))
-                   + _cross(take(1, 0), take(2, 1)))
-            Nuv = (_cross(take(2, 1), take(0, 1)) + _cross(take(2, 0), take(0, 2))
-                   + _cross(take(1, 0), take(1, 2)))
-            Nvv = (_cross(take(1, 2), take(0, 1)) + 2 * _cross(take(1, 1), take(0, 2))
-                   + _cross(take(1, 0), take(0, 3)))
-            terms.append((a * a)[:, None] * Nuu + (2 * a * b)[:, None] * Nuv
-                         + (b * b)[:, None] * Nvv)
+            Nuu = (
+                _cross(take(3, 0), take(0, 1))
+                + 2 * _cross(take(2, 0), take(1, 1))
+                + _cross(take(1, 0), take(2, 1))
+            )
+            Nuv = (
+                _cross(take(2, 1), take(0, 1))
+                + _cross(take(2, 0), take(0, 2))
+                + _cross(take(1, 0), take(1, 2))
+            )
+            Nvv = (
+                _cross(take(1, 2), take(0, 1))
+                + 2 * _cross(take(1, 1), take(0, 2))
+                + _cross(take(1, 0), take(0, 3))
+            )
+            terms.append(
+                (a * a)[:, None] * Nuu + (2 * a * b)[:, None] * Nuv + (b * b)[:, None] * Nvv
+            )
         for term in terms:
             tl = np.sqrt(_dot(term, term))
             use = (fixed_len <= tol * scale2) & (tl > tol * scale2)
@@ -257,7 +267,7 @@ class PrincipalCurvatures(NamedTuple):
 
 
 def principal_curvatures(d: ArrayLike) -> PrincipalCurvatures:
-    """Principal curvatures k1,2 = H ± sqrt(max(H^2 - K, 0)) and principal directions.
+    """Principal curvatures k1,2 = H ± sqrt(H^2 - K) and principal directions.
 
     The directions are eigenvectors of the shape operator I^-1 II mapped to R^3 by
     (du, dv) -> du p_u + dv p_v; e2 = n x e1, so (e1, e2, n) is right-handed.  At umbilics
@@ -270,9 +280,12 @@ def principal_curvatures(d: ArrayLike) -> PrincipalCurvatures:
     E, F, G = first_fundamental_form(d)
     L, M, N = second_fundamental_form(d, n)
     W2 = np.maximum(E * G - F * F, np.finfo(np.float64).tiny ** 0.25)
-    K = _finite((L * N - M * M) / W2)
     H = _finite((E * N - 2 * F * M + G * L) / (2 * W2))
-    root = np.sqrt(np.maximum(H * H - K, 0.0))
+    # ((k1 - k2) / 2)^2 from the shape operator S = I^-1 II as ((S11 - S22) / 2)^2 + S12 S21
+    # rather than H^2 - K, which loses half the digits near umbilics.
+    half_gap = (G * L - E * N) / (2 * W2)
+    disc = _finite(half_gap * half_gap + (G * M - F * N) * (E * M - F * L) / (W2 * W2))
+    root = np.sqrt(np.maximum(disc, 0.0))
     k1, k2 = H + root, H - root
     # (II - k1 I) x = 0: two candidate null vectors; take the better conditioned one.
     a1, b1 = M - k1 * F, -(L - k1 * E)

@@ -54,19 +54,19 @@ def check_knots(knots: ArrayLike, degree: int, n_points: int, name: str = "knots
     if dec.size:
         i = int(dec[0])
         raise GshadeError(
-            f"{name}: expected a non-decreasing sequence, but knot {i + 1} ({U[i + 1]!r}) "
-            f"< knot {i} ({U[i]!r})"
+            f"{name}: expected a non-decreasing sequence, but knot {i + 1} ({float(U[i + 1])!r}) "
+            f"< knot {i} ({float(U[i])!r})"
         )
-    _, counts = np.unique(U[1:-1], return_counts=True)
-    if counts.size and counts.max() > degree + 1:
+    values, counts = np.unique(U, return_counts=True)
+    if counts.max() > degree + 1:
         raise GshadeError(
-            f"{name}: expected interior knot multiplicities <= degree + 1 = {degree + 1}, "
-            f"got {int(counts.max())}"
+            f"{name}: expected knot multiplicities <= degree + 1 = {degree + 1}, got "
+            f"{int(counts.max())} for the knot {float(values[counts.argmax()])!r}"
         )
     if not U[degree] < U[n_points]:
         raise GshadeError(
             f"{name}: the parameter domain [knot {degree}, knot {n_points}] = "
-            f"[{U[degree]!r}, {U[n_points]!r}] is empty"
+            f"[{float(U[degree])!r}, {float(U[n_points])!r}] is empty"
         )
     return U
 
@@ -85,7 +85,7 @@ def check_parameters(t: ArrayLike, lo: float, hi: float, name: str = "t") -> NDA
     tol = 1e-12 * max(1.0, hi - lo)
     bad = ~((t >= lo - tol) & (t <= hi + tol))  # also catches NaN
     if np.any(bad):
-        example = t[bad].flat[0]
+        example = float(t[bad].flat[0])
         raise ParameterDomainError(
             f"{name}: expected values in the parameter domain [{lo!r}, {hi!r}], got "
             f"{example!r} ({int(bad.sum())} value(s) outside)"

@@ -217,7 +217,7 @@ def check_weights(weights: ArrayLike | None, shape: tuple[int, ...], what: str) 
     if w.shape != shape:
         raise GshadeError(f"weights: expected shape {shape} for the {what}, got {w.shape}")
     if not np.all(np.isfinite(w) & (w > 0)):
-        bad = w[~(np.isfinite(w) & (w > 0))].flat[0]
+        bad = float(w[~(np.isfinite(w) & (w > 0))].flat[0])
         raise GshadeError(f"weights: expected positive finite numbers, got {bad!r}")
     return w
 

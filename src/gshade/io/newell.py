@@ -64,7 +64,9 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
         except StopIteration:
             raise fail(None, f"expected the number of {what}, found the end of the file") from None
         if len(fields) != 1 or not fields[0].isdigit():
-            raise fail(number, f"expected the number of {what} (one integer), found {' '.join(fields)!r}")
+            raise fail(
+                number, f"expected the number of {what} (one integer), found {' '.join(fields)!r}"
+            )
         return number, int(fields[0])
 
     _, n_patches = count("patches")
@@ -76,8 +78,11 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
         except StopIteration:
             raise fail(None, f"expected {n_patches} patch lines, found {k}") from None
         if len(fields) != 16 or not all(f.isdigit() for f in fields):
-            raise fail(number, f"expected 16 vertex indices (positive integers) for patch {k + 1}, "
-                               f"found {' '.join(fields)!r}")
+            raise fail(
+                number,
+                f"expected 16 vertex indices (positive integers) for patch {k + 1}, "
+                f"found {' '.join(fields)!r}",
+            )
         nets[k] = [int(f) for f in fields]
         net_lines.append(number)
     _, n_vertices = count("vertices")
@@ -92,18 +97,26 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
                 raise ValueError
             vertices[k] = [float(f) for f in fields]
         except ValueError:
-            raise fail(number, f"expected a vertex 'x, y, z' (3 numbers), found {' '.join(fields)!r}") from None
+            raise fail(
+                number, f"expected a vertex 'x, y, z' (3 numbers), found {' '.join(fields)!r}"
+            ) from None
         if not np.all(np.isfinite(vertices[k])):
             raise fail(number, f"expected finite coordinates, found {' '.join(fields)!r}")
     extra = next(lines, None)
     if extra is not None:
-        raise fail(extra[0], f"expected the end of the file after {n_vertices} vertices, "
-                             f"found {' '.join(extra[1])!r}")
+        raise fail(
+            extra[0],
+            f"expected the end of the file after {n_vertices} vertices, "
+            f"found {' '.join(extra[1])!r}",
+        )
     bad = np.nonzero((nets < 1) | (nets > n_vertices))
     if bad[0].size:
         k, j = int(bad[0][0]), int(bad[1][0])
-        raise fail(net_lines[k], f"expected vertex indices from 1 to {n_vertices}, "
-                                 f"found {int(nets[k, j])} in patch {k + 1}")
+        raise fail(
+            net_lines[k],
+            f"expected vertex indices from 1 to {n_vertices}, "
+            f"found {int(nets[k, j])} in patch {k + 1}",
+        )
     return vertices, (nets - 1).reshape(n_patches, 4, 4)
 
 

@@ -1,0 +1,553 @@
+"""Benchmark gshade's surface evaluation and curvature kernels against splipy and geomdl.
+
+What is measured (wall-clock, ``time.perf_counter``, median over repeats after a warm-up):
+
+W1  A bicubic B-spline patch with 20 x 20 control points and clamped uniform knots on
+    [0, 1], evaluated on a 500 x 500 parameter grid with every derivative up to order 2
+    (p, p_u, p_v, p_uu, p_uv, p_vv):
+      * gshade: one ``BSplinePatch.derivatives(u[:, None], v[None, :], 2)`` call (grid path);
+      * splipy: ``surface(u, v)`` plus ``surface.derivative(u, v, d=(i, j))`` for the five
+        derivatives, each evaluated on the tensor grid as splipy does it;
+      * geomdl: ``BSpline.Surface.derivatives(u, v, order=2)``, one call per point.  It is
+        too slow for 250,000 points, so it is timed on a random subsample of the grid
+        points and the time is scaled linearly to the full grid (marked "extrapolated").
+W2  The same patch as a NURBS with random weights in [0.5, 2] (splipy: ``rational=True``
+    with weight-premultiplied control points and the weight as last coordinate; geomdl:
+    ``NURBS.Surface`` with weighted control points).
+KH  Gaussian and mean curvature at the 250,000 grid points of W1 from the already computed
+    derivatives: only ``gaussian_and_mean_curvature(d)`` is timed.
+
+gshade and splipy are timed interleaved (one call of each per repeat), so that both see the
+same machine state; geomdl is timed afterwards.  Before timing, every library's derivatives
+are checked against gshade's (all six, on every point compared); the run fails if any
+differs by more than 1e-10 relative to that derivative's largest magnitude.  K and H are
+checked against a plain textbook evaluation from splipy's derivatives.
+
+Usage, from the repository root::
+
+    .venv/bin/python benchmarks/bench_geometry.py            # print the table
+    .venv/bin/python benchmarks/bench_geometry.py --write    # and update RESULTS.md
+    .venv/bin/python benchmarks/bench_geometry.py --quick    # fewer repeats
+
+``--write`` replaces this benchmark's section of ``benchmarks/RESULTS.md`` (between the
+``bench_geometry`` markers) and leaves the rest of the file alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import gc
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from importlib.metadata import version
+from pathlib import Path
+
+import numpy as np
+import splipy
+from geomdl import NURBS, BSpline
+
+from gshade.geometry import BSplinePatch, gaussian_and_mean_curvature
+
+N_CTRL = 20  # control points per direction
+DEGREE = 3
+GRID = 500  # parameter values per direction
+GEOMDL_POINTS = 200  # grid points per geomdl repeat
+REPEATS, QUICK_REPEATS = 15, 3
+GEOMDL_REPEATS, QUICK_GEOMDL_REPEATS = 5, 1
+REL_TOL = 1e-10
+SEED = 20240611
+
+#: The derivatives compared and timed, as (i, j) for d^(i+j) p / du^i dv^j.
+MULTI_INDICES = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+
+RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
+START, END = "<!-- bench_geometry:start -->", "<!-- bench_geometry:end -->"
+HEADER = "# gshade benchmark results\n"
+
+
+# --------------------------------------------------------------------------- test surface
+
+
+@dataclass(frozen=True)
+class Surface:
+    points: np.ndarray  # (N_CTRL, N_CTRL, 3)
+    weights: np.ndarray | None  # (N_CTRL, N_CTRL) or None
+    knots: np.ndarray  # clamped uniform on [0, 1], shared by u and v
+
+    @property
+    def homogeneous(self) -> np.ndarray:
+        """(w x, w y, w z, w) control points, the convention of splipy and geomdl."""
+        if self.weights is None:
+            return self.points
+        w = self.weights[..., None]
+        return np.concatenate([self.points * w, w], axis=-1)
+
+
+def make_surfaces(rng: np.random.Generator) -> tuple[Surface, Surface]:
+    """A random height field over the unit square, polynomial (W1) and rational (W2)."""
+    g = np.linspace(0.0, 1.0, N_CTRL)
+    points = np.empty((N_CTRL, N_CTRL, 3))
+    points[..., 0] = g[:, None]
+    points[..., 1] = g[None, :]
+    points[..., 2] = rng.uniform(-0.2, 0.2, (N_CTRL, N_CTRL))
+    inner = np.linspace(0.0, 1.0, N_CTRL - DEGREE + 1)
+    knots = np.concatenate([np.zeros(DEGREE), inner, np.ones(DEGREE)])
+    weights = rng.uniform(0.5, 2.0, (N_CTRL, N_CTRL))
+    return Surface(points, None, knots), Surface(points, weights, knots)
+
+
+# --------------------------------------------------------------------------- the libraries
+
+
+def gshade_patch(s: Surface) -> BSplinePatch:
+    return BSplinePatch(s.points, (DEGREE, DEGREE), (s.knots, s.knots), weights=s.weights)
+
+
+def gshade_eval(patch: BSplinePatch, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return patch.derivatives(u[:, None], v[None, :], 2)
+
+
+def splipy_surface(s: Surface) -> splipy.Surface:
+    basis = splipy.BSplineBasis(DEGREE + 1, s.knots)  # splipy's "order" is degree + 1
+    cp = s.homogeneous
+    # splipy reads a flat list of control points with the first (u) index varying fastest.
+    flat = cp.transpose(1, 0, 2).reshape(-1, cp.shape[-1])
+    return splipy.Surface(basis, basis, flat, rational=s.weights is not None)
+
+
+def splipy_eval(surface: splipy.Surface, u: np.ndarray, v: np.ndarray) -> list[np.ndarray]:
+    """The six grid derivatives, each (GRID, GRID, 3), in the order of MULTI_INDICES."""
+    # d must be a tuple: splipy's rational second derivatives compare it with tuples.
+    return [surface(u, v)] + [surface.derivative(u, v, d=ij) for ij in MULTI_INDICES[1:]]
+
+
+def geomdl_surface(s: Surface) -> BSpline.Surface:
+    surface = BSpline.Surface() if s.weights is None else NURBS.Surface()
+    surface.degree_u = surface.degree_v = DEGREE
+    cp = s.homogeneous
+    # geomdl reads a flat list with the second (v) index varying fastest.
+    surface.set_ctrlpts(cp.reshape(-1, cp.shape[-1]).tolist(), N_CTRL, N_CTRL)
+    surface.knotvector_u = s.knots.tolist()
+    surface.knotvector_v = s.knots.tolist()
+    return surface
+
+
+def geomdl_eval(surface: BSpline.Surface, params: list[tuple[float, float]]) -> list:
+    return [surface.derivatives(u, v, order=2) for u, v in params]
+
+
+# --------------------------------------------------------------------------- checks
+
+
+class Disagreement(RuntimeError):
+    pass
+
+
+def check_close(name: str, ref: np.ndarray, other: np.ndarray, ij: tuple[int, int]) -> float:
+    """Max |other - ref|; raise if it exceeds REL_TOL times the derivative's magnitude."""
+    diff = float(np.max(np.abs(other - ref)))
+    scale = max(1.0, float(np.max(np.abs(ref))))
+    if not diff <= REL_TOL * scale:
+        worst = np.unravel_index(np.argmax(np.abs(other - ref)), ref.shape)
+        raise Disagreement(
+            f"{name}: derivative {ij} differs from gshade by {diff:.3e} "
+            f"(tolerance {REL_TOL * scale:.3e}, max |value| {scale:.3e}); worst at index "
+            f"{tuple(int(k) for k in worst)}: gshade {float(ref[worst])!r}, "
+            f"other {float(other[worst])!r}"
+        )
+    return diff
+
+
+def check_splipy(name: str, d: np.ndarray, sp: list[np.ndarray]) -> float:
+    return max(check_close(name, d[ij], a, ij) for ij, a in zip(MULTI_INDICES, sp, strict=True))
+
+
+def check_geomdl(name: str, d: np.ndarray, idx: np.ndarray, skl: list) -> float:
+    gd = np.asarray(skl)  # (points, 3, 3, 3): point, k, l, coordinate
+    ref = d[:, :, idx[:, 0], idx[:, 1]]  # (3, 3, points, 3)
+    return max(check_close(name, ref[ij], gd[:, ij[0], ij[1]], ij) for ij in MULTI_INDICES)
+
+
+def textbook_curvature(sp: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """K and H from the fundamental forms with a unit normal (do Carmo's formulas)."""
+    _, pu, pv, puu, puv, pvv = sp
+    n = np.cross(pu, pv)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    E, F, G = (np.sum(a * b, axis=-1) for a, b in ((pu, pu), (pu, pv), (pv, pv)))
+    L, M, N = (np.sum(a * n, axis=-1) for a in (puu, puv, pvv))
+    det = E * G - F * F
+    return (L * N - M * M) / det, (E * N - 2 * F * M + G * L) / (2 * det)
+
+
+def check_curvature(KH: tuple[np.ndarray, np.ndarray], ref: tuple[np.ndarray, np.ndarray]):
+    for name, a, b in zip("KH", KH, ref, strict=True):
+        diff = float(np.max(np.abs(a - b)))
+        scale = max(1.0, float(np.max(np.abs(b))))
+        if not diff <= 1e-8 * scale:
+            raise Disagreement(f"{name}: gshade differs from the textbook formula by {diff:.3e}")
+
+
+# --------------------------------------------------------------------------- timing
+
+
+@dataclass
+class Timing:
+    samples: list[float] = field(default_factory=list)  # seconds
+
+    @property
+    def median_ms(self) -> float:
+        return 1e3 * statistics.median(self.samples)
+
+    @property
+    def spread_ms(self) -> str:
+        return f"{1e3 * min(self.samples):.1f}-{1e3 * max(self.samples):.1f}"
+
+
+def time_interleaved(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, Timing]:
+    """Run each function once to warm up, then ``repeats`` rounds of one call each."""
+    out = {name: Timing() for name in fns}
+    for fn in fns.values():
+        fn()
+    gc_was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for _ in range(repeats):
+            for name, fn in fns.items():
+                t0 = time.perf_counter()
+                fn()
+                out[name].samples.append(time.perf_counter() - t0)
+    finally:
+        if gc_was_enabled:
+            gc.enable()
+    return out
+
+
+# --------------------------------------------------------------------------- machine info
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def openblas_threads() -> str:
+    """Threads of the OpenBLAS that numpy loaded, asked through its C API (Linux only)."""
+    try:
+        maps = Path("/proc/self/maps").read_text()
+    except OSError:
+        return "unknown"
+    libs = {line.split()[-1] for line in maps.splitlines() if "openblas" in line.lower()}
+    symbols = (
+        "openblas_get_num_threads",
+        "openblas_get_num_threads64_",
+        "scipy_openblas_get_num_threads64_",
+        "scipy_openblas_get_num_threads",
+    )
+    for lib in sorted(libs):
+        try:
+            handle = ctypes.CDLL(lib)
+        except OSError:
+            continue
+        for sym in symbols:
+            fn = getattr(handle, sym, None)
+            if fn is not None:
+                fn.restype = ctypes.c_int
+                return str(fn())
+    return "unknown"
+
+
+def git_revision() -> str:
+    try:
+        root = Path(__file__).resolve().parent.parent
+        rev = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "src"], cwd=root, capture_output=True, text=True
+        ).stdout.strip()
+    except OSError:
+        return "unknown"
+    return f"{rev or 'unknown'}{' + uncommitted changes in src/' if dirty else ''}"
+
+
+def machine_info() -> dict[str, str]:
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except AttributeError:
+        affinity = os.cpu_count()
+    try:
+        thp = Path("/sys/kernel/mm/transparent_hugepage/enabled").read_text().strip()
+    except OSError:
+        thp = "unknown"
+    env = ", ".join(
+        f"{k}={os.environ.get(k, 'unset')}"
+        for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+    )
+    return {
+        "Machine": f"{cpu_model()}, {os.cpu_count()} logical CPUs ({affinity} usable), "
+        f"{platform.system()} {platform.release()}",
+        "Date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "Versions": f"Python {platform.python_version()}, numpy {np.__version__}, "
+        f"splipy {version('splipy')}, geomdl {version('geomdl')}, "
+        f"gshade {version('gshade')} (git {git_revision()})",
+        "Threads": f"{env}; OpenBLAS runtime threads: {openblas_threads()}",
+        "Transparent huge pages": thp,
+    }
+
+
+# --------------------------------------------------------------------------- report
+
+
+@dataclass
+class Row:
+    workload: str
+    gshade: Timing
+    splipy: Timing | None = None
+    geomdl_ms: float | None = None  # extrapolated to the full grid
+    splipy_target: float | None = None
+    geomdl_target: float | None = None
+    max_ms: float | None = None
+
+    @property
+    def splipy_ratio(self) -> float | None:
+        return None if self.splipy is None else self.splipy.median_ms / self.gshade.median_ms
+
+    @property
+    def geomdl_ratio(self) -> float | None:
+        return None if self.geomdl_ms is None else self.geomdl_ms / self.gshade.median_ms
+
+    @property
+    def target(self) -> str:
+        parts = []
+        if self.splipy_target is not None:
+            parts.append(f">= {self.splipy_target:g}x vs splipy")
+        if self.geomdl_target is not None:
+            parts.append(f">= {self.geomdl_target:g}x vs geomdl")
+        if self.max_ms is not None:
+            parts.append(f"<= {self.max_ms:g} ms")
+        return ", ".join(parts)
+
+    @property
+    def met(self) -> bool:
+        ok = True
+        if self.splipy_target is not None:
+            ok &= self.splipy_ratio >= self.splipy_target
+        if self.geomdl_target is not None:
+            ok &= self.geomdl_ratio >= self.geomdl_target
+        if self.max_ms is not None:
+            ok &= self.gshade.median_ms <= self.max_ms
+        return ok
+
+    def cells(self) -> list[str]:
+        def ms(x):
+            return "-" if x is None else f"{x:.1f}" if x < 1e4 else f"{x:,.0f}"
+
+        def ratio(x):
+            return "-" if x is None else f"{x:.2f}x" if x < 100 else f"{x:,.0f}x"
+
+        return [
+            self.workload,
+            ms(self.gshade.median_ms),
+            ms(None if self.splipy is None else self.splipy.median_ms),
+            ms(self.geomdl_ms),
+            ratio(self.splipy_ratio),
+            ratio(self.geomdl_ratio),
+            self.target,
+            "yes" if self.met else "NO",
+        ]
+
+
+COLUMNS = [
+    "Workload",
+    "gshade median (ms)",
+    "splipy median (ms)",
+    "geomdl (ms, extrapolated)",
+    "splipy / gshade",
+    "geomdl / gshade",
+    "Target",
+    "Met",
+]
+
+
+def markdown_table(rows: list[Row]) -> str:
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "|".join("---" for _ in COLUMNS) + "|"]
+    lines += ["| " + " | ".join(r.cells()) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def text_table(rows: list[Row]) -> str:
+    table = [COLUMNS] + [r.cells() for r in rows]
+    widths = [max(len(r[k]) for r in table) for k in range(len(COLUMNS))]
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
+    lines = [fmt.format(*r) for r in table]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def section(info: dict[str, str], rows: list[Row], notes: list[str], args) -> str:
+    command = ".venv/bin/python benchmarks/bench_geometry.py --write" + (
+        " --quick" if args.quick else ""
+    )
+    lines = [
+        START,
+        "## Geometry evaluation (`benchmarks/bench_geometry.py`)",
+        "",
+        f"Run: `{command}`; {args.repeats} repeats after a warm-up (medians), geomdl "
+        f"{args.geomdl_repeats} repeat(s) of {GEOMDL_POINTS} points.",
+        "",
+    ]
+    lines += [f"- {k}: {v}" for k, v in info.items()]
+    lines += ["", markdown_table(rows), ""]
+    lines += [f"- {n}" for n in notes]
+    lines.append(END)
+    return "\n".join(lines)
+
+
+def write_section(text: str) -> None:
+    """Replace the text between (and including) the markers, or append it."""
+    old = RESULTS.read_text() if RESULTS.exists() else HEADER
+    start, end = old.find(START), old.find(END)
+    if start >= 0 and end > start:
+        new = old[:start] + text + old[end + len(END) :]
+    else:
+        new = old.rstrip("\n") + "\n\n" + text + "\n"
+    RESULTS.write_text(new)
+
+
+# --------------------------------------------------------------------------- main
+
+
+@dataclass
+class Workload:
+    name: str
+    surface: Surface
+    splipy_target: float
+    geomdl_target: float
+
+
+def check_agreement(w: Workload, u, v, idx) -> str:
+    """Compare splipy (whole grid) and geomdl (subsample) with gshade; a note on the result."""
+    tag = w.name.split()[0]
+    params = [(float(u[i]), float(v[j])) for i, j in idx]
+    d = gshade_eval(gshade_patch(w.surface), u, v)
+    sp = splipy_eval(splipy_surface(w.surface), u.copy(), v.copy())
+    diff_sp = check_splipy(f"{tag} splipy", d, sp)
+    diff_gd = check_geomdl(f"{tag} geomdl", d, idx, geomdl_eval(geomdl_surface(w.surface), params))
+    return (
+        f"{tag}: splipy {diff_sp:.1e} (all {GRID * GRID:,} points), "
+        f"geomdl {diff_gd:.1e} ({len(params)} points)"
+    )
+
+
+def bench_evaluation(w: Workload, u, v, idx, args) -> tuple[Row, str]:
+    """Time one evaluation workload in the three libraries: the table row and a note."""
+    patch, sp_surface, gd_surface = (
+        gshade_patch(w.surface),
+        splipy_surface(w.surface),
+        geomdl_surface(w.surface),
+    )
+    params = [(float(u[i]), float(v[j])) for i, j in idx]
+    # splipy snaps its parameter arrays to nearby knots in place: give it its own.
+    u_sp, v_sp = u.copy(), v.copy()
+    t = time_interleaved(
+        {
+            "gshade": lambda: gshade_eval(patch, u, v),
+            "splipy": lambda: splipy_eval(sp_surface, u_sp, v_sp),
+        },
+        args.repeats,
+    )
+    t_gd = time_interleaved(
+        {"geomdl": lambda: geomdl_eval(gd_surface, params)}, args.geomdl_repeats
+    )["geomdl"]
+    geomdl_ms = t_gd.median_ms * GRID * GRID / len(params)
+    row = Row(w.name, t["gshade"], t["splipy"], geomdl_ms, w.splipy_target, w.geomdl_target)
+    note = (
+        f"{w.name.split()[0]} spread (min-max ms): gshade {t['gshade'].spread_ms}, splipy "
+        f"{t['splipy'].spread_ms}; geomdl {1e3 * t_gd.median_ms / len(params):.0f} us per point"
+    )
+    return row, note
+
+
+def bench_curvature(s: Surface, u, v, args) -> Row:
+    """Check K and H against the textbook formulas, then time them from W1's derivatives."""
+    d = gshade_eval(gshade_patch(s), u, v)
+    check_curvature(
+        gaussian_and_mean_curvature(d),
+        textbook_curvature(splipy_eval(splipy_surface(s), u.copy(), v.copy())),
+    )
+    t = time_interleaved({"KH": lambda: gaussian_and_mean_curvature(d)}, args.repeats)["KH"]
+    return Row("KH Gaussian + mean curvature, 250k points", t, max_ms=20.0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
+    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    args = parser.parse_args(argv)
+    args.repeats = QUICK_REPEATS if args.quick else REPEATS
+    args.geomdl_repeats = QUICK_GEOMDL_REPEATS if args.quick else GEOMDL_REPEATS
+
+    rng = np.random.default_rng(SEED)
+    bspline, nurbs = make_surfaces(rng)
+    u = np.linspace(0.0, 1.0, GRID)
+    v = np.linspace(0.0, 1.0, GRID)
+    idx = rng.integers(0, GRID, size=(GEOMDL_POINTS, 2))
+
+    w1 = Workload("W1 B-spline 20x20, 500x500 grid, order <= 2", bspline, 2.5, 1000.0)
+    w2 = Workload("W2 NURBS 20x20, 500x500 grid, order <= 2", nurbs, 8.0, 1000.0)
+    # Agreement first, and its arrays freed, so that the timings run in a lean process.
+    agree = [check_agreement(w, u, v, idx) for w in (w1, w2)]
+    row1, spread1 = bench_evaluation(w1, u, v, idx, args)
+    row2, spread2 = bench_evaluation(w2, u, v, idx, args)
+    row_kh = bench_curvature(bspline, u, v, args)
+    rows = [row1, row2, row_kh]
+
+    notes = [
+        f"geomdl is timed on {GEOMDL_POINTS} random grid points, one "
+        "`derivatives(u, v, order=2)` call per point, and scaled linearly "
+        f"(x{GRID * GRID / GEOMDL_POINTS:g}) to the {GRID * GRID:,} grid points.",
+        "splipy: `surface(u, v)` + five `surface.derivative(u, v, d=(i, j))` tensor-grid calls; "
+        "gshade: one `derivatives(u[:, None], v[None, :], 2)` call; KH times only "
+        "`gaussian_and_mean_curvature(d)` on W1's derivatives (K, H checked against the "
+        "textbook formulas).",
+        "Agreement with gshade, max |difference| over all six derivatives: "
+        + "; ".join(agree)
+        + ".",
+        spread1,
+        spread2,
+        f"KH spread (min-max ms): {row_kh.gshade.spread_ms}",
+    ]
+
+    info = machine_info()
+    print("\n".join(f"{k}: {v}" for k, v in info.items()))
+    print()
+    print(text_table(rows))
+    print()
+    print("\n".join(f"* {n}" for n in notes))
+    if args.write:
+        write_section(section(info, rows, notes, args))
+        print(f"\nwrote {RESULTS}")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except Disagreement as exc:
+        sys.exit(
+            f"FAILED: the libraries disagree, so the timings would not compare like with "
+            f"like.\n{exc}"
+        )

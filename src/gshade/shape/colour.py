@@ -1,0 +1,256 @@
+"""How shape-function values become colours: anti-aliased stripes and colour maps.
+
+Pure functions, numpy in -> RGB (linear, float) out.
+
+Stripes (Kiciak's BSTools style): with s = f / T + phase, a point is on a dark stripe where
+fract(s) < duty.  Anti-aliasing box-filters that indicator over the pixel footprint w (in
+units of s, e.g. w = |grad_S f| * pixel size / T): with Q(x) = floor(x) duty + min(fract(x), duty)
+the dark coverage is (Q(s + w/2) - Q(s - w/2)) / w, which fades to ``duty`` (grey) where the
+stripes are denser than the pixels instead of aliasing into moiré.
+
+Colour maps come from matplotlib: a perceptually uniform map (viridis) for unsigned values,
+a diverging map symmetric about 0 (coolwarm) for signed ones such as curvature.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import GshadeError
+
+__all__ = [
+    "ColourMapped",
+    "Legend",
+    "auto_range",
+    "colour_map",
+    "combine",
+    "stripe_coverage",
+    "stripe_period",
+    "stripes",
+]
+
+DARK = (0.04, 0.04, 0.05)
+LIGHT = (0.92, 0.92, 0.90)
+#: colour of points where the shape function is undefined
+UNDEFINED = (0.35, 0.0, 0.35)
+
+
+def _primitive(x: NDArray, duty: float) -> NDArray:
+    """Q(x) = floor(x) duty + min(fract(x), duty): the integral of the stripe indicator."""
+    fl = np.floor(x)
+    return fl * duty + np.minimum(x - fl, duty)
+
+
+def stripe_coverage(s: ArrayLike, width: ArrayLike = 0.0, duty: float = 0.5) -> NDArray:
+    """Fraction of the footprint [s - w/2, s + w/2] lying on dark stripes (fract(s) < duty).
+
+    Parameters
+    ----------
+    s : array_like
+        Stripe coordinate (f / period + phase).
+    width : array_like
+        Footprint width in units of s (>= 0); 0 gives the hard, aliased indicator.
+    duty : float
+        Fraction of each period that is dark, in (0, 1).
+    """
+    if not 0.0 < duty < 1.0:
+        raise GshadeError(f"duty: expected a number in (0, 1), got {duty!r}")
+    s = np.asarray(s, dtype=np.float64)
+    w = np.broadcast_to(np.abs(np.asarray(width, dtype=np.float64)), s.shape)
+    hard = (s - np.floor(s) < duty).astype(np.float64)
+    wide = w > 1e-9
+    if not wide.any():
+        return hard
+    ws = np.where(wide, w, 1.0)
+    soft = (_primitive(s + ws / 2, duty) - _primitive(s - ws / 2, duty)) / ws
+    return np.clip(np.where(wide, soft, hard), 0.0, 1.0)
+
+
+def stripe_period(
+    period: float | None, count: float | None, value_range: tuple[float, float] | None
+) -> float:
+    """The stripe period: given, or the value range divided by a stripe count."""
+    if (period is None) == (count is None):
+        raise GshadeError("stripes: expected exactly one of period or count (stripes)")
+    if period is not None:
+        if not (np.isfinite(period) and period > 0):
+            raise GshadeError(f"period: expected a positive number, got {period!r}")
+        return float(period)
+    if not (np.isfinite(count) and count > 0):
+        raise GshadeError(f"stripes: expected a positive stripe count, got {count!r}")
+    lo, hi = _check_range(value_range)
+    return (hi - lo) / float(count)
+
+
+def stripes(
+    f: ArrayLike,
+    period: float,
+    *,
+    footprint: ArrayLike = 0.0,
+    duty: float = 0.5,
+    phase: float = 0.0,
+    dark=DARK,
+    light=LIGHT,
+) -> tuple[NDArray, NDArray]:
+    """Anti-aliased stripes of f.
+
+    Parameters
+    ----------
+    f : array_like
+        Shape-function values.
+    period : float
+        Stripe period in units of f.
+    footprint : array_like
+        Pixel footprint in units of f (e.g. |grad_S f| times the pixel's size on the surface).
+    duty, phase : float
+        Dark fraction of a period; offset in periods.
+    dark, light : RGB
+        The two colours.
+
+    Returns
+    -------
+    rgb : ndarray, shape (..., 3)
+    coverage : ndarray, shape (...)
+        The dark fraction of each pixel.
+    """
+    if not (np.isfinite(period) and period > 0):
+        raise GshadeError(f"period: expected a positive number, got {period!r}")
+    f = np.asarray(f, dtype=np.float64)
+    cov = stripe_coverage(
+        f / period + phase, np.asarray(footprint, dtype=np.float64) / period, duty
+    )
+    rgb = cov[..., None] * np.asarray(dark) + (1.0 - cov[..., None]) * np.asarray(light)
+    return rgb, cov
+
+
+def _check_range(value_range) -> tuple[float, float]:
+    try:
+        lo, hi = (float(x) for x in value_range)
+    except (TypeError, ValueError):
+        raise GshadeError(f"range: expected [min, max], got {value_range!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise GshadeError(f"range: expected finite min < max, got [{lo!r}, {hi!r}]")
+    return lo, hi
+
+
+def auto_range(
+    f: ArrayLike,
+    valid: ArrayLike | None = None,
+    *,
+    signed: bool = False,
+    percentiles: tuple[float, float] = (1.0, 99.0),
+) -> tuple[float, float]:
+    """A robust value range: the given percentiles of the valid values, symmetric about 0
+    (±max |percentile|) for signed functions.  Never empty."""
+    f = np.asarray(f, dtype=np.float64)
+    mask = np.isfinite(f) if valid is None else (np.asarray(valid, bool) & np.isfinite(f))
+    values = f[mask]
+    if values.size == 0:
+        return (-1.0, 1.0) if signed else (0.0, 1.0)
+    lo, hi = (float(x) for x in np.percentile(values, percentiles))
+    if signed:
+        m = max(abs(lo), abs(hi))
+        lo, hi = -m, m
+    if not hi > lo:
+        pad = max(abs(hi), 1.0) * 1e-6
+        lo, hi = lo - pad, hi + pad
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class ColourMapped:
+    """Colours of a colour-mapped function and what the mapping did."""
+
+    rgb: NDArray
+    value_range: tuple[float, float]
+    below: int
+    above: int
+    undefined: int
+
+
+def colour_map(
+    f: ArrayLike,
+    valid: ArrayLike | None = None,
+    *,
+    value_range: tuple[float, float] | None = None,
+    signed: bool = False,
+    cmap: str | None = None,
+) -> ColourMapped:
+    """Map values to colours; values outside the range clamp, and are counted.
+
+    Parameters
+    ----------
+    f : array_like
+    valid : array_like of bool, optional
+        Where f is defined; other points get the ``UNDEFINED`` colour.
+    value_range : (min, max), optional
+        Fixed range (so that images are comparable); default :func:`auto_range`.
+    signed : bool
+        Use a range symmetric about 0 and a diverging map (default 'coolwarm').
+    cmap : str, optional
+        Any matplotlib colour map name (default 'viridis', or 'coolwarm' if signed).
+    """
+    import matplotlib
+
+    f = np.asarray(f, dtype=np.float64)
+    ok = np.isfinite(f) if valid is None else (np.asarray(valid, bool) & np.isfinite(f))
+    lo, hi = auto_range(f, ok, signed=signed) if value_range is None else _check_range(value_range)
+    name = cmap or ("coolwarm" if signed else "viridis")
+    try:
+        colours = matplotlib.colormaps[name]
+    except KeyError:
+        raise GshadeError(
+            f"colormap: expected a matplotlib colour map name, got {name!r}"
+        ) from None
+    t = (f - lo) / (hi - lo)
+    below = int(np.count_nonzero(ok & (t < 0)))
+    above = int(np.count_nonzero(ok & (t > 1)))
+    t = np.clip(np.where(ok, t, 0.0), 0.0, 1.0)
+    # matplotlib's maps are sRGB; the renderer works in linear RGB
+    rgb = _srgb_to_linear(colours(t)[..., :3])
+    rgb[~ok] = UNDEFINED
+    return ColourMapped(rgb, (lo, hi), below, above, int(np.count_nonzero(~ok)))
+
+
+def _srgb_to_linear(c: NDArray) -> NDArray:
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def combine(rgb: ArrayLike, coverage: ArrayLike, strength: float = 0.65) -> NDArray:
+    """Colour from one function, stripes from another: darken ``rgb`` by the stripe coverage."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    return rgb * (1.0 - strength * np.asarray(coverage, dtype=np.float64))[..., None]
+
+
+@dataclass(frozen=True)
+class Legend:
+    """What a picture shows, for legends, colour bars, figure captions and EXR headers."""
+
+    function: str
+    order: int
+    display: str  # 'stripes' | 'colormap' | 'both'
+    value_range: tuple[float, float] | None = None
+    colormap: str | None = None
+    period: float | None = None
+    duty: float | None = None
+    stripe_function: str | None = None
+    clamped_below: int = 0
+    clamped_above: int = 0
+    units: str = ""
+
+    def as_dict(self) -> dict:
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+    def text(self) -> str:
+        """One line for a caption, e.g. 'mean (order 2), coolwarm on [-1.2, 1.2] 1/length'."""
+        parts = [f"{self.function} (order {self.order})"]
+        if self.display in ("colormap", "both") and self.value_range is not None:
+            lo, hi = self.value_range
+            parts.append(f"{self.colormap} on [{lo:.4g}, {hi:.4g}] {self.units}".rstrip())
+        if self.display in ("stripes", "both") and self.period is not None:
+            of = f" of {self.stripe_function}" if self.stripe_function else ""
+            parts.append(f"stripes{of} every {self.period:.4g}")
+        return ", ".join(parts)

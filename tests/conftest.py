@@ -1,0 +1,42 @@
+"""Shared test helpers: random control nets and knot vectors for property tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from hypothesis import strategies as st
+
+ROOT = Path(__file__).resolve().parents[1]
+TEAPOT = ROOT / "scenes" / "data" / "teapot.txt"
+
+
+@st.composite
+def knot_vectors(draw, degree: int, n_points: int, clamped: bool | None = None):
+    """Nonuniform knot vectors, clamped (interior multiplicities up to the degree) or not."""
+    if clamped is None:
+        clamped = draw(st.booleans())
+    if clamped:
+        k = n_points - degree - 1
+        values = sorted(draw(st.lists(st.integers(1, 19), min_size=k, max_size=k)))
+        interior, seen = [], {}
+        for x in values:
+            seen[x] = seen.get(x, 0) + 1
+            extra = max(0, seen[x] - degree)  # beyond multiplicity p: nudge apart
+            interior.append(x / 20 + 0.001 * extra)
+        return np.array([0.0] * (degree + 1) + sorted(interior) + [1.0] * (degree + 1))
+    k = n_points + degree + 1
+    steps = draw(st.lists(st.integers(1, 4), min_size=k - 1, max_size=k - 1))
+    knots = np.concatenate([[0.0], np.cumsum(steps)])  # strictly increasing, nonuniform
+    return knots / knots[-1]
+
+
+def random_net(rng: np.random.Generator, shape: tuple[int, ...], rational: bool):
+    points = rng.normal(size=(*shape, 3))
+    weights = rng.uniform(0.5, 2.0, size=shape) if rational else None
+    return points, weights
+
+
+def interior_parameters(rng, domain, n):
+    lo, hi = domain
+    return lo + (hi - lo) * rng.uniform(0.02, 0.98, n)

@@ -1,0 +1,161 @@
+"""Normals and curvatures against analytic surfaces (sphere, cylinder, torus, saddle)."""
+
+import numpy as np
+import pytest
+
+from gshade.geometry import (
+    BezierPatch,
+    cylinder,
+    first_fundamental_form,
+    gaussian_and_mean_curvature,
+    gaussian_curvature,
+    irregular_mask,
+    mean_curvature,
+    patch_normals,
+    principal_curvatures,
+    regularised_derivatives,
+    sphere,
+    torus,
+    unit_normal,
+)
+from gshade.io import read_newell
+
+from .conftest import TEAPOT
+
+REL = 1e-9
+
+
+def grid(patch, n=41):
+    return patch.parameter_grid(n, n)
+
+
+def test_sphere_is_exact_with_its_curvatures():
+    R = 2.5
+    s = sphere(R)
+    u, v = grid(s)
+    rd = regularised_derivatives(s, u, v, 2)
+    d = rd.d
+    np.testing.assert_allclose(np.linalg.norm(d[0, 0], axis=-1), R, rtol=1e-15)
+    reg = rd.regular
+    assert not reg[0].any() and not reg[-1].any() and reg[1:-1].all()  # the two poles
+    K, H = gaussian_and_mean_curvature(d)
+    np.testing.assert_allclose(K[reg], 1 / R**2, rtol=REL)
+    np.testing.assert_allclose(np.abs(H[reg]), 1 / R, rtol=REL)
+    # at the poles the values are limits, finite and close
+    np.testing.assert_allclose(K[~reg], 1 / R**2, rtol=1e-5)
+    pc = principal_curvatures(d)
+    np.testing.assert_allclose(np.abs(pc.k1[reg]), 1 / R, rtol=1e-8)
+    np.testing.assert_allclose(np.abs(pc.k2[reg]), 1 / R, rtol=1e-8)
+
+
+def test_sphere_normals_are_radial_including_the_poles():
+    s = sphere(1.5)
+    u, v = grid(s, 21)
+    normal = patch_normals(s, u, v)
+    p = s(u, v)
+    radial = p / 1.5
+    np.testing.assert_allclose(np.abs(np.sum(normal.n * radial, -1)), 1.0, atol=1e-12)
+    # consistent orientation everywhere, the collapsed poles included
+    sign = np.sign(np.sum(normal.n * radial, -1))
+    assert np.all(sign == sign[10, 10])
+    assert not normal.regular[0].any() and normal.regular[1:-1].all()
+
+
+def test_cylinder_curvatures():
+    R = 0.75
+    c = cylinder(R, 2.0)
+    u, v = grid(c)
+    d = c.derivatives(u, v, 2)
+    K, H = gaussian_and_mean_curvature(d)
+    np.testing.assert_allclose(K, 0.0, atol=REL / R**2)
+    np.testing.assert_allclose(np.abs(H), 1 / (2 * R), rtol=REL)
+    pc = principal_curvatures(d)
+    # one principal curvature is 0 along the axis, the other 1/R around it
+    k_abs = np.sort(np.abs(np.stack([pc.k1, pc.k2])), axis=0)
+    np.testing.assert_allclose(k_abs[0], 0, atol=1e-9)
+    np.testing.assert_allclose(k_abs[1], 1 / R, rtol=REL)
+    flat_dir = np.where((np.abs(pc.k1) < np.abs(pc.k2))[..., None], pc.e1, pc.e2)
+    np.testing.assert_allclose(np.abs(flat_dir[..., 2]), 1.0, atol=1e-9)
+
+
+def test_torus_curvatures_match_the_closed_form():
+    R, r = 3.0, 1.0
+    t = torus(R, r)
+    u, v = grid(t, 61)
+    d = t.derivatives(u, v, 2)
+    p = d[0, 0]
+    rho = np.hypot(p[..., 0], p[..., 1])
+    cos_v = (rho - R) / r  # v: the angle around the tube
+    K_exact = cos_v / (r * (R + r * cos_v))
+    H_exact = (R + 2 * r * cos_v) / (2 * r * (R + r * cos_v))
+    K = gaussian_curvature(d)
+    H = mean_curvature(d)
+    np.testing.assert_allclose(K, K_exact, atol=REL * np.abs(K_exact).max())
+    np.testing.assert_allclose(np.abs(H), H_exact, rtol=REL)
+    pc = principal_curvatures(d)
+    k_sorted = np.sort(np.abs(np.stack([pc.k1, pc.k2])), axis=0)
+    exact = np.sort(np.stack([np.full_like(rho, 1 / r), np.abs(cos_v) / rho]), axis=0)
+    np.testing.assert_allclose(k_sorted, exact, atol=1e-9)
+    # principal directions are orthonormal tangents
+    n = unit_normal(d).n
+    np.testing.assert_allclose(np.sum(pc.e1 * pc.e2, -1), 0, atol=1e-12)
+    np.testing.assert_allclose(np.sum(pc.e1 * n, -1), 0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(pc.e1, axis=-1), 1, atol=1e-12)
+
+
+def test_saddle_gaussian_curvature():
+    # z = xy over [-1, 1]^2 is the bilinear Bézier patch with corners (±1, ±1, ±1)
+    P = np.array([[[-1, -1, 1], [-1, 1, -1]], [[1, -1, -1], [1, 1, 1]]], float)
+    saddle = BezierPatch(P)
+    u, v = grid(saddle, 25)
+    d = saddle.derivatives(u, v, 2)
+    x, y = d[0, 0][..., 0], d[0, 0][..., 1]
+    np.testing.assert_allclose(d[0, 0][..., 2], x * y, atol=1e-15)
+    np.testing.assert_allclose(gaussian_curvature(d), -1 / (1 + x**2 + y**2) ** 2, rtol=REL)
+    H_exact = -x * y / (1 + x**2 + y**2) ** 1.5  # for the upward normal
+    n = unit_normal(d).n
+    np.testing.assert_allclose(mean_curvature(d) * np.sign(n[..., 2]), H_exact, atol=1e-12)
+    pc = principal_curvatures(d)
+    np.testing.assert_allclose(pc.k1 * pc.k2, gaussian_curvature(d), rtol=1e-9)
+
+
+def test_first_fundamental_form_identity():
+    s = torus()
+    u, v = grid(s, 9)
+    d = s.derivatives(u, v, 1)
+    E, F, G = first_fundamental_form(d)
+    N = np.cross(d[1, 0], d[0, 1])
+    np.testing.assert_allclose(E * G - F**2, np.sum(N * N, -1), rtol=1e-12)
+
+
+@pytest.mark.parametrize("index", [20, 21, 22, 23, 28, 29, 30, 31])
+def test_teapot_collapsed_edges_have_finite_limit_values(index):
+    patch = read_newell(TEAPOT)[index]
+    u, v = grid(patch, 17)
+    d = patch.derivatives(u, v, 3)
+    assert irregular_mask(d)[0].all() and not irregular_mask(d)[1:].any()
+    normal = patch_normals(patch, u, v)
+    assert np.all(np.isfinite(normal.n))
+    np.testing.assert_allclose(np.linalg.norm(normal.n, axis=-1), 1, atol=1e-12)
+    # the limit normal at the collapsed edge is the normal next to it
+    near = patch_normals(patch, np.full((1, 1), 1e-6), v)
+    np.testing.assert_allclose(normal.n[0], near.n[0], atol=1e-4)
+    # the collapsed edge of the lid and the bottom is a pole: all normals there agree
+    np.testing.assert_allclose(normal.n[0], normal.n[0, :1].repeat(17, 0), atol=1e-9)
+    rd = regularised_derivatives(patch, u, v, 2)
+    K, H = gaussian_and_mean_curvature(rd.d)
+    assert np.all(np.isfinite(K)) and np.all(np.isfinite(H))
+    # the limit curvature continues the values just inside
+    inside = regularised_derivatives(patch, np.full((1, 1), 1e-3), v, 2).d
+    K_in, H_in = gaussian_and_mean_curvature(inside)
+    np.testing.assert_allclose(H[0], H_in[0], rtol=0.05, atol=1e-3)
+    np.testing.assert_allclose(K[0], K_in[0], rtol=0.05, atol=1e-3)
+
+
+def test_curvatures_never_nan_on_raw_irregular_points():
+    patch = read_newell(TEAPOT)[20]
+    d = patch.derivatives(np.zeros(5), np.linspace(0, 1, 5), 2)
+    K, H = gaussian_and_mean_curvature(d)
+    pc = principal_curvatures(d)
+    for x in (K, H, pc.k1, pc.k2, pc.e1, pc.e2, unit_normal(d).n):
+        assert np.all(np.isfinite(x))
