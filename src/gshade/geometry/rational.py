@@ -18,22 +18,21 @@ from numpy.typing import NDArray
 __all__ = ["project_curve_derivatives", "project_patch_derivatives"]
 
 
-def project_patch_derivatives(h: NDArray, order: int) -> NDArray:
+def project_patch_derivatives(p: NDArray, w: NDArray, order: int) -> NDArray:
     """Turn homogeneous patch derivatives into Cartesian ones, in place.
 
     Parameters
     ----------
-    h : ndarray, shape (order + 1, order + 1, dim + 1, ...)
-        Component-major homogeneous derivatives; the last component is the weight.
+    p : ndarray, shape (order + 1, order + 1, dim, ...)
+        Derivatives of the weighted points P = w p; overwritten with those of p.
+    w : ndarray, shape (order + 1, order + 1, ...)
+        Derivatives of the weight function.
 
     Returns
     -------
-    ndarray, shape (order + 1, order + 1, dim, ...)
-        A view of ``h`` holding the Cartesian derivatives.
+    ndarray
+        ``p``, now holding the Cartesian derivatives.
     """
-    dim = h.shape[2] - 1
-    w = h[:, :, dim]
-    p = h[:, :, :dim]
     inv_w = 1.0 / w[0, 0]
     tmp = np.empty_like(p[0, 0])
     for total in range(order + 1):
