@@ -21,8 +21,23 @@ def build_parser() -> argparse.ArgumentParser:
         description="Render the shape quality of parametric surfaces (Kiciak's shape functions).",
     )
     parser.add_argument("--version", action="version", version=f"gshade {__version__}")
-    parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    shapes = sub.add_parser("shapes", help="list the shape functions, their order and parameters")
+    shapes.set_defaults(run=_shapes)
     return parser
+
+
+def _shapes(args: argparse.Namespace) -> int:
+    from .shape import SHAPE_FUNCTIONS
+
+    for fn in SHAPE_FUNCTIONS.values():
+        flags = ", eye-dependent" if fn.eye_dependent else ""
+        print(f"{fn.name}  (order {fn.order}{flags})")
+        print(f"    {fn.summary}")
+        for name, p in fn.parameters.items():
+            default = p.default if p.kind != "choice" else f"{p.default} ({'|'.join(p.choices)})"
+            print(f"    {name} = {default}: {p.help}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:

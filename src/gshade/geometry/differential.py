@@ -71,7 +71,7 @@ def _dot(a: NDArray, b: NDArray) -> NDArray:
     return out
 
 
-def _derivative_scale(d: NDArray) -> NDArray:
+def derivative_scale(d: NDArray) -> float:
     """A length scale of the first derivatives: the largest |p_u| or |p_v| in the array."""
     s = max(
         float(np.max(np.abs(d[1, 0]), initial=0.0)), float(np.max(np.abs(d[0, 1]), initial=0.0))
@@ -88,7 +88,7 @@ def irregular_mask(d: ArrayLike, tol: float = IRREGULAR_TOL) -> NDArray[np.bool_
     d = np.asarray(d)
     _order_of(d, 1, "the regularity test")
     N = _cross(d[1, 0], d[0, 1])
-    return np.sqrt(_dot(N, N)) <= tol * _derivative_scale(d) ** 2
+    return np.sqrt(_dot(N, N)) <= tol * derivative_scale(d) ** 2
 
 
 class Normal(NamedTuple):
@@ -125,7 +125,7 @@ def unit_normal(
     pu, pv = d[1, 0], d[0, 1]
     N = _cross(pu, pv)
     length = np.sqrt(_dot(N, N))
-    scale2 = _derivative_scale(d) ** 2
+    scale2 = derivative_scale(d) ** 2
     regular = length > tol * scale2
     if not regular.all():
         irr = ~regular

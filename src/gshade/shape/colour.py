@@ -53,7 +53,7 @@ def _second_primitive(x: NDArray, duty: float) -> NDArray:
 
 
 def stripe_coverage(
-    s: ArrayLike, width: ArrayLike = 0.0, width_y: ArrayLike | None = None, duty: float = 0.5
+    s: ArrayLike, width: ArrayLike = 0.0, width_y: ArrayLike | None = None, *, duty: float = 0.5
 ) -> NDArray:
     """Fraction of a pixel lying on dark stripes (fract(s) < duty), box-filtered.
 
@@ -89,7 +89,8 @@ def stripe_coverage(
     # shift by whole periods: both filters are invariant, and the numbers stay small
     s = s - np.floor(s)
     cov = (s < duty).astype(np.float64)
-    one_d = (a > 1e-9) & ~(b > 1e-3 * a) | ((a > 1e-9) & (a < 1e-4))
+    # 1-D filter unless both widths matter; its round-off is ~1e-16 / w, so from w > 1e-12
+    one_d = (a > 1e-12) & ~((a >= 1e-4) & (b > 1e-3 * a))
     if one_d.any():
         w = np.where(one_d, a + b, 1.0)
         soft = (_primitive(s + w / 2, duty) - _primitive(s - w / 2, duty)) / w
@@ -159,7 +160,7 @@ def stripes(
         raise GshadeError(f"period: expected a positive number, got {period!r}")
     f = np.asarray(f, dtype=np.float64)
     cov = stripe_coverage(
-        f / period + phase, np.asarray(footprint, dtype=np.float64) / period, duty
+        f / period + phase, np.asarray(footprint, dtype=np.float64) / period, duty=duty
     )
     rgb = cov[..., None] * np.asarray(dark) + (1.0 - cov[..., None]) * np.asarray(light)
     return rgb, cov

@@ -19,6 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from ..geometry.differential import IRREGULAR_TOL
+from ..geometry.differential import derivative_scale as _derivative_scale
 from . import kernels
 
 __all__ = [
@@ -340,6 +342,8 @@ def evaluate(
         padded = np.zeros((fn.order + 2, fn.order + 2, *flat.shape[2:]))
         padded[: flat.shape[0], : flat.shape[1]] = flat
         flat = padded
+    if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
+        prm[kernels.IRREGULAR] = IRREGULAR_TOL * _derivative_scale(flat) ** 2
     n = flat.shape[2]
     f = np.empty(n)
     status = np.empty(n, dtype=np.int8)

@@ -34,6 +34,8 @@ PLANAR, ISOPHOTES, REFLECTION, HIGHLIGHT, PARAMETRISATION = 0, 1, 2, 3, 4
 GAUSSIAN, MEAN, MAX_PRINCIPAL, MIN_PRINCIPAL, ABSOLUTE, RMS = 5, 6, 7, 8, 9, 10
 
 VALID, UNDEFINED, EYE_ON_SURFACE = 1, 0, 2
+#: index in the parameter vector of the |p_u x p_v| at or below which a point is irregular
+IRREGULAR = 23
 
 
 @njit(cache=True)
@@ -45,7 +47,7 @@ def _planar_sections(d, k, prm):
 def _isophotes(d, k, prm, angle):
     N = cross(vec(d, 1, 0, k), vec(d, 0, 1, k))
     length = sqrt(dot(N, N))
-    if length[0] <= 0.0:
+    if length[0] <= prm[IRREGULAR]:
         return (0.0, 0.0, 0.0), UNDEFINED
     f = div(dot_const(N, prm[0:3]), length)
     if angle:
@@ -62,7 +64,7 @@ def _reflection_lines(d, k, prm, at_infinity):
     w = vsub_const(p, prm[0:3])
     if dot(w, w)[0] == 0.0:
         return (0.0, 0.0, 0.0), EYE_ON_SURFACE
-    if NN[0] <= 0.0:
+    if NN[0] <= prm[IRREGULAR] * prm[IRREGULAR]:
         return (0.0, 0.0, 0.0), UNDEFINED
     t = scale(div(dot(w, N), NN), 2.0)
     r = (sub(w[0], mul(t, N[0])), sub(w[1], mul(t, N[1])), sub(w[2], mul(t, N[2])))
@@ -86,6 +88,8 @@ def _highlight_lines(d, k, prm, distance):
     p = vec(d, 0, 0, k)
     N = cross(vec(d, 1, 0, k), vec(d, 0, 1, k))
     length = math.sqrt(max(dot(N, N)[0], 0.0))
+    if length <= prm[IRREGULAR]:
+        return (0.0, 0.0, 0.0), UNDEFINED
     q = vsub_const(p, prm[0:3])
     if distance:
         EN = cross_const(N, prm[6:9])  # N x E = -(E x N)
@@ -112,13 +116,13 @@ def _parametrisation_quality(d, k):
 
 
 @njit(cache=True)
-def _curvature(d, k, which):
+def _curvature(d, k, which, prm):
     """K = (L'N' - M'^2)/W^4, H = (E N' - 2F M' + G L')/(2 W^3), W = |N|, L' = <p_uu, N>, ...;
     ((k1 - k2)/2)^2 = ((G L' - E N')^2 / 4 + (G M' - F N')(E M' - F L')) / W^6."""
     pu, pv = vec(d, 1, 0, k), vec(d, 0, 1, k)
     N = cross(pu, pv)
     W2 = dot(N, N)
-    if W2[0] <= 0.0:
+    if W2[0] <= prm[IRREGULAR] * prm[IRREGULAR]:
         return (0.0, 0.0, 0.0), UNDEFINED
     E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
     L, M, Nn = dot(vec(d, 2, 0, k), N), dot(vec(d, 1, 1, k), N), dot(vec(d, 0, 2, k), N)
@@ -157,7 +161,7 @@ def _point(code, option, prm, d, k):
         return _highlight_lines(d, k, prm, option)
     if code == PARAMETRISATION:
         return _parametrisation_quality(d, k)
-    return _curvature(d, k, code)
+    return _curvature(d, k, code, prm)
 
 
 @njit(cache=True, parallel=True)
