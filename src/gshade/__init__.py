@@ -1,7 +1,27 @@
-"""gshade: pictures and numbers of the shape quality of parametric surfaces."""
+"""gshade: pictures and numbers of the shape quality of parametric surfaces.
+
+The public API mirrors the command line: ``gshade.load_scene(path)``,
+``gshade.render(scene, **overrides)`` (an image with the EXR channels, ``.write_exr`` and
+``.write_png``).  Building blocks live in ``gshade.geometry`` (patches and their
+differential geometry), ``gshade.shape`` (shape functions and colours), ``gshade.io`` (scene
+files, surface data, images) and ``gshade.rendering``.
+"""
 
 from .errors import GshadeError
 
 __version__ = "0.1.0"
 
-__all__ = ["GshadeError", "__version__"]
+__all__ = ["GshadeError", "__version__", "load_scene", "render"]
+
+
+def __getattr__(name: str):
+    # lazy: importing gshade stays cheap; Mitsuba and the kernels load when first used
+    if name == "render":
+        from .rendering import render
+
+        return render
+    if name == "load_scene":
+        from .io.scene import load_scene
+
+        return load_scene
+    raise AttributeError(f"module 'gshade' has no attribute {name!r}")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from . import __version__
 from .errors import GshadeError
@@ -24,7 +25,118 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     shapes = sub.add_parser("shapes", help="list the shape functions, their order and parameters")
     shapes.set_defaults(run=_shapes)
+
+    render = sub.add_parser("render", help="render a scene file to EXR (and PNG)")
+    render.add_argument("scene", help="scene file (TOML)")
+    render.add_argument("-o", "--output", help="EXR file (default: <scene name>.exr here)")
+    render.add_argument("--png", help="also write this PNG (sRGB)")
+    render.add_argument("--width", type=int, help="image width in pixels")
+    render.add_argument("--height", type=int, help="image height in pixels")
+    render.add_argument("--spp", type=int, help="samples per pixel")
+    render.add_argument("--variant", help="auto | llvm_ad_rgb | scalar_rgb | cuda_ad_rgb")
+    render.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override any scene key, e.g. --set shape.period=0.05 (repeatable)",
+    )
+    render.set_defaults(run=_render)
+
+    info = sub.add_parser("info", help="describe a scene's surfaces")
+    info.add_argument("scene", help="scene file (TOML)")
+    info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    info.set_defaults(run=_info)
     return parser
+
+
+def _scene_overrides(args: argparse.Namespace) -> dict:
+    from .io.scene import parse_overrides
+
+    overrides = parse_overrides(args.set)
+    for key in ("width", "height", "spp", "variant"):
+        value = getattr(args, key, None)
+        if value is not None:
+            overrides[f"render.{key}"] = value
+    return overrides
+
+
+def _render(args: argparse.Namespace) -> int:
+    from .io.scene import load_scene
+    from .rendering import render
+
+    scene = load_scene(args.scene, _scene_overrides(args))
+    output = Path(args.output or f"{scene.name}.exr")
+    for target in filter(None, (output, args.png)):
+        folder = Path(target).resolve().parent
+        if not folder.is_dir():
+            raise GshadeError(f"{target}: the folder {folder} does not exist")
+    image = render(scene)
+    image.write_exr(output)
+    if args.png:
+        image.write_png(args.png)
+    print(
+        f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
+        f"{image.metadata['legend']}"
+    )
+    return 0
+
+
+def _info(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .geometry import irregular_mask
+    from .io.scene import load_scene
+
+    scene = load_scene(args.scene, _scene_overrides(args))
+    print(f"scene {scene.name} ({scene.path})")
+    points = []
+    for k, surface in enumerate(scene.surfaces):
+        kinds: dict[str, int] = {}
+        for patch in surface.patches:
+            degree = getattr(patch, "degree", None)
+            label = type(patch).__name__ + (f" degree {tuple(degree)}" if degree else "")
+            label += " rational" if getattr(patch, "rational", False) else ""
+            kinds[label] = kinds.get(label, 0) + 1
+        summary = ", ".join(f"{n} x {label}" for label, n in kinds.items())
+        print(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
+    index = 0
+    irregular = []
+    for patch in scene.patches:
+        u, v = patch.parameter_grid(17, 17)
+        d = patch.derivatives(u, v, 1)
+        points.append(d[0, 0].reshape(-1, 3))
+        mask = irregular_mask(d)
+        if mask.any():
+            edges = [
+                name
+                for name, sel in (
+                    ("u0", mask[0]),
+                    ("u1", mask[-1]),
+                    ("v0", mask[:, 0]),
+                    ("v1", mask[:, -1]),
+                )
+                if sel.all()
+            ]
+            irregular.append(
+                f"patch {index}: "
+                + (
+                    ", ".join(f"collapsed edge {e}" for e in edges)
+                    or f"{int(mask.sum())} sample points"
+                )
+            )
+        index += 1
+    pts = np.concatenate(points)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    print(f"  patches: {index}")
+    print(
+        f"  bounding box: [{', '.join(f'{x:.6g}' for x in lo)}] .. "
+        f"[{', '.join(f'{x:.6g}' for x in hi)}]"
+    )
+    print("  irregular points:" + ("" if irregular else " none"))
+    for line in irregular:
+        print(f"    {line}")
+    return 0
 
 
 def _shapes(args: argparse.Namespace) -> int:

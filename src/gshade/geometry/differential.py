@@ -72,10 +72,11 @@ def _dot(a: NDArray, b: NDArray) -> NDArray:
 
 
 def derivative_scale(d: NDArray) -> float:
-    """A length scale of the first derivatives: the largest |p_u| or |p_v| in the array."""
-    s = max(
-        float(np.max(np.abs(d[1, 0]), initial=0.0)), float(np.max(np.abs(d[0, 1]), initial=0.0))
-    )
+    """A length scale of the first derivatives: the largest |component| of p_u or p_v."""
+    s = 0.0
+    for x in (d[1, 0], d[0, 1]):
+        if x.size:
+            s = max(s, float(np.max(x)), -float(np.min(x)))
     return s if s > 0 else 1.0
 
 

@@ -1,5 +1,31 @@
-"""Reading and writing: surface data formats (and, later, scene files and images)."""
+"""Reading and writing: surface data formats, scene files and images."""
 
+from .image import linear_to_srgb, read_exr, write_exr, write_png
 from .newell import parse_newell, read_newell
+from .scene import (
+    Camera,
+    RenderSettings,
+    Scene,
+    Shape,
+    Surface,
+    load_scene,
+    parse_overrides,
+    parse_scene,
+)
 
-__all__ = ["parse_newell", "read_newell"]
+__all__ = [
+    "Camera",
+    "RenderSettings",
+    "Scene",
+    "Shape",
+    "Surface",
+    "linear_to_srgb",
+    "load_scene",
+    "parse_newell",
+    "parse_overrides",
+    "parse_scene",
+    "read_exr",
+    "read_newell",
+    "write_exr",
+    "write_png",
+]

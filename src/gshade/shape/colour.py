@@ -38,18 +38,56 @@ LIGHT = (0.92, 0.92, 0.90)
 UNDEFINED = (0.35, 0.0, 0.35)
 
 
-def _primitive(x: NDArray, duty: float) -> NDArray:
+class _Ops:
+    """The array operations the stripe filter needs: numpy's here, Dr.Jit's in the renderer."""
+
+    floor = staticmethod(np.floor)
+    minimum = staticmethod(np.minimum)
+    maximum = staticmethod(np.maximum)
+    abs = staticmethod(np.abs)
+    select = staticmethod(np.where)
+    logical_not = staticmethod(np.logical_not)
+
+
+def _primitive(x, duty, ops):
     """Q(x) = floor(x) duty + min(fract(x), duty): the integral of the stripe indicator."""
-    fl = np.floor(x)
-    return fl * duty + np.minimum(x - fl, duty)
+    fl = ops.floor(x)
+    return fl * duty + ops.minimum(x - fl, duty)
 
 
-def _second_primitive(x: NDArray, duty: float) -> NDArray:
+def _second_primitive(x, duty, ops):
     """Q2(x) = integral of Q from 0 to x (closed form, any sign of x)."""
-    n = np.floor(x)
+    n = ops.floor(x)
     tau = x - n
-    partial = np.where(tau <= duty, 0.5 * tau * tau, duty * (tau - 0.5 * duty))
-    return duty * n * (n - 1) / 2 + n * (duty - duty * duty / 2) + n * duty * tau + partial
+    partial = ops.select(tau <= duty, 0.5 * tau * tau, duty * (tau - 0.5 * duty))
+    return duty * n * (n - 1.0) / 2.0 + n * (duty - duty * duty / 2.0) + n * duty * tau + partial
+
+
+def coverage_formula(s, a, b, duty, ops=_Ops):
+    """The box-filtered stripe coverage (see :func:`stripe_coverage`), written once for any
+    array library with the operations of ``ops`` (floor, minimum, maximum, abs, select,
+    logical_not).
+    Use float64: the second difference loses digits in float32."""
+    a, b = ops.abs(a), ops.abs(b)
+    a, b = ops.maximum(a, b), ops.minimum(a, b)
+    s = s - ops.floor(s)  # both filters are invariant under whole periods; keeps numbers small
+    hard = ops.select(s < duty, 1.0, 0.0)
+    # 1-D filter unless both widths matter; its round-off is ~1e-16 / w, so from w > 1e-12
+    two_d = (a >= 1e-4) & (b > 1e-3 * a)
+    one_d = (a > 1e-12) & ops.logical_not(two_d)
+    w = ops.select(one_d, a + b, 1.0)
+    soft = (_primitive(s + w / 2, duty, ops) - _primitive(s - w / 2, duty, ops)) / w
+    aa = ops.select(two_d, a, 1.0)
+    bb = ops.select(two_d, b, 1.0)
+    hi, lo = (aa + bb) / 2, (aa - bb) / 2
+    q = (
+        _second_primitive(s + hi, duty, ops)
+        - _second_primitive(s + lo, duty, ops)
+        - _second_primitive(s - lo, duty, ops)
+        + _second_primitive(s - hi, duty, ops)
+    ) / (aa * bb)
+    cov = ops.select(two_d, q, ops.select(one_d, soft, hard))
+    return ops.minimum(ops.maximum(cov, 0.0), 1.0)
 
 
 def stripe_coverage(
@@ -79,34 +117,14 @@ def stripe_coverage(
     if not 0.0 < duty < 1.0:
         raise GshadeError(f"duty: expected a number in (0, 1), got {duty!r}")
     s = np.asarray(s, dtype=np.float64)
-    a = np.abs(np.broadcast_to(np.asarray(width, dtype=np.float64), s.shape))
+    a = np.broadcast_to(np.asarray(width, dtype=np.float64), s.shape)
     b = (
         np.zeros_like(a)
         if width_y is None
-        else np.abs(np.broadcast_to(np.asarray(width_y, dtype=np.float64), s.shape))
+        else np.broadcast_to(np.asarray(width_y, float), s.shape)
     )
-    a, b = np.maximum(a, b), np.minimum(a, b)
-    # shift by whole periods: both filters are invariant, and the numbers stay small
-    s = s - np.floor(s)
-    cov = (s < duty).astype(np.float64)
-    # 1-D filter unless both widths matter; its round-off is ~1e-16 / w, so from w > 1e-12
-    one_d = (a > 1e-12) & ~((a >= 1e-4) & (b > 1e-3 * a))
-    if one_d.any():
-        w = np.where(one_d, a + b, 1.0)
-        soft = (_primitive(s + w / 2, duty) - _primitive(s - w / 2, duty)) / w
-        cov = np.where(one_d, soft, cov)
-    two_d = (a >= 1e-4) & (b > 1e-3 * a)
-    if two_d.any():
-        aa, bb = np.where(two_d, a, 1.0), np.where(two_d, b, 1.0)
-        hi, lo = (aa + bb) / 2, (aa - bb) / 2
-        q = (
-            _second_primitive(s + hi, duty)
-            - _second_primitive(s + lo, duty)
-            - _second_primitive(s - lo, duty)
-            + _second_primitive(s - hi, duty)
-        )
-        cov = np.where(two_d, q / (aa * bb), cov)
-    return np.clip(cov, 0.0, 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.asarray(coverage_formula(s, a, b, float(duty)), dtype=np.float64)
 
 
 def stripe_period(

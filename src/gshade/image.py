@@ -1,0 +1,61 @@
+"""A rendered image: named channels (the EXR contract), metadata, and writers.
+
+Channels (float32 arrays of shape (height, width)): ``R G B`` (the picture, linear, alpha
+premultiplied), ``A`` (coverage 0-1), ``f`` (the shape function: mean over the pixel's
+samples that hit the surface, 0 where none), ``P.X P.Y P.Z`` (world position) and
+``N.X N.Y N.Z`` (exact unit normal, n = p_u x p_v / |p_u x p_v|) and ``u v`` (patch
+parameters) at the pixel centre, ``patch`` (patch index at the pixel centre, -1 where none).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .shape import Legend
+
+__all__ = ["CHANNELS", "RenderedImage"]
+
+CHANNELS = ("R", "G", "B", "A", "f", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "u", "v", "patch")
+
+
+@dataclass
+class RenderedImage:
+    """Channels, header metadata (strings), the legend and the stage timings (seconds)."""
+
+    channels: dict[str, NDArray[np.float32]]
+    metadata: dict[str, str]
+    legend: Legend | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.channels["R"].shape
+
+    @property
+    def rgb(self) -> NDArray[np.float32]:
+        return np.stack([self.channels[c] for c in "RGB"], -1)
+
+    @property
+    def alpha(self) -> NDArray[np.float32]:
+        return self.channels["A"]
+
+    def __getitem__(self, name: str) -> NDArray[np.float32]:
+        return self.channels[name]
+
+    def write_exr(self, path: str | os.PathLike) -> None:
+        """Write all channels (float32) and the metadata, atomically."""
+        from .io.image import write_exr
+
+        write_exr(path, {k: self.channels[k] for k in CHANNELS}, header=self.metadata)
+
+    def write_png(self, path: str | os.PathLike) -> None:
+        """Write the picture as an sRGB PNG with alpha, atomically."""
+        from .io.image import write_png
+
+        a = self.alpha
+        rgb = self.rgb / np.where(a > 0, a, 1.0)[..., None]  # un-premultiply for PNG
+        write_png(path, rgb, a)

@@ -1,0 +1,345 @@
+"""Images: OpenEXR (any named float channels, with header attributes) and 8-bit sRGB PNG.
+
+Both writers are atomic: the image goes to a temporary file in the target's directory that
+then replaces the target (:func:`os.replace`), so a reader never sees a half-written file and
+a failed write leaves an existing target untouched (and no temporary file behind).
+
+EXR channels are 2-D arrays (height, width) named freely ("R", "P.X", "patch"); they are
+stored as 32-bit FLOAT, or 16-bit HALF where asked, and read back as float32.  Header
+attributes are strings, integers (EXR ``int``, 32 bits) and floats (EXR ``double``).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import GshadeError
+
+__all__ = ["linear_to_srgb", "read_exr", "write_exr", "write_png"]
+
+#: The first four bytes of every OpenEXR file.
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+#: Attributes the EXR writer sets itself: not accepted in ``header``, not returned by
+#: :func:`read_exr`.
+_STRUCTURAL = frozenset(
+    {
+        "channels",
+        "compression",
+        "dataWindow",
+        "displayWindow",
+        "lineOrder",
+        "pixelAspectRatio",
+        "screenWindowCenter",
+        "screenWindowWidth",
+        "type",
+    }
+)
+#: Further attributes with a meaning to EXR readers (tiled, multi-part, multi-view files).
+_RESERVED = _STRUCTURAL | {"tiles", "name", "version", "chunkCount", "view", "multiView"}
+
+_INT32 = (-(2**31), 2**31 - 1)
+
+
+# --------------------------------------------------------------------------- atomic writing
+
+
+@cache
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], None]) -> Path:
+    """Call ``write(temporary_name)``, then move the temporary file onto ``path``."""
+    path = Path(path)
+    if path.is_dir():
+        raise GshadeError(f"{path}: cannot write the image: it is a directory")
+    try:
+        tmp = tempfile.NamedTemporaryFile(
+            delete=False, dir=path.parent, prefix=f".{path.name}.", suffix=suffix
+        )
+    except OSError as exc:
+        raise GshadeError(
+            f"{path}: cannot write the image: {exc.strerror or exc} (directory {path.parent})"
+        ) from None
+    tmp.close()
+    try:
+        write(tmp.name)
+        os.chmod(tmp.name, 0o666 & ~_umask())
+        os.replace(tmp.name, path)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp.name)
+        except OSError:
+            pass
+        if isinstance(exc, GshadeError):
+            raise
+        if isinstance(exc, (OSError, RuntimeError, ValueError, TypeError)):
+            raise GshadeError(f"{path}: cannot write the image: {exc}") from exc
+        raise
+    return path
+
+
+# --------------------------------------------------------------------------- EXR
+
+
+def _check_channels(
+    path: Path, channels: Mapping[str, ArrayLike], half: set[str] | None
+) -> dict[str, NDArray]:
+    if not isinstance(channels, Mapping) or not channels:
+        raise GshadeError(
+            f"{path}: channels: expected a non-empty dict name -> array, got {channels!r}"
+        )
+    half = set() if half is None else set(half)
+    unknown = sorted(half - set(channels))
+    if unknown:
+        raise GshadeError(
+            f"{path}: half: expected names of channels ({', '.join(channels)}), got {unknown[0]!r}"
+        )
+    out: dict[str, NDArray] = {}
+    shape = None
+    for name, data in channels.items():
+        if not isinstance(name, str) or not name:
+            raise GshadeError(f"{path}: channels: expected non-empty string names, got {name!r}")
+        a = np.asarray(data)
+        if a.dtype.kind not in "biuf":
+            raise GshadeError(
+                f"{path}: channel {name!r}: expected an array of real numbers, got dtype {a.dtype}"
+            )
+        if a.ndim != 2 or 0 in a.shape:
+            raise GshadeError(
+                f"{path}: channel {name!r}: expected a 2-D array (height, width), got shape "
+                f"{a.shape}"
+            )
+        if shape is None:
+            shape = a.shape
+        elif a.shape != shape:
+            first = next(iter(channels))
+            raise GshadeError(
+                f"{path}: channel {name!r}: expected the shape {shape} of channel {first!r}, "
+                f"got {a.shape}"
+            )
+        with np.errstate(over="ignore"):
+            out[name] = np.ascontiguousarray(a, dtype=np.float16 if name in half else np.float32)
+    return out
+
+
+def _check_header(path: Path, header: Mapping[str, object] | None) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for key, value in (header or {}).items():
+        if not isinstance(key, str) or not key:
+            raise GshadeError(f"{path}: header: expected non-empty string keys, got {key!r}")
+        if key in _RESERVED:
+            raise GshadeError(
+                f"{path}: header {key}: expected a name that is not a standard EXR attribute "
+                f"(e.g. 'gshade:{key}'), got {key!r}"
+            )
+        if isinstance(value, str):
+            out[key] = value
+        elif isinstance(value, (bool, np.bool_)):
+            raise GshadeError(
+                f"{path}: header {key}: expected a string, an integer or a float, got {value!r}"
+            )
+        elif isinstance(value, (int, np.integer)):
+            if not _INT32[0] <= int(value) <= _INT32[1]:
+                raise GshadeError(
+                    f"{path}: header {key}: expected an integer in [-2**31, 2**31) (EXR int), "
+                    f"got {int(value)}"
+                )
+            out[key] = int(value)
+        elif isinstance(value, (float, np.floating)):
+            out[key] = np.array([float(value)], dtype=np.float64)  # written as EXR 'double'
+        else:
+            raise GshadeError(
+                f"{path}: header {key}: expected a string, an integer or a float, got "
+                f"{type(value).__name__} {value!r}"
+            )
+    return out
+
+
+def write_exr(
+    path: str | os.PathLike,
+    channels: Mapping[str, ArrayLike],
+    header: Mapping[str, str | float | int] | None = None,
+    half: set[str] | None = None,
+) -> Path:
+    """Write a single-part scanline OpenEXR file (ZIP compressed), atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The target; an existing file is replaced only once the new one is complete.
+    channels : dict of str to array_like
+        Channel name -> 2-D array (height, width) of real numbers, all of the same shape.
+        Names are free ("R", "P.X", "patch"); EXR stores them sorted.
+    header : dict, optional
+        Extra attributes: str (EXR ``string``), int (``int``, 32 bits) or float
+        (``double``).  Standard EXR attribute names (``channels``, ``compression``, ...)
+        are refused; a prefix such as ``gshade:`` avoids clashes.
+    half : set of str, optional
+        Channels to store as 16-bit HALF; the others are stored as 32-bit FLOAT.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    GshadeError
+        For bad channels or header values, or if the file cannot be written.
+    """
+    target = Path(path)
+    data = _check_channels(target, channels, half)
+    attributes = _check_header(target, header)
+    attributes["compression"] = OpenEXR.ZIP_COMPRESSION
+    attributes["type"] = OpenEXR.scanlineimage
+
+    def write(name: str) -> None:
+        # OpenEXR.File replaces the values of the dict it is given: hand it a fresh one.
+        OpenEXR.File(dict(attributes), dict(data)).write(name)
+
+    return _atomic_write(target, ".exr", write)
+
+
+def _plain(value: object) -> object:
+    """A header value as a plain Python value where it has one (double -> float, ...)."""
+    if isinstance(value, np.ndarray) and value.shape == (1,) and value.dtype == np.float64:
+        return float(value[0])
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    return value
+
+
+def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], dict[str, object]]:
+    """Read an OpenEXR file (its first part).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    channels : dict of str to ndarray
+        Channel name -> float32 array (height, width), in the file's (sorted) order.
+    header : dict
+        The attributes other than the structural ones (channels, compression, data and
+        display windows, line order, pixel aspect ratio, screen window, type): what
+        :func:`write_exr` was given as ``header``; doubles and ints as Python numbers.
+
+    Raises
+    ------
+    GshadeError
+        If the file is missing, unreadable, not an OpenEXR file, truncated or corrupt.
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            magic = f.read(4)
+    except FileNotFoundError:
+        raise GshadeError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise GshadeError(f"{path}: expected an OpenEXR file, got a directory") from None
+    except OSError as exc:
+        raise GshadeError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    if magic != _EXR_MAGIC:
+        raise GshadeError(
+            f"{path}: expected an OpenEXR file (starting with bytes 76 2f 31 01), "
+            f"got {magic.hex(' ') or 'an empty file'}"
+        )
+    try:
+        exr = OpenEXR.File(str(path), separate_channels=True)
+        raw_header = exr.header()
+        raw_channels = exr.channels()
+    except (RuntimeError, ValueError, OSError, TypeError) as exc:
+        raise GshadeError(
+            f"{path}: cannot read the OpenEXR file (truncated or corrupt?): {exc}"
+        ) from None
+    channels: dict[str, NDArray[np.float32]] = {}
+    for name, channel in raw_channels.items():
+        pixels = getattr(channel, "pixels", None)
+        if not isinstance(pixels, np.ndarray) or pixels.ndim != 2 or pixels.dtype.kind not in "uif":
+            raise GshadeError(
+                f"{path}: channel {name!r}: expected flat (not deep) 2-D pixel data, got "
+                f"{type(pixels).__name__}"
+            )
+        channels[name] = np.ascontiguousarray(pixels, dtype=np.float32)
+    header = {k: _plain(v) for k, v in raw_header.items() if k not in _STRUCTURAL}
+    return channels, header
+
+
+# --------------------------------------------------------------------------- PNG
+
+
+def linear_to_srgb(linear: ArrayLike) -> NDArray[np.float64]:
+    """The sRGB transfer function (IEC 61966-2-1) of linear values, clipped to [0, 1].
+
+    ``12.92 x`` for ``x <= 0.0031308``, else ``1.055 x^(1/2.4) - 0.055``; NaN becomes 0.
+    """
+    x = np.nan_to_num(np.asarray(linear, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+    x = np.clip(x, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+
+
+def _to_uint8(x: NDArray) -> NDArray[np.uint8]:
+    return np.round(np.clip(x, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def write_png(path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None = None) -> Path:
+    """Write linear RGB (and straight alpha) as an 8-bit sRGB PNG, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+    rgb : array_like, shape (height, width, 3)
+        Linear colour, not premultiplied by alpha; clipped to [0, 1] (NaN -> 0), then
+        sRGB-encoded and rounded to 8 bits.
+    alpha : array_like, shape (height, width), optional
+        Coverage in [0, 1], stored linearly (an RGBA PNG); without it the PNG is RGB.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    GshadeError
+        For arrays of the wrong shape or type, or if the file cannot be written.
+    """
+    import imageio.v3 as iio
+
+    target = Path(path)
+    rgb = np.asarray(rgb)
+    if rgb.dtype.kind not in "biuf" or rgb.ndim != 3 or rgb.shape[2] != 3 or 0 in rgb.shape:
+        raise GshadeError(
+            f"{target}: rgb: expected an array of real numbers of shape (height, width, 3), got "
+            f"shape {rgb.shape} and dtype {rgb.dtype}"
+        )
+    image = _to_uint8(linear_to_srgb(rgb))
+    if alpha is not None:
+        a = np.asarray(alpha)
+        if a.dtype.kind not in "biuf" or a.shape != rgb.shape[:2]:
+            raise GshadeError(
+                f"{target}: alpha: expected an array of real numbers of shape {rgb.shape[:2]}, "
+                f"got shape {a.shape} and dtype {a.dtype}"
+            )
+        a = np.nan_to_num(a.astype(np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+        image = np.concatenate([image, _to_uint8(a)[..., None]], axis=2)
+
+    def write(name: str) -> None:
+        iio.imwrite(name, image, extension=".png")
+
+    return _atomic_write(target, ".png", write)

@@ -1,0 +1,162 @@
+"""Cameras: explicit or framed automatically around the surfaces, as Mitsuba sensors.
+
+Perspective cameras take the horizontal field of view (degrees); orthographic ones the view
+width in scene units.  Without origin and target the camera looks at the centre of the
+bounding box from a three-quarter view above it, at the distance where the bounding sphere
+fills the narrower image side (with a margin).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+
+__all__ = ["View", "frame_view"]
+
+#: Default viewing direction for automatic framing (from the target toward the eye).
+AUTO_DIRECTION = np.array([0.55, -0.75, 0.45])
+MARGIN = 1.08
+
+
+@dataclass(frozen=True)
+class View:
+    """A resolved camera: where it is, where it looks, and its projection."""
+
+    type: str
+    origin: NDArray
+    target: NDArray
+    up: NDArray
+    fov: float
+    width: float | None
+    image_width: int
+    image_height: int
+
+    @property
+    def forward(self) -> NDArray:
+        d = self.target - self.origin
+        return d / np.linalg.norm(d)
+
+    @property
+    def right(self) -> NDArray:
+        r = np.cross(self.forward, self.up)
+        return r / np.linalg.norm(r)
+
+    @property
+    def true_up(self) -> NDArray:
+        return np.cross(self.right, self.forward)
+
+    def pixel_size(self, distance: float) -> float:
+        """World size of one pixel at the given distance along the view direction."""
+        if self.type == "orthographic":
+            return self.width / self.image_width
+        return 2.0 * distance * np.tan(np.radians(self.fov) / 2) / self.image_width
+
+    def key_light(self) -> tuple[float, float, float]:
+        """A light from above and left of the camera, toward the scene."""
+        d = 0.6 * self.true_up - 0.45 * self.right - 0.65 * self.forward
+        return tuple(float(x) for x in d / np.linalg.norm(d))
+
+    def sensor(self, mi, spp: int, seed: int, sampler: str = "independent") -> dict:
+        """The Mitsuba sensor dict (box filter; ``sampler='centre'`` samples pixel centres)."""
+        T = mi.ScalarTransform4f
+        to_world = T().look_at(
+            origin=self.origin.tolist(), target=self.target.tolist(), up=self.up.tolist()
+        )
+        span = float(np.linalg.norm(self.target - self.origin))
+        sensor = {
+            "near_clip": max(span * 1e-4, 1e-6),
+            "far_clip": span * 1e3 + 1.0,
+            "film": {
+                "type": "hdrfilm",
+                "width": self.image_width,
+                "height": self.image_height,
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgba",
+            },
+        }
+        if sampler == "centre":
+            sensor["sampler"] = {"type": "stratified", "sample_count": 1, "jitter": False}
+        else:
+            sensor["sampler"] = {"type": "independent", "sample_count": spp, "seed": seed}
+        if self.type == "orthographic":
+            half = self.width / 2
+            sensor.update(type="orthographic", to_world=to_world @ T().scale([half, half, 1.0]))
+        else:
+            sensor.update(type="perspective", to_world=to_world, fov=self.fov, fov_axis="x")
+        return sensor
+
+
+def _centre_in_view(points: NDArray, up: NDArray) -> NDArray:
+    """The point to aim at so that the surfaces sit centred in the automatic view: the centre
+    of their extent across the view (and the box centre along it)."""
+    direction = AUTO_DIRECTION / np.linalg.norm(AUTO_DIRECTION)
+    right = np.cross(-direction, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, -direction)
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    rel = points - centre
+    x, y = rel @ right, rel @ true_up
+    return centre + right * (x.max() + x.min()) / 2 + true_up * (y.max() + y.min()) / 2
+
+
+def _vector(value, name: str) -> NDArray:
+    v = np.asarray(value, dtype=np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise GshadeError(f"[camera] {name}: expected 3 finite numbers, got {value!r}")
+    return v
+
+
+def frame_view(camera, points: NDArray, width: int, height: int) -> View:
+    """Resolve a scene's camera (a :class:`gshade.io.scene.Camera`) for surface points (N, 3)
+    sampled densely enough to stand for the surfaces' extent."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = (lo + hi) / 2
+    radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-9)
+    up = _vector(camera.up, "up")
+    aspect = width / height
+    target = centre if camera.target is None else _vector(camera.target, "target")
+    if camera.target is None and camera.origin is None:
+        target = _centre_in_view(points, up)
+    if camera.origin is None:
+        direction = AUTO_DIRECTION / np.linalg.norm(AUTO_DIRECTION)
+        forward = -direction
+        right = np.cross(forward, up)
+        right /= np.linalg.norm(right)
+        true_up = np.cross(right, forward)
+        rel = points - target
+        x, y, z = rel @ right, rel @ true_up, rel @ forward
+        if camera.type == "orthographic":
+            distance = 2.0 * radius
+        else:
+            # the nearest distance at which every point lies inside the frustum
+            tan_h = np.tan(np.radians(camera.fov) / 2)
+            tan_v = tan_h / aspect
+            distance = float(
+                max(
+                    np.max(MARGIN * np.abs(x) / tan_h - z),
+                    np.max(MARGIN * np.abs(y) / tan_v - z),
+                    radius * 1e-3,
+                )
+            )
+        origin = target + distance * direction
+    else:
+        origin = _vector(camera.origin, "origin")
+    if np.linalg.norm(target - origin) == 0:
+        raise GshadeError("[camera] origin, target: expected two different points")
+    forward = (target - origin) / np.linalg.norm(target - origin)
+    if np.linalg.norm(np.cross(forward, up)) < 1e-9 * np.linalg.norm(up):
+        raise GshadeError(f"[camera] up: expected a direction not parallel to the view, got {up}")
+    view_width = camera.width
+    if camera.type == "orthographic" and view_width is None:
+        right = np.cross(forward, up)
+        right /= np.linalg.norm(right)
+        true_up = np.cross(right, forward)
+        rel = points - target
+        half_w = np.max(np.abs(rel @ right))
+        half_h = np.max(np.abs(rel @ true_up))
+        view_width = 2 * MARGIN * max(half_w, half_h * aspect)
+    return View(camera.type, origin, target, up, float(camera.fov), view_width, width, height)

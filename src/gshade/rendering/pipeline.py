@@ -1,0 +1,287 @@
+"""The render pipeline: scene -> patches -> mesh + shape textures -> Mitsuba -> image.
+
+1. Resolve the camera (framing the surfaces when it is not given).
+2. Tessellate on a common grid chosen from the chord-error tolerance (the smaller of
+   ``chord_tolerance`` times the bounding-box diagonal and half a pixel at the nearest point).
+3. Evaluate the shape function (and the colour function) with exact gradients on one texture
+   tile per patch, with about one texel per pixel of the patch's projected size.
+4. Render with gshade's integrator: R G B A and f from ``spp`` samples per pixel (box
+   filter, fixed seed), then one pass through the pixel centres for the patch parameters.
+5. Evaluate P and N exactly at those parameters.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import asdict, replace
+
+import numpy as np
+
+from .. import __version__
+from ..errors import GshadeError
+from ..geometry import patch_normals, unit_normal
+from ..image import RenderedImage
+from ..shape import SHAPE_FUNCTIONS, Legend, auto_range, get_shape_function
+from .camera import frame_view
+from .integrator import IntegratorSettings, make_integrator
+from .tessellate import chord_resolution, tessellate
+from .textures import Atlas, shape_textures
+from .variant import select_variant
+
+__all__ = ["render"]
+
+#: Bounds on the texels per patch side, and on the whole atlas.
+MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 256, 4096 * 4096
+#: Units of each function's values, for legends.
+UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
+
+
+def _units(function: str, params: dict) -> str:
+    if function in UNITS:
+        return UNITS[function]
+    if SHAPE_FUNCTIONS[function].order == 2:
+        return "1/length"
+    if function == "isophotes":
+        return "rad" if params.get("form") == "angle" else ""
+    if function == "reflection_lines" and params.get("form") == "infinity":
+        return "rad"
+    return "length"
+
+
+def _nearest_distance(view, lo, hi) -> float:
+    """Distance from the eye to the nearest point of the bounding box along the view axis."""
+    corners = np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
+    depth = (corners - view.origin) @ view.forward
+    return float(max(depth.min(), 1e-6 * np.linalg.norm(hi - lo)))
+
+
+def _tile_size(scene, view, patches, lo, hi) -> int:
+    if scene.render.texture_resolution:
+        return int(np.clip(scene.render.texture_resolution, 2, MAX_TILE))
+    size = 0.0
+    for p in patches:
+        pts = p.points.reshape(-1, 3) if hasattr(p, "points") else p(*p.parameter_grid(5, 5))
+        pts = pts.reshape(-1, 3)
+        extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
+        depth = max(float((pts.mean(axis=0) - view.origin) @ view.forward), 1e-9)
+        size = max(size, extent / view.pixel_size(depth))
+    # f is smooth: a texel every two pixels interpolates it far below what a picture shows
+    tile = int(np.clip(np.ceil(size / 2) + 1, MIN_TILE, MAX_TILE))
+    cap = int(np.sqrt(MAX_ATLAS_TEXELS / len(patches)))
+    return max(2, min(tile, cap))
+
+
+def render(scene, **overrides) -> RenderedImage:
+    """Render a scene (a :class:`gshade.io.scene.Scene` or a path) to an image.
+
+    Keyword overrides replace ``[render]`` settings (width, height, spp, lighting, variant,
+    seed, tessellation, chord_tolerance, texture_resolution); with a path, ``set`` may hold
+    dotted scene keys (``{"shape.period": 0.05}``) applied before validation.
+    """
+    dotted = overrides.pop("set", None) or {}
+    if isinstance(scene, (str, os.PathLike)):
+        from ..io.scene import load_scene
+
+        scene = load_scene(scene, dotted)
+    elif dotted:
+        raise GshadeError("set: dotted overrides need a scene path, not a loaded Scene")
+    if overrides:
+        try:
+            scene = replace(scene, render=replace(scene.render, **overrides))
+        except TypeError as exc:
+            raise GshadeError(f"render: unknown setting ({exc})") from None
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[name] = now - clock
+        clock = now
+
+    settings = scene.render
+    patches = scene.patches
+    variant = select_variant(settings.variant)
+    import drjit as dr
+    import mitsuba as mi
+
+    lap("setup")
+    box = np.concatenate([p(*p.parameter_grid(17, 17)).reshape(-1, 3) for p in patches])
+    lo, hi = box.min(axis=0), box.max(axis=0)
+    view = frame_view(scene.camera, box, settings.width, settings.height)
+    diag = float(np.linalg.norm(hi - lo)) or 1.0
+    if settings.tessellation:
+        resolution = int(settings.tessellation)
+    else:
+        tol = settings.chord_tolerance * diag
+        if scene.camera.type == "perspective" or view.width is not None:
+            tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
+        resolution = max(chord_resolution(p, tol) for p in patches)
+        # keep the mesh within a few million vertices
+        resolution = min(resolution, max(2, int(np.sqrt(4_000_000 / len(patches)))))
+    mesh = tessellate(patches, resolution)
+    lap("tessellate")
+
+    shape = scene.shape
+    function = get_shape_function(shape.function)
+    atlas = Atlas.for_patches(len(patches), _tile_size(scene, view, patches, lo, hi))
+    tex = shape_textures(patches, atlas, function, shape.params)
+    textures = {"values": tex.values, "valid": tex.valid}
+    mapped = shape.function
+    if shape.display == "both":
+        mapped = shape.colour_function or shape.function
+        cfn = get_shape_function(mapped)
+        cparams = shape.params if mapped == shape.function else {}
+        ctex = shape_textures(patches, atlas, cfn, cparams)
+        textures["colour_values"], textures["colour_valid"] = ctex.values, ctex.valid
+        cvals, cvalid = ctex.values[..., 0], ctex.valid > 0
+    else:
+        cvals, cvalid = tex.values[..., 0], tex.valid > 0
+    signed = SHAPE_FUNCTIONS[mapped].signed
+    value_range = shape.value_range or auto_range(cvals, cvalid, signed=signed)
+    f_lo, f_hi = auto_range(tex.values[..., 0], tex.valid > 0, percentiles=(0.0, 100.0))
+    period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
+    lut = None
+    if shape.display != "stripes":
+        import matplotlib
+
+        from ..shape.colour import _srgb_to_linear
+
+        cmap = shape.colormap or ("coolwarm" if signed else "viridis")
+        lut = _srgb_to_linear(matplotlib.colormaps[cmap](np.linspace(0, 1, 256))[:, :3])
+    lap("textures")
+
+    mi_mesh = mi.Mesh(
+        "surface",
+        len(mesh.positions),
+        len(mesh.faces),
+        has_vertex_normals=True,
+        has_vertex_texcoords=True,
+    )
+    params = mi.traverse(mi_mesh)
+    params["vertex_positions"] = mesh.positions.astype(np.float32).ravel()
+    params["vertex_normals"] = mesh.normals.astype(np.float32).ravel()
+    params["vertex_texcoords"] = atlas.texcoords(mesh.patch, mesh.params).astype(np.float32).ravel()
+    params["faces"] = mesh.faces.astype(np.uint32).ravel()
+    params.update()
+    isettings = IntegratorSettings(
+        display=shape.display,
+        lighting=settings.lighting,
+        period=float(period),
+        duty=shape.duty,
+        phase=shape.phase,
+        value_range=tuple(float(x) for x in value_range),
+        atlas_scale=atlas.scale,
+        key_light=view.key_light(),
+    )
+    integrator = make_integrator(isettings, textures, lut)
+    mi_scene = mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": integrator,
+            "sensor": view.sensor(mi, settings.spp, settings.seed),
+            "surface": mi_mesh,
+        }
+    )
+    lap("scene")
+    sensor = mi_scene.sensors()[0]
+    mi.render(mi_scene, seed=settings.seed, spp=settings.spp)
+    image = np.array(sensor.film().bitmap(), dtype=np.float32)  # R G B A f
+    lap("render")
+
+    data_sensor = mi.load_dict(view.sensor(mi, 1, settings.seed, sampler="centre"))
+    data_integrator = make_integrator(isettings, textures, lut, data=True)
+    mi.render(mi_scene, sensor=data_sensor, integrator=data_integrator, seed=settings.seed, spp=1)
+    data = np.array(data_sensor.film().bitmap(), dtype=np.float32)  # R G B A x y hit
+    dr.sync_thread()
+    lap("render_data")
+
+    channels = _channels(image, data, atlas, patches)
+    lap("exact_channels")
+    legend = Legend(
+        function=shape.function,
+        order=function.order,
+        display=shape.display,
+        value_range=None if shape.display == "stripes" else tuple(value_range),
+        colormap=None if lut is None else (shape.colormap or ("coolwarm" if signed else "viridis")),
+        period=None if shape.display == "colormap" else float(period),
+        duty=None if shape.display == "colormap" else shape.duty,
+        stripe_function=shape.function if shape.display == "both" else None,
+        units=_units(mapped, shape.params),
+    )
+    metadata = {
+        "gshade_version": __version__,
+        "scene_name": scene.name,
+        "scene_hash": scene.text_hash,
+        "variant": variant,
+        "settings": json.dumps(
+            {
+                "render": asdict(settings),
+                "shape": _jsonable(asdict(shape)),
+                "camera": {
+                    "type": view.type,
+                    "origin": view.origin.tolist(),
+                    "target": view.target.tolist(),
+                    "up": view.up.tolist(),
+                    "fov": view.fov,
+                    "width": view.width,
+                },
+                "tessellation": resolution,
+                "texture_tile": atlas.tile,
+            },
+            sort_keys=True,
+        ),
+        "legend": legend.text(),
+    }
+    return RenderedImage(channels, metadata, legend, timings)
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
+
+
+def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches) -> dict:
+    """The EXR channels: the picture, coverage and f from the samples; exact P, N, u, v and
+    the patch index at the pixel centres that hit."""
+    H, W = image.shape[:2]
+    A = image[..., 3]
+    f = np.where(A > 0, image[..., 4] / np.where(A > 0, A, 1.0), 0.0)
+    hit = data[..., 6] > 0.5
+    patch_index, st = atlas.locate(data[..., 4:6].astype(np.float64))
+    P = np.zeros((H, W, 3))
+    N = np.zeros((H, W, 3))
+    U = np.zeros((H, W))
+    V = np.zeros((H, W))
+    for k in np.unique(patch_index[hit]):
+        sel = hit & (patch_index == k)
+        patch = patches[int(k)]
+        (u0, u1), (v0, v1) = patch.domain
+        u = u0 + (u1 - u0) * st[sel][:, 0]
+        v = v0 + (v1 - v0) * st[sel][:, 1]
+        d = patch.derivatives(u, v, 1)
+        normal = unit_normal(d)
+        n = normal.n
+        if not normal.regular.all():  # limits at collapsed edges need higher derivatives
+            irr = ~normal.regular
+            n[irr] = patch_normals(patch, u[irr], v[irr]).n
+        P[sel], N[sel] = d[0, 0], n
+        U[sel], V[sel] = u, v
+    out = {"R": image[..., 0], "G": image[..., 1], "B": image[..., 2], "A": A, "f": f}
+    for name, arr in (("P", P), ("N", N)):
+        for c, axis in enumerate("XYZ"):
+            out[f"{name}.{axis}"] = arr[..., c]
+    out["u"], out["v"] = U, V
+    out["patch"] = np.where(hit, patch_index, -1)
+    return {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in out.items()}

@@ -1,0 +1,107 @@
+"""Shape-function textures: exact values on a fine grid per patch, packed into one atlas.
+
+Each patch gets a T x T tile of texels whose centres sit on the grid s_k = k / (T - 1) of its
+normalised parameters, holding (f, f_s, f_t): the shape function's value and its exact
+derivatives in the normalised parameters (from the surface gradient: f_s = <grad_S f, p_s>).
+The renderer interpolates them bilinearly at each sample's (s, t) and applies the stripe or
+colour mapping per sample, so stripes stay sharp and anti-aliased whatever the mesh.
+
+Texel (row r, column c) has its centre at atlas coordinates ((c + 0.5) / W, (r + 0.5) / H);
+patch k's tile starts at column (k mod cols) T and row (k div cols) T, and its parameter s
+maps to column c0 + s (T - 1), t to row r0 + t (T - 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry import Patch, regularised_derivatives
+from ..shape import ShapeFunction, evaluate
+
+__all__ = ["Atlas", "ShapeTextures", "shape_textures"]
+
+
+@dataclass(frozen=True)
+class Atlas:
+    """Layout of T x T tiles, one per patch, in a grid of ``cols`` x ``rows`` tiles."""
+
+    tile: int
+    cols: int
+    rows: int
+
+    @classmethod
+    def for_patches(cls, n_patches: int, tile: int) -> Atlas:
+        cols = int(np.ceil(np.sqrt(n_patches)))
+        return cls(int(tile), cols, int(np.ceil(n_patches / cols)))
+
+    @property
+    def width(self) -> int:
+        return self.cols * self.tile
+
+    @property
+    def height(self) -> int:
+        return self.rows * self.tile
+
+    @property
+    def scale(self) -> tuple[float, float]:
+        """d(s, t) / d(atlas x, y): converts atlas-coordinate derivatives to parameter ones."""
+        return self.width / (self.tile - 1), self.height / (self.tile - 1)
+
+    def texcoords(self, patch: NDArray, st: NDArray) -> NDArray[np.float64]:
+        """Atlas coordinates of normalised parameters ``st`` (N, 2) on patches ``patch`` (N,)."""
+        c0 = (patch % self.cols) * self.tile
+        r0 = (patch // self.cols) * self.tile
+        x = (c0 + 0.5 + st[:, 0] * (self.tile - 1)) / self.width
+        y = (r0 + 0.5 + st[:, 1] * (self.tile - 1)) / self.height
+        return np.stack([x, y], -1)
+
+    def locate(self, xy: NDArray) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Patch index and normalised parameters of atlas coordinates ``xy`` (..., 2)."""
+        cx = xy[..., 0] * self.width - 0.5
+        ry = xy[..., 1] * self.height - 0.5
+        col = np.clip(np.floor((cx + 0.5) / self.tile), 0, self.cols - 1).astype(np.int64)
+        row = np.clip(np.floor((ry + 0.5) / self.tile), 0, self.rows - 1).astype(np.int64)
+        s = np.clip((cx - col * self.tile) / (self.tile - 1), 0.0, 1.0)
+        t = np.clip((ry - row * self.tile) / (self.tile - 1), 0.0, 1.0)
+        return row * self.cols + col, np.stack([s, t], -1)
+
+
+@dataclass(frozen=True)
+class ShapeTextures:
+    """Atlas images: ``values`` (H, W, 3) = (f, f_s, f_t), ``valid`` (H, W) in {0, 1}."""
+
+    atlas: Atlas
+    values: NDArray[np.float32]
+    valid: NDArray[np.float32]
+
+
+def shape_textures(
+    patches: list[Patch] | tuple[Patch, ...], atlas: Atlas, function: ShapeFunction, params: dict
+) -> ShapeTextures:
+    """Evaluate a shape function with its gradient on every patch's tile.
+
+    Returns the atlas images.
+    """
+    T = atlas.tile
+    values = np.zeros((atlas.height, atlas.width, 3), dtype=np.float32)
+    valid = np.zeros((atlas.height, atlas.width), dtype=np.float32)
+    grid = np.linspace(0.0, 1.0, T)
+    for k, patch in enumerate(patches):
+        (u0, u1), (v0, v1) = patch.domain
+        u = (u0 + (u1 - u0) * grid)[:, None]
+        v = (v0 + (v1 - v0) * grid)[None, :]
+        d = regularised_derivatives(patch, u, v, function.order + 1).d
+        res = evaluate(function, d, **params)
+        f_s = np.sum(res.gradient * d[1, 0], -1) * (u1 - u0)
+        f_t = np.sum(res.gradient * d[0, 1], -1) * (v1 - v0)
+        r0, c0 = (k // atlas.cols) * T, (k % atlas.cols) * T
+        # rows follow t (v), columns follow s (u): the tile is the transpose of the (u, v) grid
+        tile = values[r0 : r0 + T, c0 : c0 + T]
+        tile[..., 0] = res.f.T
+        tile[..., 1] = f_s.T
+        tile[..., 2] = f_t.T
+        valid[r0 : r0 + T, c0 : c0 + T] = res.valid.T
+    return ShapeTextures(atlas, values, valid)

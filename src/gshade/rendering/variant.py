@@ -1,0 +1,118 @@
+"""Choosing Mitsuba's variant, and finding an LLVM that Dr.Jit can use.
+
+Mitsuba's ``llvm_ad_rgb`` variant JIT-compiles its kernels with the system's libLLVM, and
+LLVM 15 or 16 aborts the whole process on the first kernel (``Cannot select ... fmaximum``;
+see the project's design notes).  gshade therefore looks for libLLVM >= 17 itself — the
+``karellen-llvm-core`` wheel installed with gshade puts one into the environment — and points
+Dr.Jit at it with ``DRJIT_LIBLLVM_PATH`` before Mitsuba is imported.  With none, ``auto``
+falls back to ``scalar_rgb`` with one warning.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+import sys
+import warnings
+from functools import cache, lru_cache
+from pathlib import Path
+
+from ..errors import GshadeError
+
+__all__ = ["VARIANTS", "find_llvm", "llvm_version", "mitsuba", "select_variant"]
+
+VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
+MIN_LLVM = 17
+
+
+def llvm_version(path: str | os.PathLike) -> int | None:
+    """Major version of a libLLVM from its file name (libLLVM.so.23.1, libLLVM-19.so, ...)."""
+    name = Path(path).name
+    match = re.match(r"libLLVM(?:-(\d+))?(?:[.\d]*)\.so(?:\.(\d+))?", name)
+    if not match:
+        return None
+    major = match.group(1) or match.group(2)
+    return int(major) if major else None
+
+
+def _candidates() -> list[str]:
+    prefixes = dict.fromkeys([sys.prefix, sys.base_prefix, "/usr/local", "/usr"])
+    patterns = []
+    for prefix in prefixes:
+        patterns += [f"{prefix}/lib/libLLVM*.so*", f"{prefix}/lib64/libLLVM*.so*"]
+    patterns += [
+        "/usr/lib/llvm-*/lib/libLLVM*.so*",
+        "/usr/lib/*-linux-gnu/libLLVM*.so*",
+        "/opt/homebrew/opt/llvm/lib/libLLVM*.dylib",
+        "/usr/local/opt/llvm/lib/libLLVM*.dylib",
+    ]
+    found = []
+    for pattern in patterns:
+        found += sorted(glob.glob(pattern))
+    return found
+
+
+@lru_cache(maxsize=1)
+def find_llvm() -> str | None:
+    """Path of the newest libLLVM >= 17 found, or DRJIT_LIBLLVM_PATH if the user set it."""
+    chosen = os.environ.get("DRJIT_LIBLLVM_PATH")
+    if chosen:
+        return chosen
+    best: tuple[int, str] | None = None
+    for path in _candidates():
+        version = llvm_version(path)
+        if version is not None and version >= MIN_LLVM and (best is None or version > best[0]):
+            best = (version, path)
+    return best[1] if best else None
+
+
+@cache
+def select_variant(requested: str = "auto") -> str:
+    """Resolve and activate a Mitsuba variant: auto | llvm_ad_rgb | scalar_rgb | cuda_ad_rgb.
+
+    ``auto`` gives ``llvm_ad_rgb`` when a usable LLVM is found and otherwise ``scalar_rgb``
+    (with one warning).  Raises GshadeError for an unknown name or an explicit variant that
+    cannot run here.
+    """
+    if requested not in VARIANTS:
+        raise GshadeError(f"variant: expected one of {', '.join(VARIANTS)}, got {requested!r}")
+    variant = requested
+    if requested in ("auto", "llvm_ad_rgb"):
+        llvm = find_llvm()
+        if llvm is None:
+            if requested == "llvm_ad_rgb":
+                raise GshadeError(
+                    f"variant: llvm_ad_rgb needs libLLVM >= {MIN_LLVM}, and none was found; "
+                    "install karellen-llvm-core or set DRJIT_LIBLLVM_PATH"
+                )
+            warnings.warn(
+                f"gshade: no libLLVM >= {MIN_LLVM} found (install karellen-llvm-core or set "
+                "DRJIT_LIBLLVM_PATH); rendering with the much slower scalar_rgb variant",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            variant = "scalar_rgb"
+        else:
+            os.environ["DRJIT_LIBLLVM_PATH"] = llvm
+            variant = "llvm_ad_rgb"
+    mi = mitsuba()
+    try:
+        mi.set_variant(variant)
+    except (ImportError, AttributeError, RuntimeError) as exc:
+        raise GshadeError(f"variant: {variant} is not available here ({exc})") from None
+    if variant == "cuda_ad_rgb":
+        import drjit as dr
+
+        try:
+            dr.eval(mi.Float(1.0) + 1.0)
+        except RuntimeError as exc:
+            raise GshadeError(f"variant: cuda_ad_rgb cannot run here ({exc})") from None
+    return variant
+
+
+def mitsuba():
+    """Import Mitsuba (after any DRJIT_LIBLLVM_PATH has been set)."""
+    import mitsuba as mi
+
+    return mi
