@@ -36,28 +36,29 @@ Usage, from the repository root::
 from __future__ import annotations
 
 import argparse
-import ctypes
-import gc
 import os
-import platform
-import statistics
-import subprocess
 import sys
-import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from dataclasses import dataclass
 from importlib.metadata import version
-from pathlib import Path
 
 # Small BLAS products on a 2-core machine: one BLAS thread for both libraries (measured:
-# with two, medians jumped between 9 and 279 ms from run to run).  Set before numpy loads;
-# an explicit OPENBLAS_NUM_THREADS in the environment wins, and the report records it.
+# with two, medians jumped between 9 and 279 ms from run to run).  Set before numpy loads
+# (``report`` sets it too, before it imports numpy); an explicit OPENBLAS_NUM_THREADS in
+# the environment wins, and the report records it.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 import splipy
 from geomdl import NURBS, BSpline
+from report import (
+    RESULTS,
+    Timing,
+    machine_info,
+    markdown_table,
+    text_table,
+    time_interleaved,
+    write_section,
+)
 
 from gshade.geometry import BSplinePatch, gaussian_and_mean_curvature
 
@@ -73,9 +74,7 @@ SEED = 20240611
 #: The derivatives compared and timed, as (i, j) for d^(i+j) p / du^i dv^j.
 MULTI_INDICES = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 
-RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
-START, END = "<!-- bench_geometry:start -->", "<!-- bench_geometry:end -->"
-HEADER = "# gshade benchmark results\n"
+SECTION = "bench_geometry"  # its markers in RESULTS.md
 
 
 # --------------------------------------------------------------------------- test surface
@@ -202,119 +201,6 @@ def check_curvature(KH: tuple[np.ndarray, np.ndarray], ref: tuple[np.ndarray, np
             raise Disagreement(f"{name}: gshade differs from the textbook formula by {diff:.3e}")
 
 
-# --------------------------------------------------------------------------- timing
-
-
-@dataclass
-class Timing:
-    samples: list[float] = field(default_factory=list)  # seconds
-
-    @property
-    def median_ms(self) -> float:
-        return 1e3 * statistics.median(self.samples)
-
-    @property
-    def spread_ms(self) -> str:
-        return f"{1e3 * min(self.samples):.1f}-{1e3 * max(self.samples):.1f}"
-
-
-def time_interleaved(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, Timing]:
-    """Run each function once to warm up, then ``repeats`` rounds of one call each."""
-    out = {name: Timing() for name in fns}
-    for fn in fns.values():
-        fn()
-    gc_was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for _ in range(repeats):
-            for name, fn in fns.items():
-                t0 = time.perf_counter()
-                fn()
-                out[name].samples.append(time.perf_counter() - t0)
-    finally:
-        if gc_was_enabled:
-            gc.enable()
-    return out
-
-
-# --------------------------------------------------------------------------- machine info
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
-def openblas_threads() -> str:
-    """Threads of the OpenBLAS that numpy loaded, asked through its C API (Linux only)."""
-    try:
-        maps = Path("/proc/self/maps").read_text()
-    except OSError:
-        return "unknown"
-    libs = {line.split()[-1] for line in maps.splitlines() if "openblas" in line.lower()}
-    symbols = (
-        "openblas_get_num_threads",
-        "openblas_get_num_threads64_",
-        "scipy_openblas_get_num_threads64_",
-        "scipy_openblas_get_num_threads",
-    )
-    for lib in sorted(libs):
-        try:
-            handle = ctypes.CDLL(lib)
-        except OSError:
-            continue
-        for sym in symbols:
-            fn = getattr(handle, sym, None)
-            if fn is not None:
-                fn.restype = ctypes.c_int
-                return str(fn())
-    return "unknown"
-
-
-def git_revision() -> str:
-    try:
-        root = Path(__file__).resolve().parent.parent
-        rev = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--", "src"], cwd=root, capture_output=True, text=True
-        ).stdout.strip()
-    except OSError:
-        return "unknown"
-    return f"{rev or 'unknown'}{' + uncommitted changes in src/' if dirty else ''}"
-
-
-def machine_info() -> dict[str, str]:
-    try:
-        affinity = len(os.sched_getaffinity(0))
-    except AttributeError:
-        affinity = os.cpu_count()
-    try:
-        thp = Path("/sys/kernel/mm/transparent_hugepage/enabled").read_text().strip()
-    except OSError:
-        thp = "unknown"
-    env = ", ".join(
-        f"{k}={os.environ.get(k, 'unset')}"
-        for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-    )
-    return {
-        "Machine": f"{cpu_model()}, {os.cpu_count()} logical CPUs ({affinity} usable), "
-        f"{platform.system()} {platform.release()}",
-        "Date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "Versions": f"Python {platform.python_version()}, numpy {np.__version__}, "
-        f"splipy {version('splipy')}, geomdl {version('geomdl')}, "
-        f"gshade {version('gshade')} (git {git_revision()})",
-        "Threads": f"{env}; OpenBLAS runtime threads: {openblas_threads()}",
-        "Transparent huge pages": thp,
-    }
-
-
 # --------------------------------------------------------------------------- report
 
 
@@ -389,27 +275,11 @@ COLUMNS = [
 ]
 
 
-def markdown_table(rows: list[Row]) -> str:
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "|".join("---" for _ in COLUMNS) + "|"]
-    lines += ["| " + " | ".join(r.cells()) + " |" for r in rows]
-    return "\n".join(lines)
-
-
-def text_table(rows: list[Row]) -> str:
-    table = [COLUMNS] + [r.cells() for r in rows]
-    widths = [max(len(r[k]) for r in table) for k in range(len(COLUMNS))]
-    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
-    lines = [fmt.format(*r) for r in table]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
-
-
 def section(info: dict[str, str], rows: list[Row], notes: list[str], args) -> str:
     command = ".venv/bin/python benchmarks/bench_geometry.py --write" + (
         " --quick" if args.quick else ""
     )
     lines = [
-        START,
         "## Geometry evaluation (`benchmarks/bench_geometry.py`)",
         "",
         f"Run: `{command}`; {args.repeats} repeats after a warm-up (medians), geomdl "
@@ -417,21 +287,9 @@ def section(info: dict[str, str], rows: list[Row], notes: list[str], args) -> st
         "",
     ]
     lines += [f"- {k}: {v}" for k, v in info.items()]
-    lines += ["", markdown_table(rows), ""]
+    lines += ["", markdown_table(COLUMNS, [r.cells() for r in rows]), ""]
     lines += [f"- {n}" for n in notes]
-    lines.append(END)
     return "\n".join(lines)
-
-
-def write_section(text: str) -> None:
-    """Replace the text between (and including) the markers, or append it."""
-    old = RESULTS.read_text() if RESULTS.exists() else HEADER
-    start, end = old.find(START), old.find(END)
-    if start >= 0 and end > start:
-        new = old[:start] + text + old[end + len(END) :]
-    else:
-        new = old.rstrip("\n") + "\n\n" + text + "\n"
-    RESULTS.write_text(new)
 
 
 # --------------------------------------------------------------------------- main
@@ -545,14 +403,14 @@ def main(argv: list[str] | None = None) -> int:
         f"KH spread (min-max ms): {row_kh.gshade.spread_ms}",
     ]
 
-    info = machine_info()
+    info = machine_info([f"splipy {version('splipy')}", f"geomdl {version('geomdl')}"])
     print("\n".join(f"{k}: {v}" for k, v in info.items()))
     print()
-    print(text_table(rows))
+    print(text_table(COLUMNS, [r.cells() for r in rows]))
     print()
     print("\n".join(f"* {n}" for n in notes))
     if args.write:
-        write_section(section(info, rows, notes, args))
+        write_section(SECTION, section(info, rows, notes, args))
         print(f"\nwrote {RESULTS}")
     return 0
 

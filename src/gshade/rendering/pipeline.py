@@ -129,14 +129,13 @@ def render(scene, **overrides) -> RenderedImage:
     shape = scene.shape
     function = get_shape_function(shape.function)
     atlas = Atlas.for_patches(len(patches), _tile_size(scene, view, patches, lo, hi))
-    tex = shape_textures(patches, atlas, function, shape.params)
+    tex = shape_textures(patches, atlas, function, shape.params_for(shape.function))
     textures = {"values": tex.values, "valid": tex.valid}
     mapped = shape.function
     if shape.display == "both":
         mapped = shape.colour_function or shape.function
         cfn = get_shape_function(mapped)
-        cparams = shape.params if mapped == shape.function else {}
-        ctex = shape_textures(patches, atlas, cfn, cparams)
+        ctex = shape_textures(patches, atlas, cfn, shape.params_for(mapped))
         textures["colour_values"], textures["colour_valid"] = ctex.values, ctex.valid
         cvals, cvalid = ctex.values[..., 0], ctex.valid > 0
     else:
@@ -211,7 +210,7 @@ def render(scene, **overrides) -> RenderedImage:
         period=None if shape.display == "colormap" else float(period),
         duty=None if shape.display == "colormap" else shape.duty,
         stripe_function=shape.function if shape.display == "both" else None,
-        units=_units(mapped, shape.params),
+        units=_units(mapped, shape.params_for(mapped)),
     )
     metadata = {
         "gshade_version": __version__,

@@ -35,7 +35,7 @@ __all__ = [
 DARK = (0.04, 0.04, 0.05)
 LIGHT = (0.92, 0.92, 0.90)
 #: colour of points where the shape function is undefined
-UNDEFINED = (0.35, 0.0, 0.35)
+UNDEFINED = (0.25, 0.1, 0.3)
 
 
 class _Ops:
