@@ -55,13 +55,30 @@ class View:
             return self.width / self.image_width
         return 2.0 * distance * np.tan(np.radians(self.fov) / 2) / self.image_width
 
+    def pixel_rays(self, rows: NDArray, cols: NDArray) -> tuple[NDArray, NDArray]:
+        """Origins and unit directions (N, 3) of the rays through pixel centres (row 0 at the
+        top), as Mitsuba's sensors cast them."""
+        x = (2.0 * (cols + 0.5) / self.image_width - 1.0)[:, None]
+        y = (1.0 - 2.0 * (rows + 0.5) / self.image_height)[:, None]
+        aspect = self.image_width / self.image_height
+        if self.type == "orthographic":
+            half = self.width / 2
+            origin = self.origin + half * (x * self.right + y / aspect * self.true_up)
+            return origin, np.broadcast_to(self.forward, origin.shape)
+        tan_h = np.tan(np.radians(self.fov) / 2)
+        d = self.forward + tan_h * (x * self.right + y / aspect * self.true_up)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        return np.broadcast_to(self.origin, d.shape), d
+
     def key_light(self) -> tuple[float, float, float]:
         """A light from above and left of the camera, toward the scene."""
         d = 0.6 * self.true_up - 0.45 * self.right - 0.65 * self.forward
         return tuple(float(x) for x in d / np.linalg.norm(d))
 
-    def sensor(self, mi, spp: int, seed: int, sampler: str = "independent") -> dict:
-        """The Mitsuba sensor dict (box filter; ``sampler='centre'`` samples pixel centres)."""
+    def sensor(self, mi, spp: int, seed: int, sampler: str = "jittered") -> dict:
+        """The Mitsuba sensor dict with a box filter and a stratified sampler: jittered
+        (``'jittered'``), at the strata centres (``'symmetric'``), or one sample at each
+        pixel centre (``'centre'``)."""
         T = mi.ScalarTransform4f
         to_world = T().look_at(
             origin=self.origin.tolist(), target=self.target.tolist(), up=self.up.tolist()
@@ -80,8 +97,12 @@ class View:
         }
         if sampler == "centre":
             sensor["sampler"] = {"type": "stratified", "sample_count": 1, "jitter": False}
+        elif sampler == "symmetric":
+            # strata centres: symmetric about the pixel centre, so that the mean over the
+            # samples of a quantity linear across the pixel is its value at the centre
+            sensor["sampler"] = {"type": "stratified", "sample_count": spp, "jitter": False}
         else:
-            sensor["sampler"] = {"type": "independent", "sample_count": spp, "seed": seed}
+            sensor["sampler"] = {"type": "stratified", "sample_count": spp, "seed": seed}
         if self.type == "orthographic":
             half = self.width / 2
             sensor.update(type="orthographic", to_world=to_world @ T().scale([half, half, 1.0]))

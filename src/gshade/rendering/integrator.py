@@ -41,19 +41,29 @@ class IntegratorSettings:
     phase: float = 0.0
     value_range: tuple[float, float] = (0.0, 1.0)
     atlas_scale: tuple[float, float] = (1.0, 1.0)
+    atlas_size: tuple[int, int, int] = (2, 2, 2)  # width, height, tile (texels)
     key_light: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
 
 class _DrJitOps:
-    """The array operations of :func:`coverage_formula`, for Dr.Jit arrays (or scalars)."""
+    """The array operations of :func:`coverage_formula`, for Dr.Jit arrays (or scalars).
+
+    Minimum and maximum are written as compare-and-select: Dr.Jit lowers ``dr.minimum`` to
+    LLVM's ``fminimum``, which some LLVM versions cannot compile for x86 in every kernel
+    (the process aborts: "Cannot select ... fminimum"), even LLVM 23 (seen here).
+    """
 
     def __init__(self, dr, scalar: bool) -> None:
+        select = dr.select
         self.floor = dr.floor
-        self.minimum = dr.minimum
-        self.maximum = dr.maximum
+        self.minimum = lambda a, b: select(a < b, a, b)
+        self.maximum = lambda a, b: select(a > b, a, b)
         self.abs = dr.abs
-        self.select = dr.select
+        self.select = select
         self.logical_not = (lambda m: not m) if scalar else (lambda m: ~m)
+
+    def clip(self, x, lo, hi):
+        return self.minimum(self.maximum(x, lo), hi)
 
 
 _CLASSES: dict[str, type] = {}
@@ -89,13 +99,13 @@ def _define(mi, dr):
     ops = _DrJitOps(dr, scalar)
     Float, Float64, Color3f = mi.Float, mi.Float64, mi.Color3f
 
-    def bitmap(array):
+    def bitmap(array, filter_type="bilinear"):
         return mi.load_dict(
             {
                 "type": "bitmap",
                 "bitmap": mi.Bitmap(np.ascontiguousarray(array, dtype=np.float32)),
                 "raw": True,
-                "filter_type": "bilinear",
+                "filter_type": filter_type,
                 "wrap_mode": "clamp",
             }
         )
@@ -109,9 +119,19 @@ def _define(mi, dr):
             self.display = DISPLAY_CODES[settings.display]
             self.lit = settings.lighting == "lit"
             self.values = bitmap(textures["values"])
+            self.values_texels = bitmap(textures["values"], "nearest")
+            self.twist = bitmap(textures["twist"], "nearest")
+            self.tangent_s = bitmap(textures["tangent_s"])
+            self.tangent_t = bitmap(textures["tangent_t"])
+            self.position = bitmap(textures["position"], "nearest")
+            self.tangent_s_texels = bitmap(textures["tangent_s"], "nearest")
+            self.tangent_t_texels = bitmap(textures["tangent_t"], "nearest")
+            self.twist_st = bitmap(textures["twist_st"], "nearest")
+            self.atlas_w, self.atlas_h, self.tile = settings.atlas_size
             self.valid = bitmap(textures["valid"])
             if self.display == BOTH:
-                self.colour_values = bitmap(textures["colour_values"])
+                self.colour_values = bitmap(textures["colour_values"], "nearest")
+                self.colour_twist = bitmap(textures["colour_twist"], "nearest")
                 self.colour_valid = bitmap(textures["colour_valid"])
             if lut is not None:
                 self.lut = bitmap(lut[None, :, :])
@@ -128,10 +148,84 @@ def _define(mi, dr):
             return ["x", "y", "hit"] if self.data else ["f"]
 
         def _lookup(self, g):
-            t = dr.clip((g - self.lo) * self.inv_span, 0.0, 1.0)
+            t = ops.clip((g - self.lo) * self.inv_span, 0.0, 1.0)
             si = dr.zeros(mi.SurfaceInteraction3f)
             si.uv = mi.Point2f((t * (self.lut_size - 1) + 0.5) / self.lut_size, 0.5)
             return self.lut.eval(si)
+
+        def _cell(self, si):
+            """The texel cell around si.uv inside its tile: the lower corner's texel indices,
+            the cubic Hermite weights (values and derivative weights per direction), and the
+            corners' texture coordinates."""
+            X = si.uv.x * self.atlas_w - 0.5
+            Y = si.uv.y * self.atlas_h - 0.5
+            c0 = dr.floor((X + 0.5) / self.tile) * self.tile
+            r0 = dr.floor((Y + 0.5) / self.tile) * self.tile
+            i = ops.clip(dr.floor(X), c0, c0 + self.tile - 2)
+            j = ops.clip(dr.floor(Y), r0, r0 + self.tile - 2)
+            a = ops.clip(X - i, 0.0, 1.0)
+            b = ops.clip(Y - j, 0.0, 1.0)
+            h = 1.0 / (self.tile - 1)  # texel spacing in the normalised parameters
+            va = (1 - a * a * (3 - 2 * a), a * a * (3 - 2 * a))
+            da = (a * (1 - a) * (1 - a) * h, -a * a * (1 - a) * h)
+            vb = (1 - b * b * (3 - 2 * b), b * b * (3 - 2 * b))
+            db = (b * (1 - b) * (1 - b) * h, -b * b * (1 - b) * h)
+            corners = []
+            for di in (0, 1):
+                for dj in (0, 1):
+                    uv = mi.Point2f((i + di + 0.5) / self.atlas_w, (j + dj + 0.5) / self.atlas_h)
+                    weights = (va[di] * vb[dj], da[di] * vb[dj], va[di] * db[dj], da[di] * db[dj])
+                    corners.append((uv, weights))
+            return corners
+
+        def _hermite(self, corners, hit, value, d_s, d_t, d_st):
+            """Bicubic Hermite interpolation (error O(h^4)) from exact values and s, t and
+            st derivatives at the cell's corners: each argument is (texture, channel) with
+            channel None for a 3-vector, else the component of a 3-channel texture."""
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            total = None
+            for uv, weights in corners:
+                si.uv = uv
+                for (texture, channel), w in zip((value, d_s, d_t, d_st), weights, strict=True):
+                    x = texture.eval(si, hit)
+                    x = mi.Vector3f(x) if channel is None else x[channel]
+                    total = w * x if total is None else total + w * x
+            return total
+
+        def _onto_surface(self, si, ray, hit):
+            """Move si.uv from the mesh's interpolated parameters to the exact surface point
+            on the ray: one Newton step on p(s, t) = hit + tau d ([p_s p_t -d] (ds, dt, dtau)
+            = hit - p by Cramer's rule), with p from bicubic Hermite interpolation."""
+            corners = self._cell(si)
+            p = self._hermite(
+                corners,
+                hit,
+                (self.position, None),
+                (self.tangent_s_texels, None),
+                (self.tangent_t_texels, None),
+                (self.twist_st, None),
+            )
+            ps = mi.Vector3f(self.tangent_s.eval(si, hit))
+            pt = mi.Vector3f(self.tangent_t.eval(si, hit))
+            r = si.p - p
+            c = -ray.d
+            det = dr.dot(ps, dr.cross(pt, c))
+            ok = hit & (dr.abs(det) > 1e-20)
+            inv = dr.select(ok, dr.rcp(det), 0.0)
+            ds = dr.dot(r, dr.cross(pt, c)) * inv
+            dt = dr.dot(ps, dr.cross(r, c)) * inv
+            # stay inside this patch's tile (between its first and last texel centres)
+            x = si.uv.x + ds / self.ks
+            y = si.uv.y + dt / self.kt
+            c0 = dr.floor(si.uv.x * self.atlas_w / self.tile) * self.tile
+            r0 = dr.floor(si.uv.y * self.atlas_h / self.tile) * self.tile
+            x = ops.clip(x, (c0 + 0.5) / self.atlas_w, (c0 + self.tile - 0.5) / self.atlas_w)
+            y = ops.clip(y, (r0 + 0.5) / self.atlas_h, (r0 + self.tile - 0.5) / self.atlas_h)
+            si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
+
+        def _shape_value(self, si, hit, values, twist):
+            corners = self._cell(si)
+            return self._hermite(corners, hit, (values, 0), (values, 1), (values, 2), (twist, 0))
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
@@ -147,8 +241,9 @@ def _define(mi, dr):
                     ],
                 )
             si.compute_uv_partials(ray)
-            fv = self.values.eval(si, hit)
-            f = fv.x
+            self._onto_surface(si, ray, hit)
+            fv = self.values.eval(si, hit)  # bilinear (f, f_s, f_t): the gradient for AA
+            f = self._shape_value(si, hit, self.values_texels, self.twist)
             defined = self.valid.eval_1(si, hit) > 0.5
             if self.display == COLORMAP:
                 colour = self._lookup(f)
@@ -162,7 +257,7 @@ def _define(mi, dr):
                 cov = Float(coverage_formula(s, a, b, self.duty, ops))
                 colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
                 if self.display == BOTH:
-                    g = self.colour_values.eval(si, hit).x
+                    g = self._shape_value(si, hit, self.colour_values, self.colour_twist)
                     colour = self._lookup(g) * (1.0 - 0.65 * cov)
                     defined = defined & (self.colour_valid.eval_1(si, hit) > 0.5)
             colour = dr.select(defined, colour, Color3f(UNDEFINED))
@@ -172,11 +267,11 @@ def _define(mi, dr):
                 frame = mi.Frame3f(n)
                 sky_dir = frame.to_world(mi.warp.square_to_cosine_hemisphere(sampler.next_2d()))
                 sky = dr.select(scene.ray_test(si.spawn_ray(sky_dir), hit), 0.0, 1.0)
-                key_cos = dr.maximum(dr.dot(n, self.key), 0.0)
+                key_cos = ops.maximum(dr.dot(n, self.key), 0.0)
                 key = dr.select(
                     scene.ray_test(si.spawn_ray(self.key), hit & (key_cos > 0)), 0.0, key_cos
                 )
-                head = dr.maximum(-dr.dot(n, ray.d), 0.0)
+                head = ops.maximum(-dr.dot(n, ray.d), 0.0)
                 colour = colour * (0.45 * sky + 0.45 * key + 0.25 * head)
             colour = dr.select(hit, colour, Color3f(0.0))
             return colour, hit, [dr.select(hit, f, 0.0)]

@@ -33,7 +33,7 @@ from .variant import select_variant
 __all__ = ["render"]
 
 #: Bounds on the texels per patch side, and on the whole atlas.
-MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 256, 4096 * 4096
+MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
 #: Units of each function's values, for legends.
 UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
 
@@ -69,7 +69,8 @@ def _tile_size(scene, view, patches, lo, hi) -> int:
         extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
         depth = max(float((pts.mean(axis=0) - view.origin) @ view.forward), 1e-9)
         size = max(size, extent / view.pixel_size(depth))
-    # f is smooth: a texel every two pixels interpolates it far below what a picture shows
+    # f is smooth and interpolated bicubically from exact values and derivatives: a texel
+    # every two pixels leaves errors far below what a picture (or a 1e-3 diff) shows
     tile = int(np.clip(np.ceil(size / 2) + 1, MIN_TILE, MAX_TILE))
     cap = int(np.sqrt(MAX_ATLAS_TEXELS / len(patches)))
     return max(2, min(tile, cap))
@@ -129,20 +130,28 @@ def render(scene, **overrides) -> RenderedImage:
     shape = scene.shape
     function = get_shape_function(shape.function)
     atlas = Atlas.for_patches(len(patches), _tile_size(scene, view, patches, lo, hi))
-    tex = shape_textures(patches, atlas, function, shape.params_for(shape.function))
-    textures = {"values": tex.values, "valid": tex.valid}
+    functions = [(function, shape.params_for(shape.function))]
     mapped = shape.function
     if shape.display == "both":
         mapped = shape.colour_function or shape.function
-        cfn = get_shape_function(mapped)
-        ctex = shape_textures(patches, atlas, cfn, shape.params_for(mapped))
-        textures["colour_values"], textures["colour_valid"] = ctex.values, ctex.valid
-        cvals, cvalid = ctex.values[..., 0], ctex.valid > 0
-    else:
-        cvals, cvalid = tex.values[..., 0], tex.valid > 0
+        functions.append((get_shape_function(mapped), shape.params_for(mapped)))
+    tex = shape_textures(patches, atlas, functions)
+    textures = {
+        "values": tex.values[0],
+        "twist": tex.twist[0],
+        "valid": tex.valid[0],
+        "position": tex.position,
+        "tangent_s": tex.tangent_s,
+        "tangent_t": tex.tangent_t,
+        "twist_st": tex.twist_st,
+    }
+    if shape.display == "both":
+        textures["colour_values"], textures["colour_valid"] = tex.values[1], tex.valid[1]
+        textures["colour_twist"] = tex.twist[1]
+    cvals, cvalid = tex.values[-1][..., 0], tex.valid[-1] > 0
     signed = SHAPE_FUNCTIONS[mapped].signed
     value_range = shape.value_range or auto_range(cvals, cvalid, signed=signed)
-    f_lo, f_hi = auto_range(tex.values[..., 0], tex.valid > 0, percentiles=(0.0, 100.0))
+    f_lo, f_hi = auto_range(tex.values[0][..., 0], tex.valid[0] > 0, percentiles=(0.0, 100.0))
     period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
     lut = None
     if shape.display != "stripes":
@@ -175,6 +184,7 @@ def render(scene, **overrides) -> RenderedImage:
         phase=shape.phase,
         value_range=tuple(float(x) for x in value_range),
         atlas_scale=atlas.scale,
+        atlas_size=(atlas.width, atlas.height, atlas.tile),
         key_light=view.key_light(),
     )
     integrator = make_integrator(isettings, textures, lut)
@@ -182,7 +192,14 @@ def render(scene, **overrides) -> RenderedImage:
         {
             "type": "scene",
             "integrator": integrator,
-            "sensor": view.sensor(mi, settings.spp, settings.seed),
+            # flat pictures are data: sample symmetrically so that f's pixel mean is exact for f
+            # linear across the pixel; lit ones jitter (soft light needs random samples anyway)
+            "sensor": view.sensor(
+                mi,
+                settings.spp,
+                settings.seed,
+                "symmetric" if settings.lighting == "flat" else "jittered",
+            ),
             "surface": mi_mesh,
         }
     )
@@ -199,7 +216,7 @@ def render(scene, **overrides) -> RenderedImage:
     dr.sync_thread()
     lap("render_data")
 
-    channels = _channels(image, data, atlas, patches)
+    channels = _channels(image, data, atlas, patches, view)
     lap("exact_channels")
     legend = Legend(
         function=shape.function,
@@ -251,9 +268,32 @@ def _jsonable(x):
     return x
 
 
-def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches) -> dict:
-    """The EXR channels: the picture, coverage and f from the samples; exact P, N, u, v and
-    the patch index at the pixel centres that hit."""
+def _intersect(patch, u, v, origin, direction, iterations: int = 4):
+    """Refine (u, v) so that p(u, v) lies on the rays origin + t direction (Newton on
+    p(u, v) - o - t d = 0, from the mesh's interpolated parameters).  Points whose iteration
+    leaves the patch or does not settle keep their start values."""
+    (u0, u1), (v0, v1) = patch.domain
+    uu, vv = u.copy(), v.copy()
+    t = np.einsum("ij,ij->i", patch(uu, vv) - origin, direction)
+    for _ in range(iterations):
+        d = patch.derivatives(uu, vv, 1)
+        F = d[0, 0] - origin - t[:, None] * direction
+        J = np.stack([d[1, 0], d[0, 1], -direction], -1)
+        good = np.abs(np.linalg.det(J)) > 1e-300
+        step = np.zeros_like(F)
+        step[good] = np.linalg.solve(J[good], -F[good][..., None])[..., 0]
+        uu = np.clip(uu + step[:, 0], u0, u1)
+        vv = np.clip(vv + step[:, 1], v0, v1)
+        t = t + step[:, 2]
+    residual = np.linalg.norm(patch(uu, vv) - origin - t[:, None] * direction, axis=1)
+    scale = np.linalg.norm(patch(u, v) - origin, axis=1)
+    settled = residual <= 1e-9 * np.maximum(scale, 1e-300)
+    return np.where(settled, uu, u), np.where(settled, vv, v)
+
+
+def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) -> dict:
+    """The EXR channels: the picture, coverage and f from the samples; P, N, u, v and the
+    patch index where the ray through the pixel centre meets the exact surface."""
     H, W = image.shape[:2]
     A = image[..., 3]
     f = np.where(A > 0, image[..., 4] / np.where(A > 0, A, 1.0), 0.0)
@@ -265,10 +305,12 @@ def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches) -> dic
     V = np.zeros((H, W))
     for k in np.unique(patch_index[hit]):
         sel = hit & (patch_index == k)
+        rows, cols = np.nonzero(sel)
         patch = patches[int(k)]
         (u0, u1), (v0, v1) = patch.domain
         u = u0 + (u1 - u0) * st[sel][:, 0]
         v = v0 + (v1 - v0) * st[sel][:, 1]
+        u, v = _intersect(patch, u, v, *view.pixel_rays(rows, cols))
         d = patch.derivatives(u, v, 1)
         normal = unit_normal(d)
         n = normal.n

@@ -71,37 +71,57 @@ class Atlas:
 
 @dataclass(frozen=True)
 class ShapeTextures:
-    """Atlas images: ``values`` (H, W, 3) = (f, f_s, f_t), ``valid`` (H, W) in {0, 1}."""
+    """Atlas images, each (H, W, 3) float32 unless noted.
+
+    ``values[k]`` = (f, f_s, f_t), ``twist[k]`` (H, W) = f_st (central differences of f_s
+    along t, one-sided at tile borders) and ``valid[k]`` (H, W) in {0, 1} for the k-th
+    function: the data of a bicubic Hermite interpolant, accurate to O(h^4);
+    ``position`` = p, ``tangent_s`` = p_s, ``tangent_t`` = p_t and ``twist_st`` = p_st, the
+    bicubic Hermite data with which the renderer moves each sample from the mesh onto the
+    exact surface (one Newton step).
+    """
 
     atlas: Atlas
-    values: NDArray[np.float32]
-    valid: NDArray[np.float32]
+    values: list[NDArray[np.float32]]
+    twist: list[NDArray[np.float32]]
+    valid: list[NDArray[np.float32]]
+    position: NDArray[np.float32]
+    tangent_s: NDArray[np.float32]
+    tangent_t: NDArray[np.float32]
+    twist_st: NDArray[np.float32]
 
 
 def shape_textures(
-    patches: list[Patch] | tuple[Patch, ...], atlas: Atlas, function: ShapeFunction, params: dict
+    patches: list[Patch] | tuple[Patch, ...],
+    atlas: Atlas,
+    functions: list[tuple[ShapeFunction, dict]],
 ) -> ShapeTextures:
-    """Evaluate a shape function with its gradient on every patch's tile.
-
-    Returns the atlas images.
-    """
+    """Evaluate shape functions with their gradients, and the surface, on every patch's tile."""
     T = atlas.tile
-    values = np.zeros((atlas.height, atlas.width, 3), dtype=np.float32)
-    valid = np.zeros((atlas.height, atlas.width), dtype=np.float32)
+    H, W = atlas.height, atlas.width
+    values = [np.zeros((H, W, 3), dtype=np.float32) for _ in functions]
+    valid = [np.zeros((H, W), dtype=np.float32) for _ in functions]
+    twist = [np.zeros((H, W), dtype=np.float32) for _ in functions]
+    geometry = [np.zeros((H, W, 3), dtype=np.float32) for _ in range(4)]
     grid = np.linspace(0.0, 1.0, T)
+    order = max(2, max(fn.order for fn, _ in functions) + 1)
     for k, patch in enumerate(patches):
         (u0, u1), (v0, v1) = patch.domain
         u = (u0 + (u1 - u0) * grid)[:, None]
         v = (v0 + (v1 - v0) * grid)[None, :]
-        d = regularised_derivatives(patch, u, v, function.order + 1).d
-        res = evaluate(function, d, **params)
-        f_s = np.sum(res.gradient * d[1, 0], -1) * (u1 - u0)
-        f_t = np.sum(res.gradient * d[0, 1], -1) * (v1 - v0)
+        d = regularised_derivatives(patch, u, v, order).d
         r0, c0 = (k // atlas.cols) * T, (k % atlas.cols) * T
-        # rows follow t (v), columns follow s (u): the tile is the transpose of the (u, v) grid
-        tile = values[r0 : r0 + T, c0 : c0 + T]
-        tile[..., 0] = res.f.T
-        tile[..., 1] = f_s.T
-        tile[..., 2] = f_t.T
-        valid[r0 : r0 + T, c0 : c0 + T] = res.valid.T
-    return ShapeTextures(atlas, values, valid)
+        tile = (slice(r0, r0 + T), slice(c0, c0 + T))
+        # rows follow t (v), columns follow s (u): a tile is the transpose of the (u, v) grid
+        p_s, p_t = d[1, 0] * (u1 - u0), d[0, 1] * (v1 - v0)
+        p_st = d[1, 1] * (u1 - u0) * (v1 - v0)
+        for image, field in zip(geometry, (d[0, 0], p_s, p_t, p_st), strict=True):
+            image[tile] = field.transpose(1, 0, 2)
+        for j, (fn, params) in enumerate(functions):
+            res = evaluate(fn, d[: fn.order + 2, : fn.order + 2], **params)
+            f_s = np.sum(res.gradient * p_s, -1)
+            f_t = np.sum(res.gradient * p_t, -1)
+            values[j][tile] = np.stack([res.f, f_s, f_t], -1).transpose(1, 0, 2)
+            twist[j][tile] = np.gradient(f_s, 1.0 / (T - 1), axis=1).T
+            valid[j][tile] = res.valid.T
+    return ShapeTextures(atlas, values, twist, valid, *geometry)
