@@ -324,13 +324,21 @@ class TensorProductPatch(Patch):
         fu, Bu = self._bu.local(u, order)  # (N,), (o+1, N, ku)
         fv, Bv = self._bv.local(v, order)
         ku, kv = Bu.shape[-1], Bv.shape[-1]
-        iu = fu[:, None, None] + np.arange(ku)[None, :, None]
-        iv = fv[:, None, None] + np.arange(kv)[None, None, :]
-        local = self._net[iu, iv]  # (N, ku, kv, c)
-        c = local.shape[-1]
+        c = self._net.shape[-1]
+        if ku == self._net.shape[0] and kv == self._net.shape[1]:
+            # the whole net is every point's local net (Bézier): no gather, plain products
+            net = self._net.reshape(ku, kv * c)
+            local = None
+        else:
+            iu = fu[:, None, None] + np.arange(ku)[None, :, None]
+            iv = fv[:, None, None] + np.arange(kv)[None, None, :]
+            local = self._net[iu, iv]  # (N, ku, kv, c)
         buf = np.zeros((order + 1, order + 1, c, u.size))
         for i in range(order + 1):
-            rows = np.einsum("na,nabc->nbc", Bu[i], local)
+            if local is None:
+                rows = (Bu[i] @ net).reshape(u.size, kv, c)
+            else:
+                rows = np.einsum("na,nabc->nbc", Bu[i], local)
             for j in range(order + 1 - i):
                 buf[i, j] = np.einsum("nbc,nb->cn", rows, Bv[j])
         if self.weights is None:

@@ -268,27 +268,33 @@ def _jsonable(x):
     return x
 
 
-def _intersect(patch, u, v, origin, direction, iterations: int = 4):
-    """Refine (u, v) so that p(u, v) lies on the rays origin + t direction (Newton on
-    p(u, v) - o - t d = 0, from the mesh's interpolated parameters).  Points whose iteration
-    leaves the patch or does not settle keep their start values."""
+def _intersect(patch, u, v, origin, direction, iterations: int = 2):
+    """Refine (u, v) so that p(u, v) lies on the rays origin + t direction: Newton on
+    p(u, v) - o - t d = 0 from the mesh's interpolated parameters (Cramer's rule for the
+    3 x 3 systems).  Points whose iteration does not settle keep their start values."""
     (u0, u1), (v0, v1) = patch.domain
     uu, vv = u.copy(), v.copy()
-    t = np.einsum("ij,ij->i", patch(uu, vv) - origin, direction)
+    # quadratic convergence from a start within the chord error: two steps reach round-off
+    d = patch.derivatives(uu, vv, 1)
+    t = np.einsum("ij,ij->i", d[0, 0] - origin, direction)
+    scale = np.linalg.norm(d[0, 0] - origin, axis=1)
     for _ in range(iterations):
+        r = origin + t[:, None] * direction - d[0, 0]  # [p_u p_v -d] (du, dv, dt) = r
+        pu, pv, c = d[1, 0], d[0, 1], -direction
+        pv_c = np.cross(pv, c)
+        det = np.einsum("ij,ij->i", pu, pv_c)
+        ok = np.abs(det) > 1e-300
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        du = np.einsum("ij,ij->i", r, pv_c) * inv
+        dv = np.einsum("ij,ij->i", pu, np.cross(r, c)) * inv
+        dt = np.einsum("ij,ij->i", pu, np.cross(pv, r)) * inv
+        uu = np.clip(uu + du, u0, u1)
+        vv = np.clip(vv + dv, v0, v1)
+        t = t + dt
         d = patch.derivatives(uu, vv, 1)
-        F = d[0, 0] - origin - t[:, None] * direction
-        J = np.stack([d[1, 0], d[0, 1], -direction], -1)
-        good = np.abs(np.linalg.det(J)) > 1e-300
-        step = np.zeros_like(F)
-        step[good] = np.linalg.solve(J[good], -F[good][..., None])[..., 0]
-        uu = np.clip(uu + step[:, 0], u0, u1)
-        vv = np.clip(vv + step[:, 1], v0, v1)
-        t = t + step[:, 2]
-    residual = np.linalg.norm(patch(uu, vv) - origin - t[:, None] * direction, axis=1)
-    scale = np.linalg.norm(patch(u, v) - origin, axis=1)
-    settled = residual <= 1e-9 * np.maximum(scale, 1e-300)
-    return np.where(settled, uu, u), np.where(settled, vv, v)
+    residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
+    settled = residual <= 1e-7 * np.maximum(scale, 1e-300)
+    return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
 
 
 def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) -> dict:
@@ -297,32 +303,42 @@ def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) 
     H, W = image.shape[:2]
     A = image[..., 3]
     f = np.where(A > 0, image[..., 4] / np.where(A > 0, A, 1.0), 0.0)
-    hit = data[..., 6] > 0.5
-    patch_index, st = atlas.locate(data[..., 4:6].astype(np.float64))
-    P = np.zeros((H, W, 3))
-    N = np.zeros((H, W, 3))
-    U = np.zeros((H, W))
-    V = np.zeros((H, W))
-    for k in np.unique(patch_index[hit]):
-        sel = hit & (patch_index == k)
-        rows, cols = np.nonzero(sel)
-        patch = patches[int(k)]
+    hit = np.flatnonzero(data[..., 6].ravel() > 0.5)
+    patch_index, st = atlas.locate(data[..., 4:6].reshape(-1, 2)[hit].astype(np.float64))
+    P = np.zeros((H * W, 3))
+    N = np.zeros((H * W, 3))
+    U = np.zeros(H * W)
+    V = np.zeros(H * W)
+    patch_of = np.full(H * W, -1.0)
+    order = np.argsort(patch_index, kind="stable")
+    bounds = np.flatnonzero(np.diff(patch_index[order])) + 1
+    for group in np.split(order, bounds):
+        if group.size == 0:
+            continue
+        k = int(patch_index[group[0]])
+        pixels = hit[group]
+        patch = patches[k]
         (u0, u1), (v0, v1) = patch.domain
-        u = u0 + (u1 - u0) * st[sel][:, 0]
-        v = v0 + (v1 - v0) * st[sel][:, 1]
-        u, v = _intersect(patch, u, v, *view.pixel_rays(rows, cols))
-        d = patch.derivatives(u, v, 1)
+        u = u0 + (u1 - u0) * st[group, 0]
+        v = v0 + (v1 - v0) * st[group, 1]
+        rays = view.pixel_rays(pixels // W, pixels % W)
+        u, v, d, settled = _intersect(patch, u, v, *rays)
+        if not settled.all():
+            d = patch.derivatives(u, v, 1)
         normal = unit_normal(d)
         n = normal.n
         if not normal.regular.all():  # limits at collapsed edges need higher derivatives
             irr = ~normal.regular
             n[irr] = patch_normals(patch, u[irr], v[irr]).n
-        P[sel], N[sel] = d[0, 0], n
-        U[sel], V[sel] = u, v
+        P[pixels], N[pixels] = d[0, 0], n
+        U[pixels], V[pixels] = u, v
+        patch_of[pixels] = k
+    P, N = P.reshape(H, W, 3), N.reshape(H, W, 3)
+    U, V = U.reshape(H, W), V.reshape(H, W)
     out = {"R": image[..., 0], "G": image[..., 1], "B": image[..., 2], "A": A, "f": f}
     for name, arr in (("P", P), ("N", N)):
         for c, axis in enumerate("XYZ"):
             out[f"{name}.{axis}"] = arr[..., c]
     out["u"], out["v"] = U, V
-    out["patch"] = np.where(hit, patch_index, -1)
+    out["patch"] = patch_of.reshape(H, W)
     return {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in out.items()}
