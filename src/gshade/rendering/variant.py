@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..errors import GshadeError
 
-__all__ = ["VARIANTS", "find_llvm", "llvm_version", "mitsuba", "select_variant"]
+__all__ = ["VARIANTS", "find_llvm", "llvm_version", "mitsuba", "resolve_variant", "select_variant"]
 
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
 MIN_LLVM = 17
@@ -68,35 +68,42 @@ def find_llvm() -> str | None:
 
 
 @cache
-def select_variant(requested: str = "auto") -> str:
-    """Resolve and activate a Mitsuba variant: auto | llvm_ad_rgb | scalar_rgb | cuda_ad_rgb.
+def resolve_variant(requested: str = "auto") -> str:
+    """The Mitsuba variant that ``requested`` means here (auto | llvm_ad_rgb | scalar_rgb |
+    cuda_ad_rgb), pointing Dr.Jit at a usable LLVM on the way.
 
-    ``auto`` gives ``llvm_ad_rgb`` when a usable LLVM is found and otherwise ``scalar_rgb``
-    (with one warning).  Raises GshadeError for an unknown name or an explicit variant that
-    cannot run here.
+    ``auto`` gives ``llvm_ad_rgb`` when a libLLVM >= 17 is found and otherwise
+    ``scalar_rgb``, with one warning.  Raises GshadeError for an unknown name or an explicit
+    ``llvm_ad_rgb`` without a usable LLVM.
     """
     if requested not in VARIANTS:
         raise GshadeError(f"variant: expected one of {', '.join(VARIANTS)}, got {requested!r}")
-    variant = requested
-    if requested in ("auto", "llvm_ad_rgb"):
-        llvm = find_llvm()
-        if llvm is None:
-            if requested == "llvm_ad_rgb":
-                raise GshadeError(
-                    f"variant: llvm_ad_rgb needs libLLVM >= {MIN_LLVM}, and none was found; "
-                    "install karellen-llvm-core or set DRJIT_LIBLLVM_PATH"
-                )
-            warnings.warn(
-                f"gshade: no libLLVM >= {MIN_LLVM} found (install karellen-llvm-core or set "
-                "DRJIT_LIBLLVM_PATH); rendering with the much slower scalar_rgb variant",
-                RuntimeWarning,
-                stacklevel=2,
+    if requested not in ("auto", "llvm_ad_rgb"):
+        return requested
+    llvm = find_llvm()
+    if llvm is None:
+        if requested == "llvm_ad_rgb":
+            raise GshadeError(
+                f"variant: llvm_ad_rgb needs libLLVM >= {MIN_LLVM}, and none was found; "
+                "install karellen-llvm-core or set DRJIT_LIBLLVM_PATH"
             )
-            variant = "scalar_rgb"
-        else:
-            os.environ["DRJIT_LIBLLVM_PATH"] = llvm
-            variant = "llvm_ad_rgb"
+        warnings.warn(
+            f"gshade: no libLLVM >= {MIN_LLVM} found (install karellen-llvm-core or set "
+            "DRJIT_LIBLLVM_PATH); rendering with the much slower scalar_rgb variant",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return "scalar_rgb"
+    os.environ["DRJIT_LIBLLVM_PATH"] = llvm
+    return "llvm_ad_rgb"
+
+
+def select_variant(requested: str = "auto") -> str:
+    """Resolve ``requested`` (:func:`resolve_variant`) and make it Mitsuba's active variant."""
+    variant = resolve_variant(requested)
     mi = mitsuba()
+    if mi.variant() == variant:
+        return variant
     try:
         mi.set_variant(variant)
     except (ImportError, AttributeError, RuntimeError) as exc:

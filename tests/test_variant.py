@@ -1,0 +1,71 @@
+"""Mitsuba variants: finding a usable LLVM, and the scalar fallback with one warning."""
+
+import subprocess
+import sys
+
+import pytest
+
+from gshade import GshadeError
+from gshade.rendering.variant import llvm_version, resolve_variant
+
+
+@pytest.mark.parametrize(
+    ("name", "version"),
+    [
+        ("libLLVM.so.23.1", 23),
+        ("libLLVM-19.so", 19),
+        ("libLLVM-14.0.6.so.1", 14),
+        ("libLLVM-15.so.1", 15),
+        ("libLLVM.so", None),
+        ("libc.so.6", None),
+    ],
+)
+def test_llvm_version_from_the_file_name(name, version):
+    assert llvm_version(f"/usr/lib/{name}") == version
+
+
+def test_unknown_variant_is_named():
+    with pytest.raises(GshadeError, match="variant: expected one of auto, llvm_ad_rgb"):
+        resolve_variant("gpu")
+
+
+FALLBACK = """
+import warnings
+import numpy as np
+import gshade.rendering.variant as v
+v.find_llvm = lambda: None          # as on a machine without libLLVM >= 17
+from gshade import GshadeError
+try:
+    v.resolve_variant("llvm_ad_rgb")
+except GshadeError as exc:
+    print("explicit:", exc)
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    import gshade
+    from gshade.io import parse_scene
+    scene = parse_scene('''
+[[surface]]
+type = "sphere"
+[shape]
+function = "isophotes"
+[render]
+width = 12
+height = 9
+spp = 1
+lighting = "flat"
+''')
+    image = gshade.render(scene)
+print("variant:", image.metadata["variant"])
+print("warnings:", sum("scalar_rgb" in str(w.message) for w in caught))
+print("covered:", int((image["A"] > 0).sum()))
+"""
+
+
+def test_without_llvm_auto_falls_back_to_scalar_with_one_warning():
+    result = subprocess.run([sys.executable, "-c", FALLBACK], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert "explicit: variant: llvm_ad_rgb needs libLLVM >= 17" in out
+    assert "variant: scalar_rgb" in out
+    assert "warnings: 1" in out
+    assert int(out.split("covered:")[1]) > 20
