@@ -231,6 +231,7 @@ def _define(mi, dr):
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
             if self.data:
+                self._onto_surface(si, ray, hit)  # a close start for gshade's own Newton
                 return (
                     Color3f(0.0),
                     hit,
