@@ -32,34 +32,32 @@ def bernstein_basis(degree: int, t: ArrayLike, order: int = 0) -> NDArray[np.flo
     """
     t = np.asarray(t, dtype=np.float64)
     n = degree
-    out = np.zeros((order + 1, *t.shape, n + 1))
-    s = 1.0 - t
-    # Lower-degree bases B^d for d = n - order .. n are built by the triangular recurrence
-    # B_i^d = s B_i^{d-1} + t B_{i-1}^{d-1}; the k-th derivative of B^n is
+    flat = t.ravel()
+    s = 1.0 - flat
+    # Lower-degree bases B^d for d = n - order .. n by the triangular recurrence
+    # B_i^d = s B_i^{d-1} + t B_{i-1}^{d-1}, index-major (d + 1, N) so every step works on
+    # contiguous rows; the k-th derivative of B^n is
     # n!/(n-k)! * sum_j (-1)^(k-j) C(k, j) B_{i-j}^{n-k}.
-    basis = np.ones((*t.shape, 1))
-    lower: dict[int, NDArray[np.float64]] = {0: basis}
+    lower = {0: np.ones((1, flat.size))}
+    basis = lower[0]
     for d in range(1, n + 1):
-        nxt = np.empty((*t.shape, d + 1))
-        nxt[..., :d] = basis * s[..., None]
-        nxt[..., d] = 0.0
-        nxt[..., 1:] += basis * t[..., None]
-        basis = nxt
-        lower[d] = basis
-    for k in range(order + 1):
-        if k > n:
-            break
+        nxt = np.empty((d + 1, flat.size))
+        np.multiply(basis, s, out=nxt[:d])
+        nxt[d] = 0.0
+        nxt[1:] += basis * flat
+        basis = lower[d] = nxt
+    out = np.zeros((order + 1, n + 1, flat.size))
+    for k in range(min(order, n) + 1):
         low = lower[n - k]
         factor = 1.0
         for j in range(k):
             factor *= n - j
         coeff = 1.0
         for j in range(k + 1):
-            # coefficient (-1)^(k-j) C(k, j)
-            sign = -1.0 if (k - j) % 2 else 1.0
-            out[k, ..., j : j + n - k + 1] += (factor * sign * coeff) * low
+            sign = -1.0 if (k - j) % 2 else 1.0  # (-1)^(k-j) C(k, j)
+            out[k, j : j + n - k + 1] += (factor * sign * coeff) * low
             coeff = coeff * (k - j) / (j + 1)
-    return out
+    return np.moveaxis(out, 1, -1).reshape((order + 1, *t.shape, n + 1))
 
 
 def de_casteljau(points: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
