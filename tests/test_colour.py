@@ -46,6 +46,18 @@ def test_pixel_box_filter_is_the_mean_over_the_pixel(s, a, b, duty):
     assert abs(stripe_coverage(s, a, b, duty=duty) - fine) < 1e-2
 
 
+@pytest.mark.parametrize(
+    ("s", "a", "b"),
+    [(0.99999, 6.103515625e-05, 6.103515625e-05), (0.5, 1e-7, 5e-8), (3.0, 2e-6, 2e-6)],
+)
+def test_tiny_pixel_footprints_at_a_stripe_edge(s, a, b):
+    """Found by hypothesis: footprints much smaller than a period, next to an edge."""
+    x = (np.arange(512) + 0.5) / 512 - 0.5
+    X, Y = np.meshgrid(x, x)
+    fine = indicator(s + a * X + b * Y, 0.5).mean()
+    assert abs(stripe_coverage(s, a, b, duty=0.5) - fine) < 1e-2
+
+
 def test_pixel_box_filter_against_256_samples_on_average():
     rng = np.random.default_rng(0)
     x = (np.arange(16) + 0.5) / 16 - 0.5

@@ -44,6 +44,35 @@ def build_parser() -> argparse.ArgumentParser:
     )
     render.set_defaults(run=_render)
 
+    cmp = sub.add_parser(
+        "compare",
+        help="compare an EXR with a reference (exit 0 pass, 1 warning, 2 failure, "
+        "3 size or channel mismatch, 4 unreadable file)",
+    )
+    cmp.add_argument("test", help="the new image (EXR)")
+    cmp.add_argument("reference", help="the reference image (EXR)")
+    cmp.add_argument("--channels", default="R,G,B", help="channels to compare (default R,G,B)")
+    cmp.add_argument("--fail", type=float, default=1e-6, help="per-pixel failure threshold")
+    cmp.add_argument(
+        "--failpercent", type=float, default=0.0, help="%% of pixels allowed over --fail"
+    )
+    cmp.add_argument(
+        "--hardfail", type=float, default=float("inf"), help="any pixel over this fails"
+    )
+    cmp.add_argument("--warn", type=float, default=1e-6, help="per-pixel warning threshold")
+    cmp.add_argument(
+        "--warnpercent", type=float, default=0.0, help="%% of pixels allowed over --warn"
+    )
+    cmp.add_argument("--diff", help="write the absolute differences to this EXR")
+    cmp.add_argument("--diff-png", help="write a heat map of the differences to this PNG")
+    cmp.add_argument(
+        "--diff-on-fail",
+        action="store_true",
+        help="write the difference images only if the verdict is not PASS",
+    )
+    cmp.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    cmp.set_defaults(run=_compare)
+
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
@@ -81,6 +110,47 @@ def _render(args: argparse.Namespace) -> int:
         f"{image.metadata['legend']}"
     )
     return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    import json
+
+    from .compare import (
+        EXIT_STATUS,
+        ChannelMismatch,
+        Thresholds,
+        UnreadableImage,
+        compare,
+        write_diff_exr,
+        write_diff_png,
+    )
+
+    thresholds = Thresholds(args.fail, args.failpercent, args.hardfail, args.warn, args.warnpercent)
+    channels = [c.strip() for c in args.channels.split(",") if c.strip()]
+    try:
+        result = compare(args.test, args.reference, channels=channels, thresholds=thresholds)
+    except UnreadableImage as exc:
+        print(f"gshade: error: {exc}", file=sys.stderr)
+        return EXIT_STATUS["UNREADABLE"]
+    except ChannelMismatch as exc:
+        print(f"gshade: error: {exc}", file=sys.stderr)
+        return EXIT_STATUS["MISMATCH"]
+    if not args.diff_on_fail or result.verdict != "PASS":
+        if args.diff:
+            write_diff_exr(result, args.diff)
+        if args.diff_png:
+            write_diff_png(result, args.diff_png)
+    if args.json:
+        print(json.dumps(result.as_dict(), indent=2))
+    else:
+        for name, m in result.per_channel.items():
+            at = f" at ({m.max_at[0]}, {m.max_at[1]})" if m.max_at else ""
+            print(
+                f"  {name:>6}: max {m.max_error:.6g}{at}, mean {m.mean_error:.6g}, "
+                f"RMSE {m.rmse:.6g}, PSNR {m.psnr:.4g} dB (range {m.data_range:.4g})"
+            )
+        print(result.summary())
+    return result.exit_status
 
 
 def _info(args: argparse.Namespace) -> int:

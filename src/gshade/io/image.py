@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 
-__all__ = ["linear_to_srgb", "read_exr", "write_exr", "write_png"]
+__all__ = ["atomic_write", "linear_to_srgb", "read_exr", "write_exr", "write_png"]
 
 #: The first four bytes of every OpenEXR file.
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
@@ -59,7 +59,7 @@ def _umask() -> int:
     return mask
 
 
-def _atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], None]) -> Path:
+def atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], None]) -> Path:
     """Call ``write(temporary_name)``, then move the temporary file onto ``path``."""
     path = Path(path)
     if path.is_dir():
@@ -209,7 +209,7 @@ def write_exr(
         # OpenEXR.File replaces the values of the dict it is given: hand it a fresh one.
         OpenEXR.File(dict(attributes), dict(data)).write(name)
 
-    return _atomic_write(target, ".exr", write)
+    return atomic_write(target, ".exr", write)
 
 
 def _plain(value: object) -> object:
@@ -342,4 +342,4 @@ def write_png(path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None =
     def write(name: str) -> None:
         iio.imwrite(name, image, extension=".png")
 
-    return _atomic_write(target, ".png", write)
+    return atomic_write(target, ".png", write)

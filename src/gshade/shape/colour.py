@@ -72,13 +72,15 @@ def coverage_formula(s, a, b, duty, ops=_Ops):
     a, b = ops.maximum(a, b), ops.minimum(a, b)
     s = s - ops.floor(s)  # both filters are invariant under whole periods; keeps numbers small
     hard = ops.select(s < duty, 1.0, 0.0)
-    # 1-D filter unless both widths matter; its round-off is ~1e-16 / w, so from w > 1e-12
-    two_d = (a >= 1e-4) & (b > 1e-3 * a)
-    one_d = (a > 1e-12) & ops.logical_not(two_d)
+    spread = b > 1e-3 * a  # both widths matter (else the 1-D box of width a + b is exact
+    # to O(b / a)); the second difference of Q2 over O(1) arguments loses ~1e-16 / (a b)
+    two_d = spread & (a * b >= 1e-12)
+    tiny_2d = spread & (a * b < 1e-12) & (a > 0)
+    one_d = (a > 1e-12) & ops.logical_not(spread)
     w = ops.select(one_d, a + b, 1.0)
     soft = (_primitive(s + w / 2, duty, ops) - _primitive(s - w / 2, duty, ops)) / w
-    aa = ops.select(two_d, a, 1.0)
-    bb = ops.select(two_d, b, 1.0)
+    aa = ops.select(two_d | tiny_2d, a, 1.0)
+    bb = ops.select(two_d | tiny_2d, b, 1.0)
     hi, lo = (aa + bb) / 2, (aa - bb) / 2
     q = (
         _second_primitive(s + hi, duty, ops)
@@ -86,7 +88,22 @@ def coverage_formula(s, a, b, duty, ops=_Ops):
         - _second_primitive(s - lo, duty, ops)
         + _second_primitive(s - hi, duty, ops)
     ) / (aa * bb)
-    cov = ops.select(two_d, q, ops.select(one_d, soft, hard))
+    # a tiny footprint meets at most the nearest edge: there, the coverage is the trapezoid
+    # distribution's CDF G(x) = (R(x + hi) - R(x + lo) - R(x - lo) + R(x - hi)) / (a b),
+    # R(y) = max(y, 0)^2 / 2, with arguments as small as the footprint (no cancellation)
+    to_dark_light = ops.abs(s - duty)
+    nearest_rise = ops.select(s < 0.5 * (1.0 + duty), 0.0, 1.0)  # light -> dark edge at 0 or 1
+    at_fall = to_dark_light < ops.abs(s - nearest_rise)
+    edge = ops.select(at_fall, duty, nearest_rise)
+
+    def ramp(y):
+        y = ops.maximum(y, 0.0)
+        return 0.5 * y * y
+
+    x = edge - s
+    cdf = (ramp(x + hi) - ramp(x + lo) - ramp(x - lo) + ramp(x - hi)) / (aa * bb)
+    local = ops.select(at_fall, cdf, 1.0 - cdf)
+    cov = ops.select(two_d, q, ops.select(tiny_2d, local, ops.select(one_d, soft, hard)))
     return ops.minimum(ops.maximum(cov, 0.0), 1.0)
 
 

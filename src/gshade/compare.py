@@ -1,0 +1,335 @@
+"""Comparing two images channel by channel, with idiff's thresholds and verdicts.
+
+Per compared channel, and over all of them, the metrics are: the largest absolute error and
+where it is, the mean absolute error, the RMSE, the PSNR (with the data range stated), and
+the number and share of pixels over the thresholds; SSIM (scikit-image, explicit
+``data_range``) is computed on the tone-mapped picture when R, G and B are compared.
+
+The verdict follows OpenImageIO's ``idiff``: a pixel's difference is the largest absolute
+difference over the compared channels (NaN or infinity in either image never matches: the
+difference is then infinite).  FAILURE if more than ``failpercent`` % of the pixels differ
+by more than ``fail``, or any by more than ``hardfail``; else WARNING if more than
+``warnpercent`` % differ by more than ``warn``; else PASS.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import GshadeError
+
+__all__ = [
+    "EXIT_STATUS",
+    "ChannelMismatch",
+    "Comparison",
+    "Thresholds",
+    "compare",
+    "load_channels",
+    "write_diff_exr",
+    "write_diff_png",
+]
+
+#: Exit statuses of ``gshade compare`` (idiff's).
+EXIT_STATUS = {"PASS": 0, "WARNING": 1, "FAILURE": 2, "MISMATCH": 3, "UNREADABLE": 4}
+
+
+class ChannelMismatch(GshadeError):
+    """The images differ in size, or a compared channel is missing."""
+
+
+class UnreadableImage(GshadeError):
+    """An image file could not be read."""
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """idiff's thresholds: ``fail``/``warn`` per pixel, ``*percent`` of the pixels."""
+
+    fail: float = 1e-6
+    failpercent: float = 0.0
+    hardfail: float = float("inf")
+    warn: float = 1e-6
+    warnpercent: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if not (isinstance(value, (int, float)) and value >= 0) or value != value:
+                raise GshadeError(f"{name}: expected a number >= 0, got {value!r}")
+
+
+@dataclass
+class ChannelMetrics:
+    """Error metrics of one channel (or of all compared channels together)."""
+
+    max_error: float
+    max_at: tuple[int, int] | None  # (x, y) of the largest error
+    mean_error: float
+    rmse: float
+    psnr: float
+    data_range: float
+    nonfinite: int
+
+
+@dataclass
+class Comparison:
+    """The outcome of comparing a test image with a reference."""
+
+    verdict: str
+    channels: list[str]
+    size: tuple[int, int]  # (width, height)
+    thresholds: Thresholds
+    per_channel: dict[str, ChannelMetrics]
+    overall: ChannelMetrics
+    failing: int
+    warning: int
+    pixels: int
+    ssim: float | None = None
+    difference: NDArray[np.float64] | None = field(default=None, repr=False)
+
+    @property
+    def exit_status(self) -> int:
+        return EXIT_STATUS[self.verdict]
+
+    @property
+    def failing_percent(self) -> float:
+        return 100.0 * self.failing / self.pixels
+
+    @property
+    def warning_percent(self) -> float:
+        return 100.0 * self.warning / self.pixels
+
+    def as_dict(self) -> dict:
+        out = {
+            "verdict": self.verdict,
+            "channels": self.channels,
+            "size": list(self.size),
+            "thresholds": asdict(self.thresholds),
+            "pixels": self.pixels,
+            "failing_pixels": self.failing,
+            "failing_percent": self.failing_percent,
+            "warning_pixels": self.warning,
+            "warning_percent": self.warning_percent,
+            "ssim": self.ssim,
+            "overall": asdict(self.overall),
+            "per_channel": {k: asdict(v) for k, v in self.per_channel.items()},
+        }
+        return json.loads(json.dumps(out, default=_json_number).replace("Infinity", "null"))
+
+    def summary(self) -> str:
+        """One line, e.g. 'FAILURE: 1.2% of 786432 pixels over 0.01, max 0.31 at (410, 96) in G'."""
+        o = self.overall
+        where = ""
+        if o.max_at is not None:
+            worst = max(self.per_channel, key=lambda c: _order(self.per_channel[c].max_error))
+            where = f" at ({o.max_at[0]}, {o.max_at[1]}) in {worst}"
+        ssim = f", SSIM {self.ssim:.5f}" if self.ssim is not None else ""
+        return (
+            f"{self.verdict}: {self.failing_percent:.4g}% of {self.pixels} pixels over "
+            f"{self.thresholds.fail:g} (warn {self.warning_percent:.4g}% over "
+            f"{self.thresholds.warn:g}); max error {o.max_error:.4g}{where}, mean "
+            f"{o.mean_error:.4g}, RMSE {o.rmse:.4g}, PSNR {o.psnr:.4g} dB{ssim}"
+        )
+
+
+def _order(x: float) -> float:
+    return float("inf") if x != x else x
+
+
+def _json_number(x):
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(type(x).__name__)
+
+
+def load_channels(image) -> tuple[dict[str, NDArray], str]:
+    """Channels of a path (EXR), a :class:`gshade.image.RenderedImage` or a dict of arrays."""
+    if isinstance(image, (str, os.PathLike)):
+        from .io.image import read_exr
+
+        try:
+            channels, _ = read_exr(image)
+        except GshadeError as exc:
+            raise UnreadableImage(str(exc)) from None
+        return channels, str(image)
+    if hasattr(image, "channels"):
+        return dict(image.channels), "<image>"
+    if isinstance(image, dict):
+        return image, "<channels>"
+    raise GshadeError(f"image: expected an EXR path, an image or a dict of channels, got {image!r}")
+
+
+def _metrics(diff: NDArray, ref: NDArray) -> ChannelMetrics:
+    """Metrics of |test - ref| (NaN/Inf where either is non-finite, counted as infinite)."""
+    finite = np.isfinite(diff)
+    nonfinite = int(diff.size - np.count_nonzero(finite))
+    d = np.where(finite, np.abs(diff), np.inf)
+    if d.size == 0:
+        return ChannelMetrics(0.0, None, 0.0, 0.0, float("inf"), 0.0, 0)
+    flat = int(np.argmax(d))
+    y, x = np.unravel_index(flat, d.shape[:2])
+    max_error = float(d.flat[flat])
+    good = d[finite]
+    mean = float(good.mean()) if nonfinite == 0 else float("inf")
+    rmse = float(np.sqrt(np.mean(good**2))) if nonfinite == 0 else float("inf")
+    r = ref[np.isfinite(ref)]
+    data_range = float(r.max() - r.min()) if r.size else 0.0
+    if data_range <= 0:
+        data_range = 1.0
+    if nonfinite:
+        psnr = float("-inf")
+    elif rmse == 0:
+        psnr = float("inf")
+    else:
+        psnr = float(20 * np.log10(data_range / rmse))
+    at = (int(x), int(y)) if max_error > 0 else None
+    return ChannelMetrics(max_error, at, mean, rmse, psnr, data_range, nonfinite)
+
+
+def _tone_map(rgb: NDArray) -> NDArray:
+    """Linear RGB -> [0, 1] display values (clipped sRGB curve), for SSIM."""
+    from .io.image import linear_to_srgb
+
+    return linear_to_srgb(np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, 1.0))
+
+
+def compare(
+    test,
+    reference,
+    *,
+    channels: list[str] | tuple[str, ...] = ("R", "G", "B"),
+    thresholds: Thresholds | None = None,
+) -> Comparison:
+    """Compare a test image with a reference (paths, rendered images or channel dicts).
+
+    Raises
+    ------
+    ChannelMismatch
+        Different sizes, or a requested channel missing from either image.
+    UnreadableImage
+        A file that cannot be read as EXR.
+    """
+    thresholds = thresholds or Thresholds()
+    a, name_a = load_channels(test)
+    b, name_b = load_channels(reference)
+    channels = list(channels)
+    if not channels:
+        raise GshadeError("channels: expected at least one channel name")
+    for name, image in ((name_a, a), (name_b, b)):
+        missing = [c for c in channels if c not in image]
+        if missing:
+            raise ChannelMismatch(
+                f"{name}: expected channel(s) {', '.join(missing)}, found "
+                f"{', '.join(sorted(image)) or 'none'}"
+            )
+    shape_a, shape_b = a[channels[0]].shape, b[channels[0]].shape
+    if shape_a != shape_b:
+        raise ChannelMismatch(
+            f"{name_a}: expected the reference's size {shape_b[1]}x{shape_b[0]}, "
+            f"got {shape_a[1]}x{shape_a[0]}"
+        )
+    per_channel = {}
+    diffs = []
+    for c in channels:
+        ta = np.asarray(a[c], dtype=np.float64)
+        tb = np.asarray(b[c], dtype=np.float64)
+        with np.errstate(invalid="ignore", over="ignore"):
+            diff = ta - tb
+        diff[~(np.isfinite(ta) & np.isfinite(tb))] = np.nan
+        per_channel[c] = _metrics(diff, tb)
+        diffs.append(diff)
+    stack = np.stack(diffs, -1)
+    magnitude = np.where(np.isfinite(stack), np.abs(stack), np.inf)
+    pixel = magnitude.max(axis=-1)  # idiff: the worst channel of each pixel
+    overall = _metrics(
+        np.where(np.isinf(pixel), np.nan, pixel),
+        np.stack([np.asarray(b[c], dtype=np.float64) for c in channels], -1).max(axis=-1),
+    )
+    n = pixel.size
+    nonfinite = np.isinf(pixel)  # NaN or infinity in either image: never a match
+    failing = int(np.count_nonzero(nonfinite | (pixel > thresholds.fail)))
+    warning = int(np.count_nonzero(nonfinite | (pixel > thresholds.warn)))
+    if failing > thresholds.failpercent / 100.0 * n or np.any(pixel > thresholds.hardfail):
+        verdict = "FAILURE"
+    elif warning > thresholds.warnpercent / 100.0 * n:
+        verdict = "WARNING"
+    else:
+        verdict = "PASS"
+    ssim = None
+    if {"R", "G", "B"} <= set(channels):
+        from skimage.metrics import structural_similarity
+
+        ta = _tone_map(np.stack([a[c] for c in "RGB"], -1).astype(np.float64))
+        tb = _tone_map(np.stack([b[c] for c in "RGB"], -1).astype(np.float64))
+        if min(ta.shape[:2]) >= 7:
+            ssim = float(structural_similarity(ta, tb, data_range=1.0, channel_axis=-1))
+    return Comparison(
+        verdict=verdict,
+        channels=channels,
+        size=(shape_a[1], shape_a[0]),
+        thresholds=thresholds,
+        per_channel=per_channel,
+        overall=overall,
+        failing=failing,
+        warning=warning,
+        pixels=n,
+        ssim=ssim,
+        difference=stack,
+    )
+
+
+def write_diff_exr(comparison: Comparison, path: str | os.PathLike) -> Path:
+    """The absolute differences, one channel per compared channel (non-finite as NaN)."""
+    from .io.image import write_exr
+
+    channels = {
+        c: np.abs(comparison.difference[..., k]).astype(np.float32)
+        for k, c in enumerate(comparison.channels)
+    }
+    return write_exr(path, channels, header={"gshade:diff_of": ",".join(comparison.channels)})
+
+
+def write_diff_png(comparison: Comparison, path: str | os.PathLike) -> Path:
+    """A heat map of the per-pixel difference (worst channel) with a scale bar, as PNG.
+
+    Non-finite differences are drawn in the map's 'over' colour (magenta)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from .io.image import atomic_write
+
+    diff = np.abs(comparison.difference)
+    pixel = np.where(np.isfinite(diff), diff, np.inf).max(axis=-1)
+    finite = pixel[np.isfinite(pixel)]
+    top = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
+    cmap = matplotlib.colormaps["inferno"].with_extremes(over="magenta")
+    h, w = pixel.shape
+    dpi = 100
+    fig = plt.figure(figsize=(w / dpi + 1.6, h / dpi + 0.4), dpi=dpi)
+    ax = fig.add_axes((0.0, 0.0, w / (w + 160.0), 1.0))
+    im = ax.imshow(
+        np.where(np.isinf(pixel), top * 2, pixel),
+        cmap=cmap,
+        vmin=0,
+        vmax=top,
+        interpolation="nearest",
+    )
+    ax.set_axis_off()
+    cax = fig.add_axes((w / (w + 160.0) + 0.02, 0.1, 0.03, 0.8))
+    bar = fig.colorbar(im, cax=cax, extend="max" if np.isinf(pixel).any() else "neither")
+    bar.set_label(f"|difference| ({', '.join(comparison.channels)})")
+
+    def save(tmp: str) -> None:
+        fig.savefig(tmp, format="png", dpi=dpi)
+
+    try:
+        return atomic_write(path, ".png", save)
+    finally:
+        plt.close(fig)

@@ -1,0 +1,135 @@
+"""`gshade compare`: metrics, idiff's thresholds and verdicts, exit statuses, diff images."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gshade.compare import Thresholds, compare
+from gshade.io.image import write_exr
+
+
+def image(seed=0, shape=(32, 48)):
+    rng = np.random.default_rng(seed)
+    return {c: rng.random(shape).astype(np.float32) for c in ("R", "G", "B", "A", "f")}
+
+
+def cli(*args):
+    result = subprocess.run(
+        [sys.executable, "-m", "gshade.cli", "compare", *map(str, args)],
+        capture_output=True,
+        text=True,
+    )
+    return result.returncode, result.stdout, result.stderr
+
+
+def test_identical_images_pass_with_zero_errors():
+    a = image()
+    result = compare(a, dict(a))
+    assert result.verdict == "PASS" and result.exit_status == 0
+    assert result.overall.max_error == 0 and result.overall.rmse == 0
+    assert result.overall.psnr == float("inf") and result.ssim == pytest.approx(1.0)
+
+
+def test_metrics_and_where_the_largest_error_is():
+    a, b = image(), image()
+    b["G"] = b["G"].copy()
+    b["G"][5, 7] += 0.25
+    b["R"] = b["R"] + np.float32(0.01)
+    result = compare(b, a)
+    g = result.per_channel["G"]
+    assert g.max_at == (7, 5) and g.max_error == pytest.approx(0.25, rel=1e-5)
+    assert result.overall.max_at == (7, 5)
+    r = result.per_channel["R"]
+    assert r.mean_error == pytest.approx(0.01, rel=1e-3)
+    assert r.rmse == pytest.approx(0.01, rel=1e-3)
+    assert r.psnr == pytest.approx(20 * np.log10(r.data_range / r.rmse))
+    assert result.failing == a["R"].size  # every pixel moved by 0.01 > 1e-6
+
+
+@pytest.mark.parametrize(
+    ("thresholds", "verdict"),
+    [
+        (Thresholds(fail=0.1, warn=0.1), "PASS"),
+        (Thresholds(fail=0.1, warn=0.005), "WARNING"),
+        (Thresholds(fail=0.005, failpercent=100, warn=0.005, warnpercent=100), "PASS"),
+        (Thresholds(fail=0.005, failpercent=1, warn=1), "FAILURE"),
+        (Thresholds(fail=1, failpercent=100, hardfail=0.009, warn=1), "FAILURE"),
+    ],
+)
+def test_idiff_verdicts(thresholds, verdict):
+    a = image()
+    b = {k: v + np.float32(0.01) for k, v in a.items()}
+    assert compare(b, a, thresholds=thresholds).verdict == verdict
+
+
+def test_nan_and_inf_never_match():
+    a = image()
+    b = {k: v.copy() for k, v in a.items()}
+    b["R"][3, 3] = np.nan
+    loose = Thresholds(fail=10, warn=10)
+    result = compare(b, a, thresholds=loose)
+    assert result.verdict == "FAILURE" and result.failing == 1
+    assert result.per_channel["R"].nonfinite == 1
+    both = {k: v.copy() for k, v in a.items()}
+    both["R"][3, 3] = np.inf
+    ref = {k: v.copy() for k, v in a.items()}
+    ref["R"][3, 3] = np.inf
+    assert compare(both, ref, thresholds=loose).verdict == "FAILURE"
+
+
+def test_raw_shape_function_channel_and_bad_thresholds():
+    a, b = image(), image()
+    b["f"] = a["f"] + np.float32(1e-3)
+    assert (
+        compare(b, a, channels=["f"], thresholds=Thresholds(fail=2e-3, warn=2e-3)).verdict == "PASS"
+    )
+    assert compare(b, a, channels=["f"]).ssim is None
+    with pytest.raises(ValueError, match="fail: expected a number >= 0"):
+        Thresholds(fail=-1)
+
+
+def test_cli_exit_statuses_and_outputs(tmp_path):
+    a = image()
+    b = {k: v + np.float32(0.01) for k, v in a.items()}
+    ref, same, moved = tmp_path / "ref.exr", tmp_path / "same.exr", tmp_path / "moved.exr"
+    write_exr(ref, a)
+    write_exr(same, a)
+    write_exr(moved, b)
+    assert cli(same, ref)[0] == 0
+    assert cli(moved, ref, "--fail", 0.1, "--warn", 0.001)[0] == 1
+    code, out, _ = cli(moved, ref, "--json")
+    assert code == 2
+    data = json.loads(out)
+    assert data["verdict"] == "FAILURE" and data["failing_percent"] == 100.0
+    assert data["per_channel"]["R"]["max_error"] == pytest.approx(0.01, rel=1e-3)
+    # difference images only on request, or only on failure with --diff-on-fail
+    d_exr, d_png = tmp_path / "d.exr", tmp_path / "d.png"
+    assert cli(same, ref, "--diff", d_exr, "--diff-png", d_png, "--diff-on-fail")[0] == 0
+    assert not d_exr.exists() and not d_png.exists()
+    assert cli(moved, ref, "--diff", d_exr, "--diff-png", d_png, "--diff-on-fail")[0] == 2
+    assert d_png.read_bytes()[:4] == b"\x89PNG"
+    from gshade.io.image import read_exr
+
+    diff, _ = read_exr(d_exr)
+    np.testing.assert_allclose(diff["G"], 0.01, atol=1e-6)
+
+
+def test_cli_mismatch_and_unreadable(tmp_path):
+    ref, small, text = tmp_path / "ref.exr", tmp_path / "small.exr", tmp_path / "text.exr"
+    write_exr(ref, image())
+    write_exr(small, image(shape=(16, 16)))
+    text.write_text("not an image")
+    code, _, err = cli(small, ref)
+    assert code == 3 and "size" in err and len(err.strip().splitlines()) == 1
+    code, _, err = cli(ref, ref, "--channels", "R,Z")
+    assert code == 3 and "Z" in err
+    code, _, err = cli(text, ref)
+    assert code == 4 and "text.exr" in err
+    code, _, err = cli(tmp_path / "missing.exr", ref)
+    assert code == 4 and "missing.exr" in err
+    truncated = tmp_path / "cut.exr"
+    truncated.write_bytes(ref.read_bytes()[:200])
+    assert cli(truncated, ref)[0] == 4
