@@ -73,6 +73,18 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("--json", action="store_true", help="print the metrics as JSON")
     cmp.set_defaults(run=_compare)
 
+    chk = sub.add_parser(
+        "check", help="render scenes at their check settings and diff them with references"
+    )
+    chk.add_argument("scenes", nargs="*", help="scene files or folders (default: scenes/)")
+    chk.add_argument("--references", default="references", help="reference folder")
+    chk.add_argument("--report", help="write report.html and summary.json into this folder")
+    chk.add_argument(
+        "--update", action="store_true", help="write references for new and failing scenes"
+    )
+    chk.add_argument("--update-all", action="store_true", help="write every reference")
+    chk.set_defaults(run=_check)
+
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
@@ -151,6 +163,29 @@ def _compare(args: argparse.Namespace) -> int:
             )
         print(result.summary())
     return result.exit_status
+
+
+def _check(args: argparse.Namespace) -> int:
+    from .check import check, find_scenes, write_report
+
+    scenes = find_scenes(args.scenes)
+    results = check(
+        scenes,
+        Path(args.references),
+        update=args.update,
+        update_all=args.update_all,
+        progress=lambda r: print(r.line(), flush=True),
+    )
+    if args.report:
+        report = write_report(results, Path(args.report))
+        print(f"report: {report}")
+    failed = [r for r in results if not r.ok]
+    written = sum(bool(r.written) for r in results)
+    print(
+        f"{len(results) - len(failed)} passed, {len(failed)} failed"
+        + (f" ({written} references written)" if written else "")
+    )
+    return 0 if not failed else 2
 
 
 def _info(args: argparse.Namespace) -> int:

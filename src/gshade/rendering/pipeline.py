@@ -105,6 +105,10 @@ def render(scene, **overrides) -> RenderedImage:
         clock = now
 
     settings = scene.render
+    # Mitsuba's stratified sampler takes square powers of two: 1, 4, 16, 64, ... samples
+    spp = 4 ** int(np.ceil(np.log(max(settings.spp, 1)) / np.log(4) - 1e-9))
+    if spp != settings.spp:
+        settings = replace(settings, spp=spp)
     patches = scene.patches
     variant = select_variant(settings.variant)
     import drjit as dr

@@ -1,0 +1,305 @@
+"""``gshade check``: render scenes at their check settings and diff them with references.
+
+Per scene: render at the ``[check]`` table's settings (small defaults, so that a check is
+fast), compare with ``references/<name>.exr`` (channels and idiff thresholds from ``[check]``,
+defaults below), and report a verdict.  References are written only on request, atomically:
+``update`` writes those of new or failing scenes (Blender's rule), ``update_all`` every one.
+A scene that fails to render is reported and the others go on.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .compare import ChannelMismatch, Comparison, Thresholds, UnreadableImage, compare
+from .errors import GshadeError
+
+__all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
+
+#: Settings of a check render unless the scene's ``[check]`` table says otherwise.
+CHECK_DEFAULTS = {"width": 160, "height": 120, "spp": 4, "channels": ("R", "G", "B", "A", "f")}
+#: Thresholds unless the scene's ``[check]`` table says otherwise (see the README for the
+#: measurements behind them).
+DEFAULT_THRESHOLDS = Thresholds(
+    fail=0.02, failpercent=0.05, hardfail=float("inf"), warn=1e-3, warnpercent=0.0
+)
+#: Channels stored at full (32-bit) precision in references; the rest are 16-bit halves.
+EXACT_CHANNELS = frozenset({"f", "u", "v", "patch", "P.X", "P.Y", "P.Z"})
+
+
+@dataclass
+class CheckResult:
+    """One scene's check: ``status`` is PASS, WARNING, FAILURE, ERROR or NEW (no reference
+    yet, and one was written)."""
+
+    name: str
+    scene: Path
+    status: str
+    message: str
+    reference: Path | None = None
+    comparison: Comparison | None = None
+    written: str = ""  # "created" or "updated" when the reference was (re)written
+    seconds: float = 0.0
+    image: object = field(default=None, repr=False)
+    log: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status in ("PASS", "WARNING") or bool(self.written)
+
+    def line(self) -> str:
+        tag = f"{self.status} ({self.written} reference)" if self.written else self.status
+        return f"{tag:<28} {self.name}: {self.message}"
+
+
+def find_scenes(paths: list[str] | None) -> list[Path]:
+    """Scene files from files and folders (a folder means its *.toml); default scenes/."""
+    items = [Path(p) for p in (paths or ["scenes"])]
+    found: list[Path] = []
+    for item in items:
+        if item.is_dir():
+            found += sorted(item.glob("*.toml"))
+        elif item.exists():
+            found.append(item)
+        else:
+            raise GshadeError(f"{item}: no such scene file or folder")
+    if not found:
+        raise GshadeError(f"{', '.join(map(str, items))}: no scene files (*.toml) found")
+    return found
+
+
+def _thresholds(settings: dict) -> Thresholds:
+    keys = ("fail", "failpercent", "hardfail", "warn", "warnpercent")
+    given = {k: float(settings[k]) for k in keys if k in settings}
+    base = DEFAULT_THRESHOLDS
+    return Thresholds(**{k: given.get(k, getattr(base, k)) for k in keys})
+
+
+def _write_reference(image, path: Path) -> None:
+    from .image import CHANNELS
+    from .io.image import write_exr
+
+    half = {c for c in CHANNELS if c not in EXACT_CHANNELS}
+    write_exr(path, {c: image.channels[c] for c in CHANNELS}, header=image.metadata, half=half)
+
+
+def check_scene(
+    path: Path, references: Path, *, update: bool = False, update_all: bool = False
+) -> CheckResult:
+    """Render one scene at its check settings and compare it with its reference."""
+    from .io.scene import load_scene
+    from .rendering import render
+
+    start = time.perf_counter()
+    name = path.stem
+    try:
+        scene = load_scene(path)
+        name = scene.name
+        settings = {**CHECK_DEFAULTS, **scene.check}
+        image = render(
+            scene, width=settings["width"], height=settings["height"], spp=settings["spp"]
+        )
+    except Exception as exc:  # a broken scene must not stop the others
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return CheckResult(
+            name,
+            path,
+            "ERROR",
+            f"does not render: {reason}",
+            seconds=time.perf_counter() - start,
+            log="" if isinstance(exc, GshadeError) else traceback.format_exc(),
+        )
+    reference = references / f"{name}.exr"
+    result = CheckResult(name, path, "FAILURE", "", reference, image=image)
+    if not reference.exists():
+        result.message = f"no reference {reference}; run with --update to create it"
+    else:
+        try:
+            result.comparison = compare(
+                image, reference, channels=settings["channels"], thresholds=_thresholds(settings)
+            )
+            result.status = result.comparison.verdict
+            result.message = result.comparison.summary()
+        except (ChannelMismatch, UnreadableImage) as exc:
+            result.message = f"cannot compare: {exc}"
+    if update_all or (update and result.status not in ("PASS", "WARNING")):
+        if reference.exists():
+            result.written = "updated"
+        else:
+            result.written, result.status = "created", "NEW"
+            result.message = f"new scene: {reference} written"
+        _write_reference(image, reference)
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def check(
+    scenes: list[Path],
+    references: Path,
+    *,
+    update: bool = False,
+    update_all: bool = False,
+    progress=None,
+) -> list[CheckResult]:
+    """Check every scene; ``progress(result)`` is called after each."""
+    references = Path(references)
+    if not references.is_dir():
+        if update or update_all:
+            references.mkdir(parents=True)
+        else:
+            raise GshadeError(
+                f"{references}: the reference folder does not exist "
+                "(use --update to create it with the current renders)"
+            )
+    results = []
+    for path in scenes:
+        result = check_scene(path, references, update=update, update_all=update_all)
+        results.append(result)
+        if progress is not None:
+            progress(result)
+    return results
+
+
+# --------------------------------------------------------------------------- report
+
+_ORDER = {"ERROR": 0, "FAILURE": 1, "WARNING": 2, "NEW": 3, "PASS": 4}
+
+
+def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
+    import imageio.v3 as iio
+
+    from .io.image import linear_to_srgb
+
+    img = np.clip(np.round(linear_to_srgb(np.clip(rgb, 0, 1)) * 255), 0, 255).astype(np.uint8)
+    if alpha is not None:
+        a = np.clip(np.round(np.clip(alpha, 0, 1) * 255), 0, 255).astype(np.uint8)
+        img = np.concatenate([img, a[..., None]], -1)
+    buf = io.BytesIO()
+    iio.imwrite(buf, img, extension=".png")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _picture(channels: dict) -> str | None:
+    if not all(c in channels for c in "RGB"):
+        return None
+    a = channels.get("A")
+    rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
+    if a is not None:
+        rgb = rgb / np.where(a > 0, a, 1.0)[..., None]
+    return _png_data(rgb, a)
+
+
+def _diff_picture(comparison: Comparison) -> str:
+    import matplotlib
+
+    d = np.abs(comparison.difference)
+    pixel = np.where(np.isfinite(d), d, np.inf).max(axis=-1)
+    finite = pixel[np.isfinite(pixel)]
+    top = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
+    rgba = matplotlib.colormaps["inferno"](np.clip(pixel / top, 0, 1))
+    rgba[np.isinf(pixel)] = (1, 0, 1, 1)
+    buf = io.BytesIO()
+    import imageio.v3 as iio
+
+    iio.imwrite(buf, (rgba[..., :3] * 255).astype(np.uint8), extension=".png")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def write_report(results: list[CheckResult], folder: Path) -> Path:
+    """A self-contained HTML page (images embedded), failures first, and summary.json."""
+    from .io.image import atomic_write, read_exr
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    ordered = sorted(
+        results, key=lambda r: (_ORDER.get(r.status, 0) if not r.written else 4, r.name)
+    )
+    rows = []
+    for r in ordered:
+        cells = []
+        if r.image is not None:
+            cells.append(("new", _picture(r.image.channels)))
+        if r.reference is not None and r.reference.exists() and not r.written:
+            try:
+                cells.append(("reference", _picture(read_exr(r.reference)[0])))
+            except GshadeError:
+                pass
+        if r.comparison is not None:
+            cells.append(
+                (
+                    f"|difference| (max {r.comparison.overall.max_error:.3g})",
+                    _diff_picture(r.comparison),
+                )
+            )
+        figures = "".join(
+            f'<figure><img src="{src}" alt="{html.escape(label)}"><figcaption>'
+            f"{html.escape(label)}</figcaption></figure>"
+            for label, src in cells
+            if src
+        )
+        metrics = ""
+        if r.comparison is not None:
+            metrics = (
+                "<table><tr><th>channel</th><th>max</th><th>mean</th><th>RMSE</th>"
+                "<th>PSNR (dB)</th></tr>"
+                + "".join(
+                    f"<tr><td>{html.escape(c)}</td><td>{m.max_error:.4g}</td>"
+                    f"<td>{m.mean_error:.4g}</td><td>{m.rmse:.4g}</td><td>{m.psnr:.4g}</td></tr>"
+                    for c, m in r.comparison.per_channel.items()
+                )
+                + "</table>"
+            )
+        status = f"{r.status} ({r.written} reference)" if r.written else r.status
+        rows.append(
+            f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
+            f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
+            f"{html.escape(r.message)}</p>{figures}{metrics}"
+            + (f"<pre>{html.escape(r.log)}</pre>" if r.log else "")
+            + "</section>"
+        )
+    counts = {s: sum(r.status == s for r in results) for s in _ORDER}
+    page = (
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>gshade check</title><style>"
+        "body{font-family:sans-serif;margin:1em}figure{display:inline-block;margin:4px}"
+        "img{image-rendering:pixelated;background:#444;max-width:480px}"
+        "section{border-top:1px solid #ccc;padding:.5em 0}.failure h2,.error h2{color:#b00}"
+        ".warning h2{color:#a60}.pass h2{color:#070}td,th{padding:0 .6em;text-align:right}"
+        "</style></head><body><h1>gshade check</h1><p>"
+        + ", ".join(f"{n} {html.escape(s)}" for s, n in counts.items())
+        + "</p>"
+        + "".join(rows)
+        + "</body></html>"
+    )
+    atomic_write(
+        folder / "report.html", ".html", lambda tmp: Path(tmp).write_text(page, encoding="utf-8")
+    )
+    summary = {
+        "counts": counts,
+        "scenes": [
+            {
+                "name": r.name,
+                "scene": str(r.scene),
+                "status": r.status,
+                "message": r.message,
+                "written": r.written or None,
+                "seconds": round(r.seconds, 3),
+                "metrics": r.comparison.as_dict() if r.comparison is not None else None,
+            }
+            for r in ordered
+        ],
+    }
+    atomic_write(
+        folder / "summary.json",
+        ".json",
+        lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2)),
+    )
+    return folder / "report.html"

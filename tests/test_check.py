@@ -1,0 +1,162 @@
+"""`gshade check`: references, verdicts, updates, broken scenes, reports, regression power."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gshade.check import check, find_scenes
+from gshade.geometry import sphere
+
+from .conftest import ROOT, TEAPOT
+
+CHECK = "\n[check]\nwidth = 64\nheight = 48\nspp = 2\n"
+
+
+def teapot_scene(folder: Path, name="teapot", light="[0.3, -0.5, 0.8]", data="teapot.txt"):
+    text = (
+        f'name = "{name}"\n[[surface]]\ntype = "newell"\nfile = "{data}"\n[shape]\n'
+        f'function = "isophotes"\nlight = {light}\nperiod = 0.1\n'
+        '[render]\nlighting = "flat"\n' + CHECK
+    )
+    path = folder / f"{name}.toml"
+    path.write_text(text)
+    return path
+
+
+def nurbs_sphere_scene(folder: Path, weight_scale=1.0):
+    s = sphere(1.0)
+    w = s.weights.copy()
+    w[2, 7] *= weight_scale  # at the equator, facing the camera
+
+    def fmt(a):
+        return json.dumps(np.asarray(a).tolist())
+
+    text = (
+        f'name = "nurbs-sphere"\n[[surface]]\ntype = "bspline"\ndegree = [2, 2]\n'
+        f"knots_u = {fmt(s.knots[0])}\nknots_v = {fmt(s.knots[1])}\n"
+        f"points = {fmt(s.points)}\nweights = {fmt(w)}\n"
+        '[shape]\nfunction = "isophotes"\nlight = [0, -1, 0]\nperiod = 0.1\n'
+        '[camera]\ntype = "orthographic"\norigin = [0, -5, 0]\ntarget = [0, 0, 0]\n'
+        'up = [0, 0, 1]\nwidth = 2.4\n[render]\nlighting = "flat"\n' + CHECK
+    )
+    path = folder / "nurbs-sphere.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture
+def workspace(tmp_path):
+    shutil.copy(TEAPOT, tmp_path / "teapot.txt")
+    refs = tmp_path / "references"
+    scenes = [teapot_scene(tmp_path), nurbs_sphere_scene(tmp_path)]
+    results = check(scenes, refs, update=True)
+    assert [r.status for r in results] == ["NEW", "NEW"]
+    return tmp_path, refs, scenes
+
+
+def statuses(results):
+    return {r.name: r.status for r in results}
+
+
+def test_rerenders_pass_and_nothing_is_rewritten(workspace):
+    _, refs, scenes = workspace
+    before = {p.name: p.stat().st_mtime_ns for p in refs.iterdir()}
+    results = check(scenes, refs)
+    assert statuses(results) == {"teapot": "PASS", "nurbs-sphere": "PASS"}
+    assert {p.name: p.stat().st_mtime_ns for p in refs.iterdir()} == before
+
+
+def test_a_control_point_moved_by_one_percent_fails(workspace):
+    folder, refs, _ = workspace
+    lines = (folder / "teapot.txt").read_text().splitlines()
+    # vertex 1 belongs to the body's first patch (size about 3): move it by 0.03 in x
+    x, y, z = (float(t) for t in lines[34].split(","))
+    lines[34] = f"{x + 0.03},{y},{z}"
+    (folder / "moved.txt").write_text("\n".join(lines) + "\n")
+    scene = teapot_scene(folder, data="moved.txt")
+    assert statuses(check([scene], refs)) == {"teapot": "FAILURE"}
+
+
+def test_a_changed_weight_and_a_light_turned_by_two_degrees_fail(workspace):
+    folder, refs, _ = workspace
+    scene = nurbs_sphere_scene(folder, weight_scale=1.02)
+    assert statuses(check([scene], refs)) == {"nurbs-sphere": "FAILURE"}
+    a = np.radians(2.0)
+    light = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    turned = np.array(
+        [
+            light[0] * np.cos(a) - light[1] * np.sin(a),
+            light[0] * np.sin(a) + light[1] * np.cos(a),
+            light[2],
+        ]
+    )
+    scene = teapot_scene(folder, light=json.dumps([float(x) for x in turned]))
+    assert statuses(check([scene], refs)) == {"teapot": "FAILURE"}
+
+
+def test_update_rewrites_only_new_and_failing_references(workspace):
+    folder, refs, scenes = workspace
+    sphere_ref = refs / "nurbs-sphere.exr"
+    teapot_ref = refs / "teapot.exr"
+    t0 = teapot_ref.stat().st_mtime_ns
+    s0 = sphere_ref.stat().st_mtime_ns
+    changed = nurbs_sphere_scene(folder, weight_scale=1.05)
+    results = check([scenes[0], changed], refs, update=True)
+    assert [(r.status, r.written) for r in results] == [("PASS", ""), ("FAILURE", "updated")]
+    assert teapot_ref.stat().st_mtime_ns == t0 and sphere_ref.stat().st_mtime_ns != s0
+    assert statuses(check([changed], refs)) == {"nurbs-sphere": "PASS"}
+    results = check(scenes[:1], refs, update_all=True)
+    assert results[0].written == "updated"
+
+
+def test_missing_reference_broken_scene_and_report(workspace):
+    folder, refs, scenes = workspace
+    new = teapot_scene(folder, name="<new> & co")
+    broken = folder / "broken.toml"
+    broken.write_text('[[surface]]\ntype = "newell"\nfile = "nothing.txt"\n')
+    results = check([broken, new, scenes[0]], refs)
+    st = {r.name: (r.status, r.message) for r in results}
+    assert st["broken"][0] == "ERROR" and "nothing.txt" in st["broken"][1]
+    assert st["<new> & co"][0] == "FAILURE" and "--update" in st["<new> & co"][1]
+    assert st["teapot"][0] == "PASS"  # the others went on
+    assert not (refs / "<new> & co.exr").exists()
+    from gshade.check import write_report
+
+    report = write_report(results, folder / "report")
+    page = report.read_text()
+    assert "&lt;new&gt; &amp; co" in page and "<new>" not in page
+    assert page.index("broken") < page.index("teapot")  # failures first
+    assert page.count("data:image/png;base64,") >= 3
+    summary = json.loads((folder / "report" / "summary.json").read_text())
+    assert summary["counts"]["ERROR"] == 1 and summary["counts"]["PASS"] == 1
+
+
+def test_cli_exit_status_and_missing_reference_folder(tmp_path):
+    shutil.copy(TEAPOT, tmp_path / "teapot.txt")
+    scene = teapot_scene(tmp_path)
+
+    def run(*args):
+        return subprocess.run(
+            [sys.executable, "-m", "gshade.cli", "check", *map(str, args)],
+            capture_output=True,
+            text=True,
+        )
+
+    result = run(scene, "--references", tmp_path / "nope")
+    assert result.returncode == 2 and "reference folder does not exist" in result.stderr
+    assert run(scene, "--references", tmp_path / "refs", "--update").returncode == 0
+    result = run(scene, "--references", tmp_path / "refs")
+    assert result.returncode == 0 and "1 passed, 0 failed" in result.stdout
+
+
+def test_the_project_scenes_match_their_references():
+    results = check(find_scenes([str(ROOT / "scenes")]), ROOT / "references")
+    bad = [r.line() for r in results if r.status not in ("PASS", "WARNING")]
+    assert not bad, "\n".join(bad)
+    total = sum(p.stat().st_size for p in (ROOT / "references").glob("*.exr"))
+    assert total <= 20 * 2**20
