@@ -69,3 +69,33 @@ def test_without_llvm_auto_falls_back_to_scalar_with_one_warning():
     assert "variant: scalar_rgb" in out
     assert "warnings: 1" in out
     assert int(out.split("covered:")[1]) > 20
+
+
+EARLY_DRJIT = """
+import warnings
+import drjit as dr
+loaded = dr.detail.llvm_version()[0]  # Dr.Jit picks its LLVM before gshade can help
+import gshade
+from gshade.io import parse_scene
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    image = gshade.render(parse_scene('[[surface]]\\ntype = "sphere"\\n'), width=8, height=6,
+                          spp=1)
+print("loaded:", loaded, "variant:", image.metadata["variant"],
+      "warned:", any("import gshade before drjit" in str(w.message) for w in caught))
+"""
+
+
+def test_drjit_imported_first_never_aborts():
+    result = subprocess.run(
+        [sys.executable, "-c", EARLY_DRJIT],
+        capture_output=True,
+        text=True,
+        env={k: v for k, v in __import__("os").environ.items() if k != "DRJIT_LIBLLVM_PATH"},
+    )
+    assert result.returncode == 0, result.stderr
+    loaded = int(result.stdout.split("loaded:")[1].split()[0])
+    if loaded < 17:
+        assert "variant: scalar_rgb" in result.stdout and "warned: True" in result.stdout
+    else:
+        assert "variant: llvm_ad_rgb" in result.stdout

@@ -7,9 +7,12 @@ differential geometry), ``gshade.shape`` (shape functions and colours), ``gshade
 files, surface data, images) and ``gshade.rendering``.
 """
 
-from .errors import GshadeError
-
 __version__ = "0.1.0"
+
+from .errors import GshadeError
+from .rendering.variant import prepare_llvm
+
+prepare_llvm()  # before anything imports Dr.Jit
 
 __all__ = ["GshadeError", "__version__", "load_scene", "render"]
 

@@ -1,5 +1,12 @@
 """Rendering: tessellation, shape textures, cameras and Mitsuba on the CPU."""
 
-from .pipeline import render
-
 __all__ = ["render"]
+
+
+def __getattr__(name: str):
+    # lazy, so that ``gshade.rendering.variant`` can be imported without Mitsuba or numba
+    if name == "render":
+        from .pipeline import render
+
+        return render
+    raise AttributeError(f"module 'gshade.rendering' has no attribute {name!r}")

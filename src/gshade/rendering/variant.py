@@ -104,6 +104,24 @@ def select_variant(requested: str = "auto") -> str:
     mi = mitsuba()
     if mi.variant() == variant:
         return variant
+    if variant == "llvm_ad_rgb":
+        import drjit as dr
+
+        loaded = dr.detail.llvm_version()[0]
+        if loaded < MIN_LLVM:  # Dr.Jit was imported before gshade could point it elsewhere
+            message = (
+                f"Dr.Jit has loaded libLLVM {loaded}, which aborts on Mitsuba's kernels "
+                f"(it needs >= {MIN_LLVM}); import gshade before drjit or mitsuba, or set "
+                "DRJIT_LIBLLVM_PATH"
+            )
+            if requested == "llvm_ad_rgb":
+                raise GshadeError(f"variant: {message}")
+            warnings.warn(
+                f"gshade: {message}; rendering with scalar_rgb", RuntimeWarning, stacklevel=2
+            )
+            variant = "scalar_rgb"
+            if mi.variant() == variant:
+                return variant
     try:
         mi.set_variant(variant)
     except (ImportError, AttributeError, RuntimeError) as exc:
@@ -116,6 +134,14 @@ def select_variant(requested: str = "auto") -> str:
         except RuntimeError as exc:
             raise GshadeError(f"variant: cuda_ad_rgb cannot run here ({exc})") from None
     return variant
+
+
+def prepare_llvm() -> None:
+    """Point Dr.Jit at a usable LLVM before anything imports it (called by ``import gshade``)."""
+    if "drjit" not in sys.modules and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        llvm = find_llvm()
+        if llvm is not None:
+            os.environ["DRJIT_LIBLLVM_PATH"] = llvm
 
 
 def mitsuba():
