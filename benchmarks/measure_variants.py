@@ -1,0 +1,103 @@
+"""How far do renders differ between Mitsuba's variants, and between re-renders?
+
+The numbers behind ``gshade check``'s default thresholds.  Every scene in ``scenes/`` is
+rendered at its check settings (gshade.check.CHECK_DEFAULTS and its ``[check]`` table) with
+``llvm_ad_rgb`` twice and with ``scalar_rgb`` once, and the images are compared with
+``gshade.compare`` over the check channels: the largest per-pixel difference, the share of
+pixels over 0.02 and over 1e-3, and SSIM on the picture.  Re-renders in one variant are
+expected to be bit-identical (fixed seed, box filter); the two variants draw different
+random numbers, which matters for ``lit`` pictures (soft light is sampled) and not for
+``flat`` ones (strata centres, no randomness).
+
+Run from the repository root: ``.venv/bin/python benchmarks/measure_variants.py --write``
+(several minutes: the scalar variant runs gshade's integrator in Python, per sample).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from report import machine_info, markdown_table, text_table, write_section
+
+import gshade
+from gshade.check import CHECK_DEFAULTS, find_scenes
+from gshade.compare import Thresholds, compare
+from gshade.io.scene import load_scene
+
+COLUMNS = [
+    "Scene",
+    "Lighting",
+    "llvm re-render: max |diff|",
+    "scalar vs llvm: max |diff|",
+    "% pixels > 0.02",
+    "% pixels > 1e-3",
+    "SSIM",
+]
+
+
+def measure(path):
+    scene = load_scene(path)
+    settings = {**CHECK_DEFAULTS, **scene.check}
+    kw = dict(width=settings["width"], height=settings["height"], spp=settings["spp"])
+    channels = [c for c in settings["channels"]]
+    a = gshade.render(scene, variant="llvm_ad_rgb", **kw)
+    b = gshade.render(scene, variant="llvm_ad_rgb", **kw)
+    s = gshade.render(scene, variant="scalar_rgb", **kw)
+    same = compare(b, a, channels=channels)
+    cross = compare(s, a, channels=channels, thresholds=Thresholds(fail=0.02, warn=1e-3))
+    return scene, same, cross
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
+    parser.add_argument("scenes", nargs="*", help="scene files (default: scenes/)")
+    args = parser.parse_args()
+    rows = []
+    worst = {"flat": [0.0, 0.0], "lit": [0.0, 0.0]}
+    for path in find_scenes(args.scenes or None):
+        scene, same, cross = measure(path)
+        lighting = scene.render.lighting
+        rows.append(
+            [
+                scene.name,
+                lighting,
+                f"{same.overall.max_error:.3g}",
+                f"{cross.overall.max_error:.3g}",
+                f"{cross.failing_percent:.3f}",
+                f"{cross.warning_percent:.3f}",
+                "-" if cross.ssim is None else f"{cross.ssim:.4f}",
+            ]
+        )
+        w = worst[lighting]
+        w[0] = max(w[0], cross.failing_percent)
+        w[1] = max(w[1], cross.warning_percent)
+        print(" | ".join(rows[-1]), flush=True)
+    info = machine_info(versions=[f"mitsuba {__import__('mitsuba').__version__}"])
+    notes = [
+        f"Check settings: {CHECK_DEFAULTS['width']}x{CHECK_DEFAULTS['height']} pixels, "
+        f"{CHECK_DEFAULTS['spp']} spp, channels {', '.join(CHECK_DEFAULTS['channels'])} "
+        "(unless a scene's [check] says otherwise); differences are per pixel, the largest "
+        "over the channels (idiff's rule).",
+        "Worst share of pixels differing by more than 0.02 between the variants: "
+        f"flat {worst['flat'][0]:.3f} %, lit {worst['lit'][0]:.3f} %; by more than 1e-3: "
+        f"flat {worst['flat'][1]:.3f} %, lit {worst['lit'][1]:.3f} %.",
+    ]
+    print(text_table(COLUMNS, rows))
+    print("\n".join(notes))
+    if args.write:
+        text = "\n".join(
+            ["## Variants and re-renders (`benchmarks/measure_variants.py`)", ""]
+            + [f"- {k}: {v}" for k, v in info.items()]
+            + ["", markdown_table(COLUMNS, rows), ""]
+            + [f"- {n}" for n in notes]
+        )
+        write_section("measure_variants", text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
