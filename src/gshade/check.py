@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .compare import ChannelMismatch, Comparison, Thresholds, UnreadableImage, compare
+from .compare import ChannelMismatch, Comparison, Thresholds, UnreadableImage, compare, heat_map
 from .errors import GshadeError
 
 __all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
@@ -174,18 +174,23 @@ def check(
 _ORDER = {"ERROR": 0, "FAILURE": 1, "WARNING": 2, "NEW": 3, "PASS": 4}
 
 
-def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
+def _encode_png(img: np.ndarray) -> str:
+    """An 8-bit image as a data: URL, for embedding in the report."""
     import imageio.v3 as iio
 
+    buf = io.BytesIO()
+    iio.imwrite(buf, img, extension=".png")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
     from .io.image import linear_to_srgb
 
     img = np.clip(np.round(linear_to_srgb(np.clip(rgb, 0, 1)) * 255), 0, 255).astype(np.uint8)
     if alpha is not None:
         a = np.clip(np.round(np.clip(alpha, 0, 1) * 255), 0, 255).astype(np.uint8)
         img = np.concatenate([img, a[..., None]], -1)
-    buf = io.BytesIO()
-    iio.imwrite(buf, img, extension=".png")
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+    return _encode_png(img)
 
 
 def _picture(channels: dict) -> str | None:
@@ -199,19 +204,7 @@ def _picture(channels: dict) -> str | None:
 
 
 def _diff_picture(comparison: Comparison) -> str:
-    import matplotlib
-
-    d = np.abs(comparison.difference)
-    pixel = np.where(np.isfinite(d), d, np.inf).max(axis=-1)
-    finite = pixel[np.isfinite(pixel)]
-    top = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
-    rgba = matplotlib.colormaps["inferno"](np.clip(pixel / top, 0, 1))
-    rgba[np.isinf(pixel)] = (1, 0, 1, 1)
-    buf = io.BytesIO()
-    import imageio.v3 as iio
-
-    iio.imwrite(buf, (rgba[..., :3] * 255).astype(np.uint8), extension=".png")
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+    return _encode_png(heat_map(comparison))
 
 
 def write_report(results: list[CheckResult], folder: Path) -> Path:

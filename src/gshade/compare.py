@@ -30,6 +30,7 @@ __all__ = [
     "Comparison",
     "Thresholds",
     "compare",
+    "heat_map",
     "load_channels",
     "write_diff_exr",
     "write_diff_png",
@@ -91,6 +92,14 @@ class Comparison:
     pixels: int
     ssim: float | None = None
     difference: NDArray[np.float64] | None = field(default=None, repr=False)
+    #: per pixel, the largest absolute difference over the channels (inf where non-finite)
+    pixel_difference: NDArray[np.float64] | None = field(default=None, repr=False)
+
+    @property
+    def heat_scale(self) -> float:
+        """The top of the heat maps' scale: the largest finite pixel difference (or 1)."""
+        finite = self.pixel_difference[np.isfinite(self.pixel_difference)]
+        return float(finite.max()) if finite.size and finite.max() > 0 else 1.0
 
     @property
     def exit_status(self) -> int:
@@ -280,7 +289,19 @@ def compare(
         pixels=n,
         ssim=ssim,
         difference=stack,
+        pixel_difference=pixel,
     )
+
+
+def heat_map(comparison: Comparison) -> NDArray[np.uint8]:
+    """The per-pixel difference as an RGB image (inferno on [0, heat_scale]; magenta where
+    non-finite), for reports."""
+    import matplotlib
+
+    pixel = comparison.pixel_difference
+    rgba = matplotlib.colormaps["inferno"](np.clip(pixel / comparison.heat_scale, 0, 1))
+    rgba[np.isinf(pixel)] = (1, 0, 1, 1)
+    return np.round(rgba[..., :3] * 255).astype(np.uint8)
 
 
 def write_diff_exr(comparison: Comparison, path: str | os.PathLike) -> Path:
@@ -305,10 +326,8 @@ def write_diff_png(comparison: Comparison, path: str | os.PathLike) -> Path:
 
     from .io.image import atomic_write
 
-    diff = np.abs(comparison.difference)
-    pixel = np.where(np.isfinite(diff), diff, np.inf).max(axis=-1)
-    finite = pixel[np.isfinite(pixel)]
-    top = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
+    pixel = comparison.pixel_difference
+    top = comparison.heat_scale
     cmap = matplotlib.colormaps["inferno"].with_extremes(over="magenta")
     h, w = pixel.shape
     dpi = 100
