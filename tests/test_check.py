@@ -160,3 +160,27 @@ def test_the_project_scenes_match_their_references():
     assert not bad, "\n".join(bad)
     total = sum(p.stat().st_size for p in (ROOT / "references").glob("*.exr"))
     assert total <= 20 * 2**20
+
+
+def test_statistical_check_separates_sampling_noise_from_a_change(tmp_path):
+    """Lit renders with other random numbers differ by noise that thresholds flag; the
+    z-test against the reference's variances passes them and still fails a 2° light turn."""
+    shutil.copy(TEAPOT, tmp_path / "teapot.txt")
+
+    def scene(seed, light="[0.3, -0.5, 0.8]"):
+        path = tmp_path / "lit.toml"
+        path.write_text(
+            f'name = "lit"\n[[surface]]\ntype = "newell"\nfile = "teapot.txt"\n[shape]\n'
+            f'function = "isophotes"\nlight = {light}\nperiod = 0.1\n[render]\n'
+            f'lighting = "lit"\nseed = {seed}\n[check]\nwidth = 64\nheight = 48\nspp = 4\n'
+            "runs = 6\n"
+        )
+        return path
+
+    refs = tmp_path / "refs"
+    assert check([scene(0)], refs, update=True, statistical=True)[0].status == "NEW"
+    other_seeds = scene(1000)
+    assert statuses(check([other_seeds], refs, statistical=True)) == {"lit": "PASS"}
+    assert statuses(check([other_seeds], refs)) == {"lit": "FAILURE"}  # thresholds: noise
+    turned = scene(1000, light="[0.3283, -0.4817, 0.8]")  # 1.95 degrees
+    assert statuses(check([turned], refs, statistical=True)) == {"lit": "FAILURE"}

@@ -133,3 +133,38 @@ def test_cli_mismatch_and_unreadable(tmp_path):
     truncated = tmp_path / "cut.exr"
     truncated.write_bytes(ref.read_bytes()[:200])
     assert cli(truncated, ref)[0] == 4
+
+
+def noisy(rng, mean, sd, runs=8):
+    """Channels R, G, B: the mean of `runs` noisy samples and the variance of that mean."""
+    out = {}
+    for c in "RGB":
+        samples = mean + rng.normal(0.0, sd, size=(runs, *mean.shape))
+        out[c] = samples.mean(0).astype(np.float32)
+        out[f"{c}.var"] = (samples.var(0, ddof=1) / runs).astype(np.float32)
+    return out
+
+
+def test_z_test_passes_noise_and_fails_a_change():
+    from gshade.compare import z_test
+
+    rng = np.random.default_rng(1)
+    truth = rng.random((40, 50))
+    reference = noisy(rng, truth, 0.05)
+    assert z_test(noisy(rng, truth, 0.05), reference).verdict == "PASS"
+    # thresholds cannot tell that noise from a change: it exceeds 0.02 almost everywhere
+    assert (
+        compare(noisy(rng, truth, 0.05), reference, thresholds=Thresholds(fail=0.02)).verdict
+        == "FAILURE"
+    )
+    shifted = truth.copy()
+    shifted[:, :10] += 0.1  # a real change in a fifth of the picture
+    result = z_test(noisy(rng, shifted, 0.05), reference)
+    assert result.verdict == "FAILURE" and "pixel-channels" in result.summary()
+    broken = noisy(rng, truth, 0.05)
+    broken["R"][0, 0] = np.nan
+    assert z_test(broken, reference).failing >= 1
+    from gshade.compare import ChannelMismatch
+
+    with pytest.raises(ChannelMismatch, match=r"R\.var"):
+        z_test({c: truth for c in "RGB"}, reference)

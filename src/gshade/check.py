@@ -20,7 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .compare import ChannelMismatch, Comparison, Thresholds, UnreadableImage, compare, heat_map
+from .compare import (
+    ChannelMismatch,
+    Comparison,
+    Thresholds,
+    UnreadableImage,
+    compare,
+    heat_map,
+    z_test,
+)
 from .errors import GshadeError
 
 __all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
@@ -85,15 +93,53 @@ def _thresholds(settings: dict) -> Thresholds:
 
 
 def _write_reference(image, path: Path) -> None:
-    from .image import CHANNELS
     from .io.image import write_exr
 
-    half = {c for c in CHANNELS if c not in EXACT_CHANNELS}
-    write_exr(path, {c: image.channels[c] for c in CHANNELS}, header=image.metadata, half=half)
+    # variances (statistical references) are kept exactly: they scale the z-test
+    half = {
+        c
+        for c in image.channels
+        if c not in EXACT_CHANNELS and not c.endswith(".var") and f"{c}.var" not in image.channels
+    }
+    write_exr(path, image.channels, header=image.metadata, half=half)
+
+
+def _render_runs(scene, settings: dict):
+    """Render ``runs`` times with independent seeds: the mean of each channel, and for the
+    compared channels the variance of that mean in ``C.var`` (for :func:`z_test`)."""
+    from .rendering import render
+
+    runs = int(settings["runs"])
+    if runs < 2:
+        raise GshadeError(f"[check] runs: expected at least 2 for the statistical test, got {runs}")
+    images = [
+        render(
+            scene,
+            width=settings["width"],
+            height=settings["height"],
+            spp=settings["spp"],
+            seed=scene.render.seed + k,
+        )
+        for k in range(runs)
+    ]
+    first = images[0]
+    channels = dict(first.channels)
+    for c in settings["channels"]:
+        stack = np.stack([im.channels[c].astype(np.float64) for im in images])
+        channels[c] = stack.mean(axis=0).astype(np.float32)
+        channels[f"{c}.var"] = (stack.var(axis=0, ddof=1) / runs).astype(np.float32)
+    first.channels = channels
+    first.metadata = {**first.metadata, "check_runs": str(runs)}
+    return first
 
 
 def check_scene(
-    path: Path, references: Path, *, update: bool = False, update_all: bool = False
+    path: Path,
+    references: Path,
+    *,
+    update: bool = False,
+    update_all: bool = False,
+    statistical: bool = False,
 ) -> CheckResult:
     """Render one scene at its check settings and compare it with its reference."""
     from .io.scene import load_scene
@@ -105,9 +151,16 @@ def check_scene(
         scene = load_scene(path)
         name = scene.name
         settings = {**CHECK_DEFAULTS, **scene.check}
-        image = render(
-            scene, width=settings["width"], height=settings["height"], spp=settings["spp"]
-        )
+        statistical = statistical or settings.get("statistical", False)
+        if statistical:
+            settings.setdefault("runs", 4)
+            if "channels" not in scene.check:
+                settings["channels"] = ("R", "G", "B")
+            image = _render_runs(scene, settings)
+        else:
+            image = render(
+                scene, width=settings["width"], height=settings["height"], spp=settings["spp"]
+            )
     except Exception as exc:  # a broken scene must not stop the others
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return CheckResult(
@@ -124,9 +177,15 @@ def check_scene(
         result.message = f"no reference {reference}; run with --update to create it"
     else:
         try:
-            result.comparison = compare(
-                image, reference, channels=settings["channels"], thresholds=_thresholds(settings)
-            )
+            if statistical:
+                result.comparison = z_test(image, reference, channels=settings["channels"])
+            else:
+                result.comparison = compare(
+                    image,
+                    reference,
+                    channels=settings["channels"],
+                    thresholds=_thresholds(settings),
+                )
             result.status = result.comparison.verdict
             result.message = result.comparison.summary()
         except (ChannelMismatch, UnreadableImage) as exc:
@@ -148,9 +207,15 @@ def check(
     *,
     update: bool = False,
     update_all: bool = False,
+    statistical: bool = False,
     progress=None,
 ) -> list[CheckResult]:
-    """Check every scene; ``progress(result)`` is called after each."""
+    """Check every scene; ``progress(result)`` is called after each.
+
+    ``statistical`` (or a scene's ``[check] statistical = true``) renders ``runs`` times with
+    independent seeds and compares with a z-test against the reference's variances
+    (:func:`gshade.compare.z_test`) instead of thresholds: for noisy ``lit`` renders across
+    machines or variants."""
     references = Path(references)
     if not references.is_dir():
         if update or update_all:
@@ -162,7 +227,9 @@ def check(
             )
     results = []
     for path in scenes:
-        result = check_scene(path, references, update=update, update_all=update_all)
+        result = check_scene(
+            path, references, update=update, update_all=update_all, statistical=statistical
+        )
         results.append(result)
         if progress is not None:
             progress(result)

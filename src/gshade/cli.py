@@ -83,6 +83,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--update", action="store_true", help="write references for new and failing scenes"
     )
     chk.add_argument("--update-all", action="store_true", help="write every reference")
+    chk.add_argument(
+        "--statistical",
+        action="store_true",
+        help="render each scene several times and compare by a z-test against the "
+        "reference's variances (for noisy lit renders)",
+    )
     chk.set_defaults(run=_check)
 
     info = sub.add_parser("info", help="describe a scene's surfaces")
@@ -174,6 +180,7 @@ def _check(args: argparse.Namespace) -> int:
         Path(args.references),
         update=args.update,
         update_all=args.update_all,
+        statistical=args.statistical,
         progress=lambda r: print(r.line(), flush=True),
     )
     if args.report:

@@ -34,6 +34,7 @@ __all__ = [
     "load_channels",
     "write_diff_exr",
     "write_diff_png",
+    "z_test",
 ]
 
 #: Exit statuses of ``gshade compare`` (idiff's).
@@ -94,6 +95,9 @@ class Comparison:
     difference: NDArray[np.float64] | None = field(default=None, repr=False)
     #: per pixel, the largest absolute difference over the channels (inf where non-finite)
     pixel_difference: NDArray[np.float64] | None = field(default=None, repr=False)
+    #: "thresholds" (idiff's rule) or "z-test" (:func:`z_test`: ``pixels`` counts
+    #: pixel-channels and ``failing`` the rejected ones)
+    test: str = "thresholds"
 
     @property
     def heat_scale(self) -> float:
@@ -133,6 +137,13 @@ class Comparison:
     def summary(self) -> str:
         """One line, e.g. 'FAILURE: 1.2% of 786432 pixels over 0.01, max 0.31 at (410, 96) in G'."""
         o = self.overall
+        if self.test == "z-test":
+            return (
+                f"{self.verdict}: {100 - self.failing_percent:.4g}% of {self.pixels} "
+                f"pixel-channels pass the z-test (need "
+                f"{100 - self.thresholds.failpercent:.4g}%); max |difference| "
+                f"{o.max_error:.4g}, mean {o.mean_error:.4g}"
+            )
         where = ""
         if o.max_at is not None:
             worst = max(self.per_channel, key=lambda c: _order(self.per_channel[c].max_error))
@@ -302,6 +313,76 @@ def heat_map(comparison: Comparison) -> NDArray[np.uint8]:
     rgba = matplotlib.colormaps["inferno"](np.clip(pixel / comparison.heat_scale, 0, 1))
     rgba[np.isinf(pixel)] = (1, 0, 1, 1)
     return np.round(rgba[..., :3] * 255).astype(np.uint8)
+
+
+def z_test(
+    test,
+    reference,
+    *,
+    channels=("R", "G", "B"),
+    significance: float = 0.01,
+    required_percent: float = 99.75,
+) -> Comparison:
+    """Statistical comparison of noisy renders, as Mitsuba's own render tests do.
+
+    Both images carry, for each compared channel C, the per-pixel mean in C and the variance
+    of that mean in ``C.var`` (from independent runs).  Each pixel-channel gets a two-sided
+    Welch z-test, z = (mu_test - mu_ref) / sqrt(var_test + var_ref), with the significance
+    level Šidák-corrected for the number of tests, 1 - (1 - significance)^(1 / M).  PASS if
+    at least ``required_percent`` % of the pixel-channels pass (and none is NaN), else
+    FAILURE.  The failing count is that of the pixel-channels rejected.
+    """
+    from scipy.special import erfc
+
+    a, name_a = load_channels(test)
+    b, name_b = load_channels(reference)
+    channels = list(channels)
+    needed = channels + [f"{c}.var" for c in channels]
+    for name, image in ((name_a, a), (name_b, b)):
+        missing = [c for c in needed if c not in image]
+        if missing:
+            raise ChannelMismatch(
+                f"{name}: the statistical test needs channel(s) {', '.join(missing)} (means "
+                "and variances from several runs)"
+            )
+    if a[channels[0]].shape != b[channels[0]].shape:
+        sa, sb = a[channels[0]].shape, b[channels[0]].shape
+        raise ChannelMismatch(
+            f"{name_a}: expected the reference's size {sb[1]}x{sb[0]}, got {sa[1]}x{sa[0]}"
+        )
+    diff = np.stack([np.asarray(a[c], float) - np.asarray(b[c], float) for c in channels], -1)
+    var = np.stack(
+        [np.asarray(a[f"{c}.var"], float) + np.asarray(b[f"{c}.var"], float) for c in channels], -1
+    )
+    tiny = 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.abs(diff) / np.sqrt(np.maximum(var, 0.0) + tiny)
+    p = erfc(z / np.sqrt(2.0))
+    tests = p.size
+    level = 1.0 - (1.0 - significance) ** (1.0 / tests)
+    rejected = ~(p >= level)  # NaN never passes
+    failing = int(np.count_nonzero(rejected))
+    passing_percent = 100.0 * (tests - failing) / tests
+    verdict = "PASS" if passing_percent >= required_percent else "FAILURE"
+    magnitude = np.where(np.isfinite(diff), np.abs(diff), np.inf)
+    pixel = magnitude.max(axis=-1)
+    per_channel = {
+        c: _metrics(diff[..., k], np.asarray(b[c], float)) for k, c in enumerate(channels)
+    }
+    return Comparison(
+        verdict=verdict,
+        channels=channels,
+        size=(pixel.shape[1], pixel.shape[0]),
+        thresholds=Thresholds(failpercent=100.0 - required_percent),
+        per_channel=per_channel,
+        overall=_metrics(np.where(np.isinf(pixel), np.nan, pixel), np.zeros_like(pixel)),
+        failing=failing,
+        warning=failing,
+        pixels=tests,
+        difference=diff,
+        pixel_difference=pixel,
+        test="z-test",
+    )
 
 
 def write_diff_exr(comparison: Comparison, path: str | os.PathLike) -> Path:

@@ -143,6 +143,8 @@ _CHECK_KEYS = (
     "hardfail",
     "warn",
     "warnpercent",
+    "statistical",
+    "runs",
 )
 _SECTION_KEYS = {
     "shape": _SHAPE_KEYS,
@@ -657,8 +659,12 @@ def _check(file: str, raw: dict[str, Any]) -> dict[str, Any]:
     t.reject_unknown(_CHECK_KEYS)
     out: dict[str, Any] = {}
     for key in raw:
-        if key in ("width", "height", "spp"):
+        if key in ("width", "height", "spp", "runs"):
             out[key] = t.integer(key)
+        elif key == "statistical":
+            if not isinstance(raw[key], bool):
+                raise t.error(key, f"expected true or false, got {_show(raw[key])}")
+            out[key] = raw[key]
         elif key == "channels":
             c = raw[key]
             if not (isinstance(c, list) and c and all(isinstance(s, str) and s for s in c)):
