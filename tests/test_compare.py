@@ -168,3 +168,23 @@ def test_z_test_passes_noise_and_fails_a_change():
 
     with pytest.raises(ChannelMismatch, match=r"R\.var"):
         z_test({c: truth for c in "RGB"}, reference)
+
+
+def test_channel_groups():
+    from gshade.compare import channel_groups
+
+    groups = channel_groups(["R", "G", "B", "A", "f", "P.X", "P.Y", "P.Z", "u", "v", "patch"])
+    assert groups == {
+        "RGB": ["R", "G", "B"],
+        "A": ["A"],
+        "f": ["f"],
+        "P": ["P.X", "P.Y", "P.Z"],
+        "uv": ["u", "v"],
+        "patch": ["patch"],
+    }
+    a = {c: np.zeros((4, 5), np.float32) for c in ("P.X", "P.Y", "P.Z", "f")}
+    b = {c: v.copy() for c, v in a.items()}
+    b["P.Y"][1, 2] = 0.5
+    result = compare(b, a, channels=["P.X", "P.Y", "P.Z", "f"])
+    assert set(result.per_group) == {"P"}
+    assert result.per_group["P"].max_error == 0.5 and result.per_group["P"].max_at == (2, 1)

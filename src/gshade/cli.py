@@ -161,7 +161,7 @@ def _compare(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result.as_dict(), indent=2))
     else:
-        for name, m in result.per_channel.items():
+        for name, m in {**result.per_channel, **result.per_group}.items():
             at = f" at ({m.max_at[0]}, {m.max_at[1]})" if m.max_at else ""
             print(
                 f"  {name:>6}: max {m.max_error:.6g}{at}, mean {m.mean_error:.6g}, "

@@ -29,6 +29,7 @@ __all__ = [
     "ChannelMismatch",
     "Comparison",
     "Thresholds",
+    "channel_groups",
     "compare",
     "heat_map",
     "load_channels",
@@ -95,6 +96,8 @@ class Comparison:
     difference: NDArray[np.float64] | None = field(default=None, repr=False)
     #: per pixel, the largest absolute difference over the channels (inf where non-finite)
     pixel_difference: NDArray[np.float64] | None = field(default=None, repr=False)
+    #: metrics of channel groups with several members (RGB, P, N, uv): the worst channel
+    per_group: dict[str, ChannelMetrics] = field(default_factory=dict)
     #: "thresholds" (idiff's rule) or "z-test" (:func:`z_test`: ``pixels`` counts
     #: pixel-channels and ``failing`` the rejected ones)
     test: str = "thresholds"
@@ -131,6 +134,7 @@ class Comparison:
             "ssim": self.ssim,
             "overall": asdict(self.overall),
             "per_channel": {k: asdict(v) for k, v in self.per_channel.items()},
+            "per_group": {k: asdict(v) for k, v in self.per_group.items()},
         }
         return json.loads(json.dumps(out, default=_json_number).replace("Infinity", "null"))
 
@@ -165,6 +169,21 @@ def _json_number(x):
     if isinstance(x, np.generic):
         return x.item()
     raise TypeError(type(x).__name__)
+
+
+def channel_groups(channels: list[str]) -> dict[str, list[str]]:
+    """Channels grouped as the EXR contract names them: R, G, B -> "RGB"; "P.X", "P.Y",
+    "P.Z" -> "P"; u, v -> "uv"; any other "name.part" -> "name"; the rest alone."""
+    groups: dict[str, list[str]] = {}
+    for c in channels:
+        if c in ("R", "G", "B"):
+            key = "RGB"
+        elif c in ("u", "v"):
+            key = "uv"
+        else:
+            key = c.split(".", 1)[0]
+        groups.setdefault(key, []).append(c)
+    return groups
 
 
 def load_channels(image) -> tuple[dict[str, NDArray], str]:
@@ -270,6 +289,13 @@ def compare(
         np.where(np.isinf(pixel), np.nan, pixel),
         np.stack([np.asarray(b[c], dtype=np.float64) for c in channels], -1).max(axis=-1),
     )
+    per_group = {}
+    for group, members in channel_groups(channels).items():
+        if len(members) > 1:
+            idx = [channels.index(c) for c in members]
+            worst = magnitude[..., idx].max(axis=-1)
+            refs = np.stack([np.asarray(b[c], dtype=np.float64) for c in members], -1)
+            per_group[group] = _metrics(np.where(np.isinf(worst), np.nan, worst), refs.max(axis=-1))
     n = pixel.size
     nonfinite = np.isinf(pixel)  # NaN or infinity in either image: never a match
     failing = int(np.count_nonzero(nonfinite | (pixel > thresholds.fail)))
@@ -301,6 +327,7 @@ def compare(
         ssim=ssim,
         difference=stack,
         pixel_difference=pixel,
+        per_group=per_group,
     )
 
 
