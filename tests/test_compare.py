@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from gshade.compare import Thresholds, compare
+from gshade.comparison import Thresholds, compare
 from gshade.io.image import write_exr
 
 
@@ -146,7 +146,7 @@ def noisy(rng, mean, sd, runs=8):
 
 
 def test_z_test_passes_noise_and_fails_a_change():
-    from gshade.compare import z_test
+    from gshade.comparison import z_test
 
     rng = np.random.default_rng(1)
     truth = rng.random((40, 50))
@@ -164,14 +164,14 @@ def test_z_test_passes_noise_and_fails_a_change():
     broken = noisy(rng, truth, 0.05)
     broken["R"][0, 0] = np.nan
     assert z_test(broken, reference).failing >= 1
-    from gshade.compare import ChannelMismatch
+    from gshade.comparison import ChannelMismatch
 
     with pytest.raises(ChannelMismatch, match=r"R\.var"):
         z_test({c: truth for c in "RGB"}, reference)
 
 
 def test_channel_groups():
-    from gshade.compare import channel_groups
+    from gshade.comparison import channel_groups
 
     groups = channel_groups(["R", "G", "B", "A", "f", "P.X", "P.Y", "P.Z", "u", "v", "patch"])
     assert groups == {
@@ -188,3 +188,11 @@ def test_channel_groups():
     result = compare(b, a, channels=["P.X", "P.Y", "P.Z", "f"])
     assert set(result.per_group) == {"P"}
     assert result.per_group["P"].max_error == 0.5 and result.per_group["P"].max_at == (2, 1)
+
+
+def test_top_level_compare_is_the_function_even_after_the_module_is_imported():
+    import gshade
+    import gshade.check  # noqa: F401  (imports gshade.comparison)
+
+    a = image()
+    assert gshade.compare(a, dict(a)).verdict == "PASS"

@@ -2,9 +2,10 @@
 
 The public API mirrors the command line: ``gshade.load_scene(path)``,
 ``gshade.render(scene, **overrides)`` (an image with the EXR channels, ``.write_exr`` and
-``.write_png``).  Building blocks live in ``gshade.geometry`` (patches and their
-differential geometry), ``gshade.shape`` (shape functions and colours), ``gshade.io`` (scene
-files, surface data, images) and ``gshade.rendering``.
+``.write_png``) and ``gshade.compare(test, reference, ...)`` (metrics and an idiff verdict).
+Building blocks live in ``gshade.geometry`` (patches and their differential geometry),
+``gshade.shape`` (shape functions and colours), ``gshade.io`` (scene files, surface data,
+images), ``gshade.rendering``, ``gshade.comparison`` and ``gshade.check``.
 """
 
 __version__ = "0.1.0"
@@ -14,7 +15,7 @@ from .rendering.variant import prepare_llvm
 
 prepare_llvm()  # before anything imports Dr.Jit
 
-__all__ = ["GshadeError", "__version__", "load_scene", "render"]
+__all__ = ["GshadeError", "__version__", "compare", "load_scene", "render"]
 
 
 def __getattr__(name: str):
@@ -23,6 +24,10 @@ def __getattr__(name: str):
         from .rendering import render
 
         return render
+    if name == "compare":
+        from .comparison import compare
+
+        return compare
     if name == "load_scene":
         from .io.scene import load_scene
 

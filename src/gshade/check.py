@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .compare import (
+from .comparison import (
     ChannelMismatch,
     Comparison,
     Thresholds,
@@ -214,7 +214,7 @@ def check(
 
     ``statistical`` (or a scene's ``[check] statistical = true``) renders ``runs`` times with
     independent seeds and compares with a z-test against the reference's variances
-    (:func:`gshade.compare.z_test`) instead of thresholds: for noisy ``lit`` renders across
+    (:func:`gshade.comparison.z_test`) instead of thresholds: for noisy ``lit`` renders across
     machines or variants."""
     references = Path(references)
     if not references.is_dir():

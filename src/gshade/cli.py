@@ -133,7 +133,7 @@ def _render(args: argparse.Namespace) -> int:
 def _compare(args: argparse.Namespace) -> int:
     import json
 
-    from .compare import (
+    from .comparison import (
         EXIT_STATUS,
         ChannelMismatch,
         Thresholds,
