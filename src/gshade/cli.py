@@ -91,6 +91,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     chk.set_defaults(run=_check)
 
+    bat = sub.add_parser("batch", help="render many scenes (and sweeps) into a folder")
+    bat.add_argument("scenes", nargs="+", help="scene files, folders or glob patterns")
+    bat.add_argument("-o", "--output", required=True, help="output folder")
+    bat.add_argument("-j", "--jobs", type=int, default=1, help="worker processes (default 1)")
+    bat.add_argument("--force", action="store_true", help="render even up-to-date outputs")
+    bat.add_argument(
+        "--sweep",
+        action="append",
+        default=[],
+        metavar="KEY=V1,V2,…",
+        help="render each scene once per value, e.g. "
+        "--sweep shape.function=isophotes,reflection_lines,gaussian (repeatable)",
+    )
+    bat.set_defaults(run=_batch)
+
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
@@ -191,6 +206,22 @@ def _check(args: argparse.Namespace) -> int:
     print(
         f"{len(results) - len(failed)} passed, {len(failed)} failed"
         + (f" ({written} references written)" if written else "")
+    )
+    return 0 if not failed else 2
+
+
+def _batch(args: argparse.Namespace) -> int:
+    from .batch import expand_scenes, parse_sweeps, plan_jobs, run_batch
+
+    jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
+    results = run_batch(jobs, args.output, workers=args.jobs, force=args.force)
+    failed = [r for r in results if r.status == "failed"]
+    for r in failed:
+        print(f"failed: {r.name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
+    counts = {s: sum(r.status == s for r in results) for s in ("rendered", "up to date")}
+    print(
+        f"{counts['rendered']} rendered, {counts['up to date']} up to date, "
+        f"{len(failed)} failed; manifest: {Path(args.output) / 'manifest.json'}"
     )
     return 0 if not failed else 2
 

@@ -23,7 +23,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 
-__all__ = ["atomic_write", "linear_to_srgb", "read_exr", "write_exr", "write_png"]
+__all__ = [
+    "atomic_write",
+    "linear_to_srgb",
+    "read_exr",
+    "read_exr_header",
+    "write_exr",
+    "write_png",
+]
 
 #: The first four bytes of every OpenEXR file.
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
@@ -279,6 +286,22 @@ def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], d
         channels[name] = np.ascontiguousarray(pixels, dtype=np.float32)
     header = {k: _plain(v) for k, v in raw_header.items() if k not in _STRUCTURAL}
     return channels, header
+
+
+def read_exr_header(path: str | os.PathLike) -> dict[str, object]:
+    """The header attributes of an OpenEXR file (as :func:`read_exr` returns them), without
+    reading the pixels."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            if f.read(4) != _EXR_MAGIC:
+                raise GshadeError(f"{path}: expected an OpenEXR file")
+        raw = OpenEXR.File(str(path), header_only=True).header()
+    except OSError as exc:
+        raise GshadeError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    except (RuntimeError, ValueError, TypeError) as exc:
+        raise GshadeError(f"{path}: cannot read the OpenEXR header: {exc}") from None
+    return {k: _plain(v) for k, v in raw.items() if k not in _STRUCTURAL}
 
 
 # --------------------------------------------------------------------------- PNG
