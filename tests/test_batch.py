@@ -105,3 +105,24 @@ def test_bad_batch_input(scenes, tmp_path):
     blocker.write_text("")
     result = cli(scenes, "-o", blocker / "sub")
     assert result.returncode == 2 and "cannot write to the output folder" in result.stderr
+
+
+def test_sweep_table_in_the_scene_file(scenes, tmp_path):
+    path = scenes / "swept.toml"
+    path.write_text(
+        'name = "swept"\n[[surface]]\ntype = "sphere"\n'
+        + SMALL
+        + '[sweep]\n"shape.form" = ["cos", "angle"]\n'
+        + "shape.light = [[0, 0, 1], [0, 1, 0]]\n"
+    )
+    jobs = plan_jobs([path], [])
+    assert len(jobs) == 4
+    assert jobs[0].name == "swept--form=cos--light=[0,0,1]"
+    # the command line adds sweeps and wins over the file's for the same key
+    jobs = plan_jobs([path], parse_sweeps(["shape.form=angle"]))
+    assert [dict(j.overrides)["shape.form"] for j in jobs] == ["angle", "angle"]
+    path.write_text('[[surface]]\ntype = "sphere"\n[sweep]\nfunction = ["mean"]\n')
+    from gshade.io import load_scene
+
+    with pytest.raises(GshadeError, match="expected a dotted scene key"):
+        load_scene(path)

@@ -114,21 +114,25 @@ def parse_sweeps(items: list[str]) -> list[tuple[str, list[object]]]:
 
 def _label(key: str, value: object) -> str:
     text = value if isinstance(value, str) else json.dumps(value, separators=(",", ""))
-    return re.sub(r"[^A-Za-z0-9._=+-]+", "_", f"{key.rsplit('.', 1)[-1]}={text}")
+    return re.sub(r"[^A-Za-z0-9._=+,\[\]-]+", "_", f"{key.rsplit('.', 1)[-1]}={text}")
 
 
 def plan_jobs(scenes: list[Path], sweeps: list[tuple[str, list[object]]]) -> list[Job]:
-    """Every scene with every combination of the sweep values (names checked unique)."""
+    """Every scene with every combination of its ``[sweep]`` values and the command line's
+    (names checked unique)."""
     from .io.scene import load_scene
 
     jobs = []
     for path in scenes:
         try:
-            base = load_scene(path).name
+            loaded = load_scene(path)
+            base, own = loaded.name, dict(loaded.sweep)
         except GshadeError:
-            base = None  # a broken scene fails on its own when run; the others go on
-        keys = [k for k, _ in sweeps]
-        for combo in itertools.product(*[v for _, v in sweeps]) if sweeps else [()]:
+            base, own = None, {}  # a broken scene fails on its own when run; the others go on
+        # the scene's [sweep] table, with the command line's sweeps added (and winning)
+        combined = {**own, **dict(sweeps)}
+        keys = list(combined)
+        for combo in itertools.product(*combined.values()) if combined else [()]:
             overrides = tuple(zip(keys, combo, strict=True))
             if base is not None and overrides:
                 load_scene(path, dict(overrides))  # a sweep over a bad key stops the batch

@@ -109,7 +109,7 @@ _SURFACE_KEYS = {
     "torus": ("major", "minor"),
     "cylinder": ("radius", "height"),
 }
-_TOP_KEYS = ("name", "surface", "shape", "camera", "render", "check")
+_TOP_KEYS = ("name", "surface", "shape", "camera", "render", "check", "sweep")
 _SHAPE_KEYS = (
     "function",
     "display",
@@ -244,6 +244,8 @@ class Scene:
     check: dict[str, Any]
     data_files: tuple[Path, ...]
     text_hash: str
+    #: ``[sweep]``: dotted scene key -> the values ``gshade batch`` renders the scene with
+    sweep: dict[str, tuple[Any, ...]] = field(default_factory=dict)
 
     @property
     def patches(self) -> tuple[Patch, ...]:
@@ -677,6 +679,28 @@ def _check(file: str, raw: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _sweep(file: str, raw: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, ...]]:
+    """``[sweep]``: dotted keys (quoted, ``"shape.function" = [...]``, or nested tables) to
+    non-empty lists of values; the keys are checked when a batch applies them."""
+    out: dict[str, tuple[Any, ...]] = {}
+    for key, value in raw.items():
+        dotted = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_sweep(file, value, f"{dotted}."))
+        elif isinstance(value, list) and value:
+            if "." not in dotted:
+                raise GshadeError(
+                    f"{file}: [sweep] {dotted}: expected a dotted scene key such as "
+                    f'"shape.function", got {dotted!r}'
+                )
+            out[dotted] = tuple(value)
+        else:
+            raise GshadeError(
+                f"{file}: [sweep] {dotted}: expected a non-empty list of values, got {_show(value)}"
+            )
+    return out
+
+
 # --------------------------------------------------------------------------- overrides
 
 
@@ -847,6 +871,7 @@ def _build(
     camera = _camera(file, _table(file, raw, "camera"))
     render = _render(file, _table(file, raw, "render"))
     check = _check(file, _table(file, raw, "check"))
+    sweep = _sweep(file, _table(file, raw, "sweep"))
     surfaces, data_files = [], []
     for index, table in enumerate(tables, start=1):
         surface, data_file = _surface(file, index, table, base)
@@ -863,6 +888,7 @@ def _build(
         check=check,
         data_files=tuple(data_files),
         text_hash=_hash(raw, data_files),
+        sweep=sweep,
     )
 
 
