@@ -106,6 +106,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bat.set_defaults(run=_batch)
 
+    fig = sub.add_parser("figure", help="a multi-panel figure from a figure spec")
+    fig.add_argument("spec", help="figure spec (TOML)")
+    fig.add_argument("-o", "--output", required=True, help="OUT.png, OUT.pdf or OUT.svg")
+    fig.set_defaults(run=_figure)
+
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
@@ -224,6 +229,14 @@ def _batch(args: argparse.Namespace) -> int:
         f"{len(failed)} failed; manifest: {Path(args.output) / 'manifest.json'}"
     )
     return 0 if not failed else 2
+
+
+def _figure(args: argparse.Namespace) -> int:
+    from .figure import load_figure_spec, make_figure
+
+    path = make_figure(load_figure_spec(args.spec), args.output)
+    print(f"{path}")
+    return 0
 
 
 def _info(args: argparse.Namespace) -> int:
