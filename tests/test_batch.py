@@ -126,3 +126,54 @@ def test_sweep_table_in_the_scene_file(scenes, tmp_path):
 
     with pytest.raises(GshadeError, match="expected a dotted scene key"):
         load_scene(path)
+
+
+def test_dask_cluster_gives_the_same_outputs_as_a_local_run(scenes, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    jobs = plan_jobs(expand_scenes([str(scenes)]), [])
+    local = run_batch(jobs, tmp_path / "local", workers=1)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        remote = run_batch(jobs, tmp_path / "dask", scheduler=cluster.scheduler_address)
+    assert [r.status for r in remote] == [r.status for r in local] == ["rendered"] * 2
+    for job in jobs:
+        a, _ = read_exr(tmp_path / "local" / f"{job.name}.exr")
+        b, _ = read_exr(tmp_path / "dask" / f"{job.name}.exr")
+        assert all(np.array_equal(a[c], b[c]) for c in a)
+
+
+def test_unreachable_scheduler_is_one_line(scenes, tmp_path):
+    pytest.importorskip("distributed")
+    result = cli(scenes, "-o", tmp_path / "o", "--scheduler", "tcp://127.0.0.1:9")
+    assert result.returncode == 2
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_an_interrupted_batch_leaves_no_partial_files(scenes, tmp_path):
+    import signal
+    import time
+
+    for k in range(6):
+        (scenes / f"more{k}.toml").write_text(
+            f'name = "more{k}"\n[[surface]]\ntype = "torus"\n'
+            + SMALL.replace("width = 48", "width = 400").replace("height = 36", "height = 300")
+        )
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "gshade.cli", "batch", str(scenes), "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.time() + 60
+    while time.time() < deadline and not list(out.glob("*.exr")):
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode != 0
+    assert "Traceback" not in err
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".")]  # no temporaries
+    for exr in out.glob("*.exr"):
+        read_exr(exr)  # every output there is whole

@@ -224,8 +224,12 @@ def run_batch(
     workers: int = 1,
     force: bool = False,
     progress: bool | None = None,
+    scheduler: str | None = None,
 ) -> list[JobResult]:
-    """Run the jobs in ``workers`` processes (1: in this process), writing manifest.json."""
+    """Run the jobs in ``workers`` processes (1: in this process), or on the Dask cluster at
+    ``scheduler`` (``tcp://host:port``; needs ``gshade[dask]``), writing manifest.json.
+
+    The output folder must be reachable under the same path from every worker."""
     from tqdm import tqdm
 
     out = Path(folder)
@@ -249,8 +253,17 @@ def run_batch(
         else:
             results.append(state)
             bar.update()
+    client = _dask_client(scheduler) if scheduler else None
     try:
-        if workers == 1 or len(todo) <= 1:
+        if client is not None:
+            try:
+                futures = client.map(render_job, todo, folder=str(out), pure=False)
+                for _, result in _dask_as_completed(futures):
+                    results.append(result)
+                    bar.update()
+            finally:
+                client.close()
+        elif workers == 1 or len(todo) <= 1:
             for job in todo:
                 results.append(render_job(job, str(out)))
                 bar.update()
@@ -274,6 +287,29 @@ def run_batch(
         results.sort(key=lambda r: order.get(r.name, 0))
         _write_manifest(out, jobs, results)
     return results
+
+
+def _dask_client(address: str):
+    """A Dask client for the scheduler at ``address``; a clear error if Dask is missing or
+    the scheduler cannot be reached."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise GshadeError(
+            '--scheduler: Dask\'s distributed package is not installed (pip install "gshade[dask]")'
+        ) from None
+    try:
+        return Client(address, timeout="10s", set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise GshadeError(
+            f"--scheduler: cannot reach the Dask scheduler at {address} ({exc})"
+        ) from None
+
+
+def _dask_as_completed(futures):
+    """The futures' results, in submission order (the client need not be the default)."""
+    for future in futures:
+        yield future, future.result()
 
 
 def _write_manifest(out: Path, jobs: list[Job], results: list[JobResult]) -> None:

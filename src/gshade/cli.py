@@ -104,6 +104,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="render each scene once per value, e.g. "
         "--sweep shape.function=isophotes,reflection_lines,gaussian (repeatable)",
     )
+    bat.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help='run on an existing Dask cluster, e.g. tcp://host:8786 (pip install "gshade[dask]")',
+    )
     bat.set_defaults(run=_batch)
 
     fig = sub.add_parser("figure", help="a multi-panel figure from a figure spec")
@@ -219,7 +224,9 @@ def _batch(args: argparse.Namespace) -> int:
     from .batch import expand_scenes, parse_sweeps, plan_jobs, run_batch
 
     jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
-    results = run_batch(jobs, args.output, workers=args.jobs, force=args.force)
+    results = run_batch(
+        jobs, args.output, workers=args.jobs, force=args.force, scheduler=args.scheduler
+    )
     failed = [r for r in results if r.status == "failed"]
     for r in failed:
         print(f"failed: {r.name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
@@ -320,6 +327,9 @@ def main(argv: list[str] | None = None) -> int:
     except GshadeError as exc:
         print(f"gshade: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # outputs are written atomically: nothing partial is left
+        print("gshade: interrupted", file=sys.stderr)
+        return 130
 
 
 def console() -> None:
