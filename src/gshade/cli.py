@@ -116,6 +116,20 @@ def build_parser() -> argparse.ArgumentParser:
     fig.add_argument("-o", "--output", required=True, help="OUT.png, OUT.pdf or OUT.svg")
     fig.set_defaults(run=_figure)
 
+    cont = sub.add_parser("continuity", help="measure and classify the patch junctions")
+    cont.add_argument("scene", help="scene file (TOML)")
+    cont.add_argument("--json", action="store_true", help="print JSON")
+    cont.add_argument("--samples", type=int, default=32, help="samples per junction")
+    for order, unit in (
+        ("g0", "length"),
+        ("g1", "degrees"),
+        ("g2", "1/length"),
+        ("g3", "1/length^2"),
+    ):
+        cont.add_argument(f"--tol-{order}", type=float, help=f"{order.upper()} tolerance ({unit})")
+    cont.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    cont.set_defaults(run=_continuity)
+
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
@@ -243,6 +257,47 @@ def _figure(args: argparse.Namespace) -> int:
 
     path = make_figure(load_figure_spec(args.spec), args.output)
     print(f"{path}")
+    return 0
+
+
+def _continuity(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from .continuity import Tolerances, continuity_report
+    from .io.scene import load_scene
+
+    scene = load_scene(args.scene, _scene_overrides(args))
+    patches = list(scene.patches)
+    pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+    tol = Tolerances.for_size(
+        float(np.linalg.norm(np.ptp(pts, axis=0))),
+        g0=args.tol_g0,
+        g1=args.tol_g1,
+        g2=args.tol_g2,
+        g3=args.tol_g3,
+    )
+    report = continuity_report(patches, samples=args.samples, tolerances=tol)
+    if args.json:
+        print(
+            json.dumps(
+                {"junctions": [j.as_dict() for j in report], "tolerances": tol.__dict__}, indent=2
+            )
+        )
+        return 0
+    print(
+        f"{'patches':>10}  {'sides':>7}  class  {'gap':>9}  {'angle(deg)':>10}  "
+        f"{'curv.jump':>9}  {'grad.jump':>9}"
+    )
+    for j in report:
+        print(
+            f"{j.patches[0]:>4} {j.patches[1]:>4}  {j.sides[0]}-{j.sides[1]}  {j.cls:>5}  "
+            f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
+            f"{j.curvature_gradient_jump:9.2e}"
+        )
+    counts = {c: sum(j.cls == c for j in report) for c in ("G3", "G2", "G1", "G0", "none")}
+    print(f"{len(report)} junctions: " + ", ".join(f"{n} {c}" for c, n in counts.items() if n))
     return 0
 
 
