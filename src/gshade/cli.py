@@ -393,9 +393,15 @@ def console() -> None:
     Everything is written and closed by then; tearing down Mitsuba's JIT, numba's threads and
     the modules would add about 0.4 s to every command (measured), for nothing.
     """
-    status = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
+    try:
+        status = main()
+        sys.stdout.flush()
+    except BrokenPipeError:  # e.g. `gshade continuity … | head`: the reader left early
+        status = 0
+    try:
+        sys.stderr.flush()
+    except BrokenPipeError:
+        pass
     os._exit(status)
 
 
