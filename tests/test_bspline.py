@@ -11,6 +11,16 @@ from gshade.geometry.knots import basis_functions
 from .conftest import interior_parameters, knot_vectors, random_net
 
 
+def random_patch(data, rng, p: int, q: int, rational: bool, extra: int) -> BSplinePatch:
+    """A B-spline patch of degrees (p, q) with up to ``extra`` more control points per
+    direction than the minimum, random knots (clamped or not) and a random net."""
+    nu, nv = p + 1 + data.draw(st.integers(0, extra)), q + 1 + data.draw(st.integers(0, extra))
+    U = data.draw(knot_vectors(p, nu))
+    V = data.draw(knot_vectors(q, nv))
+    P, W = random_net(rng, (nu, nv), rational)
+    return BSplinePatch(P, (p, q), (U, V), W)
+
+
 @settings(max_examples=50, deadline=None)
 @given(data=st.data(), p=st.integers(1, 4), extra=st.integers(0, 6))
 def test_basis_is_a_partition_of_unity(data, p, extra):
@@ -34,11 +44,8 @@ def test_basis_is_a_partition_of_unity(data, p, extra):
 )
 def test_patch_derivatives_match_finite_differences(data, p, q, rational, seed):
     rng = np.random.default_rng(seed)
-    nu, nv = p + 1 + data.draw(st.integers(0, 4)), q + 1 + data.draw(st.integers(0, 4))
-    U = data.draw(knot_vectors(p, nu))
-    V = data.draw(knot_vectors(q, nv))
-    P, W = random_net(rng, (nu, nv), rational)
-    patch = BSplinePatch(P, (p, q), (U, V), W)
+    patch = random_patch(data, rng, p, q, rational, extra=4)
+    U, V = patch.knots
     u = interior_parameters(rng, patch.domain[0], 8)
     v = interior_parameters(rng, patch.domain[1], 8)
     # finite differences are only valid inside a knot span: nudge off the knots
@@ -89,11 +96,8 @@ def test_curve_derivatives_match_finite_differences(data, p, rational, seed):
 )
 def test_knot_insertion_leaves_the_surface_unchanged(data, p, q, rational, seed):
     rng = np.random.default_rng(seed)
-    nu, nv = p + 1 + data.draw(st.integers(0, 3)), q + 1 + data.draw(st.integers(0, 3))
-    U = data.draw(knot_vectors(p, nu))
-    V = data.draw(knot_vectors(q, nv))
-    P, W = random_net(rng, (nu, nv), rational)
-    patch = BSplinePatch(P, (p, q), (U, V), W)
+    patch = random_patch(data, rng, p, q, rational, extra=3)
+    (nu, nv), V = patch.points.shape[:2], patch.knots[1]
     t_u = float(interior_parameters(rng, patch.domain[0], 1)[0])
     t_v = float(
         np.unique(V[(V > patch.domain[1][0]) & (V < patch.domain[1][1])])[0]
@@ -118,11 +122,8 @@ def test_knot_insertion_leaves_the_surface_unchanged(data, p, q, rational, seed)
 )
 def test_bezier_extraction_leaves_the_surface_unchanged(data, p, q, rational, seed):
     rng = np.random.default_rng(seed)
-    nu, nv = p + 1 + data.draw(st.integers(0, 3)), q + 1 + data.draw(st.integers(0, 3))
-    U = data.draw(knot_vectors(p, nu))
-    V = data.draw(knot_vectors(q, nv))
-    P, W = random_net(rng, (nu, nv), rational)
-    patch = BSplinePatch(P, (p, q), (U, V), W)
+    patch = random_patch(data, rng, p, q, rational, extra=3)
+    U = patch.knots[0]
     pieces = patch.bezier_patches()
     spans_u = len(np.unique(U[(U >= patch.domain[0][0]) & (U <= patch.domain[0][1])])) - 1
     assert len(pieces) == spans_u
