@@ -297,7 +297,8 @@ def _continuity(args: argparse.Namespace) -> int:
             f"{j.curvature_gradient_jump:9.2e}"
         )
     counts = {c: sum(j.cls == c for j in report) for c in ("G3", "G2", "G1", "G0", "none")}
-    print(f"{len(report)} junctions: " + ", ".join(f"{n} {c}" for c, n in counts.items() if n))
+    summary = ", ".join(f"{n} {c}" for c, n in counts.items() if n)
+    print(f"{len(report)} junctions" + (f": {summary}" if summary else ""))
     return 0
 
 

@@ -14,6 +14,7 @@ from .differential import (
     second_fundamental_form,
     unit_normal,
 )
+from .geometric_splines import BetaSplineCurve, BetaSplinePatch
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
 from .revolution import circle, cylinder, revolve, sphere, torus
@@ -21,6 +22,8 @@ from .revolution import circle, cylinder, revolve, sphere, torus
 __all__ = [
     "BSplineCurve",
     "BSplinePatch",
+    "BetaSplineCurve",
+    "BetaSplinePatch",
     "BezierCurve",
     "BezierPatch",
     "CoonsPatch",

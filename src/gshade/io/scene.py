@@ -65,6 +65,7 @@ else:  # pragma: no cover
 
 from ..errors import GshadeError
 from ..geometry import (
+    BetaSplinePatch,
     BezierCurve,
     BezierPatch,
     BSplinePatch,
@@ -93,7 +94,16 @@ __all__ = [
     "parse_scene",
 ]
 
-SURFACE_TYPES = ("newell", "bezier", "bspline", "coons", "sphere", "torus", "cylinder")
+SURFACE_TYPES = (
+    "newell",
+    "bezier",
+    "bspline",
+    "coons",
+    "sphere",
+    "torus",
+    "cylinder",
+    "betaspline",
+)
 DISPLAYS = ("stripes", "colormap", "both")
 LIGHTINGS = ("lit", "flat")
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
@@ -108,6 +118,7 @@ _SURFACE_KEYS = {
     "sphere": ("radius",),
     "torus": ("major", "minor"),
     "cylinder": ("radius", "height"),
+    "betaspline": ("points", "beta1", "beta2"),
 }
 _TOP_KEYS = ("name", "surface", "shape", "camera", "render", "check", "sweep")
 _SHAPE_KEYS = (
@@ -510,6 +521,12 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
                     curves[key] = BezierCurve(points)
         with reported:
             patches = [CoonsPatch(**curves)]
+    elif kind == "betaspline":
+        points = t.array("points", _NET, 3)
+        beta1 = t.number("beta1", 1.0, lo=0)
+        beta2 = t.number("beta2", 0.0, lo=0, closed=True)
+        with reported:
+            patches = [BetaSplinePatch(points, beta1, beta2)]
     elif kind == "sphere":
         radius = t.number("radius", 1.0, lo=0)
         patches = [sphere(radius)]
