@@ -72,3 +72,57 @@ def test_not_c2_in_general():
 def test_bad_shape_parameters(make, message):
     with pytest.raises(GshadeError, match=message):
         make()
+
+
+def test_nu_zero_is_the_c2_interpolating_spline():
+    from scipy.interpolate import CubicSpline
+
+    from gshade.geometry import nu_spline
+
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(7, 3))
+    u = np.concatenate([[0.0], np.cumsum(rng.uniform(0.5, 2.0, 6))])
+    t = np.linspace(u[0], u[-1], 101)
+    np.testing.assert_allclose(
+        nu_spline(a, u)(t), CubicSpline(u, a, bc_type="natural")(t), atol=1e-12
+    )
+    b0, bn = rng.normal(size=3), rng.normal(size=3)
+    clamped = CubicSpline(u, a, bc_type=((1, b0), (1, bn)))
+    np.testing.assert_allclose(nu_spline(a, u, end_tangents=(b0, bn))(t), clamped(t), atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), tension=st.floats(0.0, 50.0))
+def test_nu_splines_interpolate_and_are_g2_with_the_given_tension(seed, tension):
+    from gshade.geometry import nu_spline
+
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(6, 2))
+    u = np.concatenate([[0.0], np.cumsum(rng.uniform(0.3, 2.0, 5))])
+    nu = rng.uniform(0, tension, 6)
+    curve = nu_spline(a, u, nu)
+    np.testing.assert_allclose(curve(u), a, atol=1e-12)
+    for i in range(1, 5):
+        left, right = one_sided(curve, u[i])
+        np.testing.assert_allclose(right[1], left[1], atol=1e-9 * (1 + np.abs(left[1]).max()))
+        np.testing.assert_allclose(
+            right[2], left[2] + nu[i] * left[1], atol=1e-8 * (1 + np.abs(right[2]).max())
+        )
+
+
+def test_tension_pulls_the_curve_to_the_polyline_and_bad_input():
+    from gshade.geometry import nu_spline
+
+    a = np.array([[0, 0], [1, 1], [2, 0], [3, 1.0]])
+    knots = np.array([1.0, 2.0])
+    loose, tight = nu_spline(a, nu=0.0), nu_spline(a, nu=1e4)
+    # great tension: the tangents at the interior points shrink, the curve turns there
+    slow = np.linalg.norm(tight.derivatives(knots, 1)[1], axis=-1)
+    fast = np.linalg.norm(loose.derivatives(knots, 1)[1], axis=-1)
+    assert np.all(slow < 1e-3 * fast)
+    with pytest.raises(GshadeError, match="knots: expected 4 increasing numbers"):
+        nu_spline(a, knots=[0, 1, 1, 2])
+    with pytest.raises(GshadeError, match="nu: expected numbers >= 0"):
+        nu_spline(a, nu=-1.0)
+    with pytest.raises(GshadeError, match="at least 2"):
+        nu_spline(a[:1])

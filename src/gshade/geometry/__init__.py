@@ -14,7 +14,7 @@ from .differential import (
     second_fundamental_form,
     unit_normal,
 )
-from .geometric_splines import BetaSplineCurve, BetaSplinePatch
+from .geometric_splines import BetaSplineCurve, BetaSplinePatch, nu_spline
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
 from .revolution import circle, cylinder, revolve, sphere, torus
@@ -39,6 +39,7 @@ __all__ = [
     "gaussian_curvature",
     "irregular_mask",
     "mean_curvature",
+    "nu_spline",
     "patch_normals",
     "principal_curvatures",
     "regularised_derivatives",

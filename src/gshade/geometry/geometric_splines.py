@@ -1,4 +1,14 @@
-"""Geometric spline curves and patches (Kiciak §2.3): Barsky's β-splines.
+"""Geometric spline curves and patches (Kiciak §2.3): Nielson's ν-splines, Barsky's β-splines.
+
+ν-splines (Kiciak eq. 2.15): cubic Hermite arcs through points a_0..a_N at knots
+u_0 < ... < u_N whose tangents b_i make p''(u_i+) = p''(u_i-) + ν_i p'(u_i) (G2 with t1 = 1,
+t2 = ν_i), i.e. with h_i = u_(i+1) - u_i the tridiagonal system
+
+    h_i b_(i-1) + (2 (h_(i-1) + h_i) + h_(i-1) h_i ν_i / 2) b_i + h_(i-1) b_(i+1)
+        = 3 (h_i / h_(i-1) (a_i - a_(i-1)) + h_(i-1) / h_i (a_(i+1) - a_i)),
+
+closed by natural ends (p'' = 0) or given end tangents.  ν_i = 0 gives the C2 interpolating
+cubic spline; larger ν_i pull the curve toward the polyline near a_i.
 
 A cubic β-spline s(t) = sum_i d_i B_i(t) joins its polynomial arcs with G2 continuity for a
 bias β1 > 0 and a tension β2 >= 0 (Kiciak's connection parameters t1 = β1, t2 = β2): at every
@@ -24,7 +34,71 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import GshadeError
 from .patch import BasisCurve, TensorProductPatch, check_points
 
-__all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch"]
+__all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch", "nu_spline"]
+
+
+def nu_spline(
+    points: ArrayLike,
+    knots: ArrayLike | None = None,
+    nu: ArrayLike = 0.0,
+    end_tangents: tuple[ArrayLike, ArrayLike] | None = None,
+):
+    """Nielson's ν-spline through ``points`` as a piecewise cubic B-spline curve.
+
+    Parameters
+    ----------
+    points : array_like, shape (N + 1, dim), N >= 1
+        The points a_i to interpolate.
+    knots : array_like, shape (N + 1,), optional
+        Increasing parameters u_i (default 0, 1, ..., N).
+    nu : float or array_like, shape (N + 1,)
+        Tensions ν_i >= 0 at the knots (the end values are not used).
+    end_tangents : (b_0, b_N), optional
+        Given end tangents; by default natural ends (p'' = 0 there).
+
+    Returns
+    -------
+    BSplineCurve
+        Degree 3 with triple interior knots: each arc is one Bézier segment
+        (a_i, a_i + h_i b_i / 3, a_(i+1) - h_i b_(i+1) / 3, a_(i+1)).
+    """
+    from scipy.linalg import solve_banded
+
+    from .bspline import BSplineCurve
+
+    a = check_points(points, 1, "ν-spline", min_count=2)
+    n = a.shape[0] - 1
+    u = np.arange(n + 1.0) if knots is None else np.asarray(knots, dtype=np.float64)
+    if u.shape != (n + 1,) or not np.all(np.diff(u) > 0):
+        raise GshadeError(f"knots: expected {n + 1} increasing numbers, got {knots!r}")
+    v = np.broadcast_to(np.asarray(nu, dtype=np.float64), (n + 1,))
+    if not np.all(np.isfinite(v) & (v >= 0)):
+        raise GshadeError(f"nu: expected numbers >= 0, got {nu!r}")
+    h = np.diff(u)
+    da = np.diff(a, axis=0)
+    ab = np.zeros((3, n + 1))  # banded: super-, main and sub-diagonal
+    rhs = np.zeros_like(a)
+    if end_tangents is None:  # natural ends: 2 b_0 + b_1 = 3 da_0 / h_0, and mirrored
+        ab[1, 0], ab[0, 1], rhs[0] = 2.0, 1.0, 3 * da[0] / h[0]
+        ab[1, n], ab[2, n - 1], rhs[n] = 2.0, 1.0, 3 * da[-1] / h[-1]
+    else:
+        b0, bn = (np.asarray(b, dtype=np.float64) for b in end_tangents)
+        if b0.shape != a.shape[1:] or bn.shape != a.shape[1:]:
+            raise GshadeError(f"end_tangents: expected two vectors of length {a.shape[1]}")
+        ab[1, 0], rhs[0] = 1.0, b0
+        ab[1, n], rhs[n] = 1.0, bn
+    for i in range(1, n):
+        ab[2, i - 1] = h[i]  # coefficient of b_(i-1) in row i
+        ab[1, i] = 2 * (h[i - 1] + h[i]) + h[i - 1] * h[i] * v[i] / 2
+        ab[0, i + 1] = h[i - 1]  # coefficient of b_(i+1) in row i
+        rhs[i] = 3 * (h[i] / h[i - 1] * da[i - 1] + h[i - 1] / h[i] * da[i])
+    b = solve_banded((1, 1), ab, rhs)
+    net = np.empty((3 * n + 1, a.shape[1]))
+    net[0::3] = a
+    net[1::3] = a[:-1] + (h[:, None] / 3) * b[:-1]
+    net[2::3] = a[1:] - (h[:, None] / 3) * b[1:]
+    knot_vector = np.concatenate([[u[0]] * 4, np.repeat(u[1:-1], 3), [u[-1]] * 4])
+    return BSplineCurve(net, 3, knot_vector)
 
 
 def _check_shape(beta1: float, beta2: float) -> tuple[float, float]:
