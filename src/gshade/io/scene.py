@@ -75,6 +75,7 @@ from ..geometry import (
     sphere,
     torus,
 )
+from ..geometry.junctions import junction_patch
 from ..shape.functions import SHAPE_FUNCTIONS
 from .newell import read_newell
 
@@ -103,6 +104,7 @@ SURFACE_TYPES = (
     "torus",
     "cylinder",
     "betaspline",
+    "junction",
 )
 DISPLAYS = ("stripes", "colormap", "both")
 LIGHTINGS = ("lit", "flat")
@@ -119,6 +121,7 @@ _SURFACE_KEYS = {
     "torus": ("major", "minor"),
     "cylinder": ("radius", "height"),
     "betaspline": ("points", "beta1", "beta2"),
+    "junction": ("points", "continuity", "alpha", "beta", "gamma", "delta", "epsilon", "zeta"),
 }
 _TOP_KEYS = ("name", "surface", "shape", "camera", "render", "check", "sweep")
 _SHAPE_KEYS = (
@@ -521,6 +524,23 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
                     curves[key] = BezierCurve(points)
         with reported:
             patches = [CoonsPatch(**curves)]
+    elif kind == "junction":
+        points = t.array("points", _NET, 3)
+        continuity = t.choice("continuity", ("G0", "G1", "G2", "G3"))
+        connection = {
+            key: t.number(key, default)
+            for key, default in (
+                ("alpha", 0.0),
+                ("beta", 1.0),
+                ("gamma", 0.0),
+                ("delta", 0.0),
+                ("epsilon", 0.0),
+                ("zeta", 0.0),
+            )
+        }
+        with reported:
+            first = BezierPatch(points)
+            patches = [first, junction_patch(first, continuity, **connection)]
     elif kind == "betaspline":
         points = t.array("points", _NET, 3)
         beta1 = t.number("beta1", 1.0, lo=0)
