@@ -198,3 +198,17 @@ def test_grid_path_equals_scattered_path(rational):
     grid = patch.derivatives(u[:, None], v[None, :], 3)
     uu, vv = np.meshgrid(u, v, indexing="ij")
     np.testing.assert_allclose(grid, patch.derivatives(uu + 0, vv + 0, 3), atol=1e-9)
+
+
+def test_out_buffer_is_filled_in_place():
+    rng = np.random.default_rng(4)
+    U = [0, 0, 0, 0, 0.4, 1, 1, 1, 1]
+    patch = BSplinePatch(rng.normal(size=(5, 5, 3)), (3, 3), (U, U))
+    t = np.linspace(0, 1, 30)
+    fresh = patch.derivatives(t[:, None], t[None, :], 2)
+    reused = patch.derivatives(t[:, None], t[None, :], 2)
+    assert patch.derivatives(t[:, None], t[None, :], 2, out=reused) is reused
+    np.testing.assert_array_equal(reused, fresh)
+    plain = np.zeros((3, 3, 30, 30, 3))  # another layout: filled by one copy
+    patch.derivatives(t[:, None], t[None, :], 2, out=plain)
+    np.testing.assert_array_equal(plain, fresh)

@@ -263,11 +263,9 @@ def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
 def _picture(channels: dict) -> str | None:
     if not all(c in channels for c in "RGB"):
         return None
-    a = channels.get("A")
-    rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
-    if a is not None:
-        rgb = rgb / np.where(a > 0, a, 1.0)[..., None]
-    return _png_data(rgb, a)
+    from .image import straight_rgb
+
+    return _png_data(straight_rgb(channels), channels.get("A"))
 
 
 def _diff_picture(comparison: Comparison) -> str:

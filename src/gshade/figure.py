@@ -147,7 +147,7 @@ def _display_rgb(image) -> np.ndarray:
     from .io.image import linear_to_srgb
 
     a = image.alpha[..., None]
-    rgb = image.rgb / np.where(a > 0, a, 1.0)
+    rgb = image.straight_rgb
     return np.clip(linear_to_srgb(np.clip(rgb, 0, 1)) * a + (1 - a), 0, 1)
 
 

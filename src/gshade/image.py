@@ -17,9 +17,18 @@ from numpy.typing import NDArray
 
 from .shape import Legend
 
-__all__ = ["CHANNELS", "RenderedImage"]
+__all__ = ["CHANNELS", "RenderedImage", "straight_rgb"]
 
 CHANNELS = ("R", "G", "B", "A", "f", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "u", "v", "patch")
+
+
+def straight_rgb(channels: dict[str, NDArray]) -> NDArray[np.float64]:
+    """R, G, B divided by A where A > 0 (EXR colour is premultiplied by the coverage)."""
+    rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
+    a = channels.get("A")
+    if a is None:
+        return rgb
+    return rgb / np.where(a > 0, a, 1.0)[..., None]
 
 
 @dataclass
@@ -43,6 +52,11 @@ class RenderedImage:
     def alpha(self) -> NDArray[np.float32]:
         return self.channels["A"]
 
+    @property
+    def straight_rgb(self) -> NDArray[np.float64]:
+        """The picture not premultiplied by the coverage (for PNGs and figures)."""
+        return straight_rgb(self.channels)
+
     def __getitem__(self, name: str) -> NDArray[np.float32]:
         return self.channels[name]
 
@@ -56,6 +70,4 @@ class RenderedImage:
         """Write the picture as an sRGB PNG with alpha, atomically."""
         from .io.image import write_png
 
-        a = self.alpha
-        rgb = self.rgb / np.where(a > 0, a, 1.0)[..., None]  # un-premultiply for PNG
-        write_png(path, rgb, a)
+        write_png(path, self.straight_rgb, self.alpha)

@@ -129,11 +129,11 @@ class Patch(ABC):
             for start in range(0, uf.size, _CHUNK):
                 sl = slice(start, start + _CHUNK)
                 flat[:, :, :, sl] = self._derivatives_points(uf[sl], vf[sl], order)
-        result = np.moveaxis(buf, 2, -1)
-        if out is not None and result is not out:
-            out[...] = result
-            return out
-        return result
+        if out is None:
+            return np.moveaxis(buf, 2, -1)
+        if not np.shares_memory(buf, out):  # ``out`` had another layout: copy once
+            out[...] = np.moveaxis(buf, 2, -1)
+        return out
 
     def derivatives_grid(self, u: ArrayLike, v: ArrayLike, order: int = 0) -> NDArray:
         """Derivatives on the grid u x v (1-D arrays): shape (order+1, order+1, Nu, Nv, 3)."""
