@@ -5,8 +5,8 @@ What is measured (wall-clock, ``time.perf_counter``; every render runs in a fres
 C   The command line end to end: ``gshade render scenes/teapot-isophotes.toml -o OUT.exr``
     (32 bicubic patches, 1024 x 768, 16 spp, ``llvm_ad_rgb``, lit) as a subprocess, from its
     start to its exit (the EXR written), and the same with ``--set render.lighting=flat``.
-    The kernel caches are warm: one untimed run of each before the timed rounds (numba caches
-    in ``src/gshade/shape/__pycache__``, Dr.Jit in ``~/.drjit``).  Median of 5 rounds
+    The kernel caches are warm: one untimed run of each before the timed rounds (Dr.Jit caches
+    its kernels, Mitsuba's and gshade's, in ``~/.drjit``).  Median of 5 rounds
     (``--quick``: 2), the runs interleaved (lit, flat, and the stage runs of S, in turn).
     Peak memory: the child's ``ru_maxrss`` (``os.wait4``).
 S   Where the time goes.  A fresh Python process does what the command does, in process:
@@ -398,7 +398,7 @@ def measure_end_to_end(repeats: int, tmp: Path) -> list[EndToEnd]:
         run = run_process(stage_command(SCENE, fresh(exr), warm, case.extra[1:]))
         return checked(run, f"stage run {case.label}", exr).result()
 
-    for case in cases:  # warm-up: kernel caches (numba, Dr.Jit), file cache; untimed
+    for case in cases:  # warm-up: kernel caches (Dr.Jit), file cache; untimed
         cli(case)
         stage(case, 0)
     for _ in range(repeats):
@@ -709,18 +709,9 @@ def main(argv: list[str] | None = None) -> int:
         sizes = [g for g in SCALE_GRIDS if g[0] * g[1] <= args.max_patches]
         scale = measure_scale(args.scale_repeats, tmp, sizes)
 
-    import numba
-
     info = machine_info(
-        [
-            f"mitsuba {version('mitsuba')}",
-            f"drjit {version('drjit')}",
-            f"numba {numba.__version__}",
-        ],
-        [
-            f"numba NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}; "
-            "Dr.Jit: its default thread pool (all cores); children inherit this environment"
-        ],
+        [f"mitsuba {version('mitsuba')}", f"drjit {version('drjit')}"],
+        ["Dr.Jit: its default thread pool (all cores); children inherit this environment"],
     )
     lit = cases[0]
     tables = [

@@ -16,9 +16,11 @@ D   Informational: the derivatives themselves, ``patch.derivatives(u, v, 3)`` on
     (``out=buffer``).
 
 The patch is a gently curved height field: control points (i, j, z_ij), i, j = 0..3, with
-z_ij uniform in [0, 0.5) (fixed seed).  The shape functions are numba kernels cached on
-disk; one untimed call per function loads (or compiles) them before the timing, and the
-first call's time is reported.  All functions are timed interleaved (one call of each per
+z_ij uniform in [0, 0.5) (fixed seed).  The shape functions run as Dr.Jit LLVM kernels
+cached on disk (the default backend wherever a libLLVM >= 17 is found); one untimed call per
+function loads (or compiles) them before the timing, and the first call's time is reported.
+The same formulas on the numpy backend (the fallback without a usable LLVM) are timed beside
+them, with fewer repeats, for comparison.  All functions are timed interleaved (one call of each per
 repeat), so that they see the same machine state; the derivative rows are timed apart.
 Before timing, the results are checked: f, the gradient and the derivatives must be
 finite everywhere (no NaN), and the ``out=`` derivatives must equal the fresh ones.
@@ -48,7 +50,6 @@ from dataclasses import dataclass
 # An explicit OPENBLAS_NUM_THREADS in the environment wins, and the report records it.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numba
 import numpy as np
 from report import (
     RESULTS,
@@ -62,6 +63,7 @@ from report import (
 
 from gshade.geometry import BezierPatch
 from gshade.shape import SHAPE_FUNCTIONS, evaluate
+from gshade.shape.kernels import backend
 
 GRID = 1000  # parameter values per direction
 ORDER = 3  # derivative order computed: curvature (2) + 1 for its gradient
@@ -169,6 +171,7 @@ class Row:
     timing: Timing
     target_ms: float | None = None
     informational: bool = False
+    numpy: Timing | None = None
 
     def cells(self) -> list[str]:
         if self.informational:
@@ -184,12 +187,22 @@ class Row:
             self.order,
             f"{self.timing.median_ms:.1f}",
             self.timing.spread_ms,
+            "-" if self.numpy is None else f"{self.numpy.median_ms:.0f}",
             target,
             met,
         ]
 
 
-COLUMNS = ["Function", "Form", "Order", "Median (ms)", "Spread (min-max ms)", "Target", "Met"]
+COLUMNS = [
+    "Function",
+    "Form",
+    "Order",
+    "Median (ms)",
+    "Spread (min-max ms)",
+    "numpy backend (ms)",
+    "Target",
+    "Met",
+]
 
 
 def section(info: dict[str, str], rows: list[Row], notes: list[str], args) -> str:
@@ -232,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
     d = patch.derivatives(u, v, ORDER)  # computed once; not part of the shape timings
     check_derivatives(d, patch.derivatives(u, v, ORDER, out=np.empty_like(d)))
 
-    # Warm-up: load each kernel (numba's on-disk cache, or compile) and check its result.
+    # Warm-up: load each kernel (Dr.Jit's on-disk cache, or compile) and check its result.
     cases = make_cases()
     first_ms, valid = {}, {}
     for case in cases:
@@ -245,7 +258,24 @@ def main(argv: list[str] | None = None) -> int:
     timings = time_interleaved(
         {c.label: (lambda c=c: evaluate(c.name, d, **c.params)) for c in cases}, args.repeats
     )
-    rows = [Row(c.name, c.form, str(c.order), timings[c.label], TARGET_MS[c.order]) for c in cases]
+    on_numpy = time_interleaved(
+        {
+            c.label: (lambda c=c: evaluate(c.name, d, backend="numpy", **c.params))
+            for c in cases
+        },
+        QUICK_REPEATS,
+    )
+    rows = [
+        Row(
+            c.name,
+            c.form,
+            str(c.order),
+            timings[c.label],
+            TARGET_MS[c.order],
+            numpy=on_numpy[c.label],
+        )
+        for c in cases
+    ]
 
     buffer = patch.derivatives(u, v, ORDER)
     t_d = time_interleaved(
@@ -261,13 +291,11 @@ def main(argv: list[str] | None = None) -> int:
         Row(call, "out=buffer", "-", t_d["out"], informational=True),
     ]
 
-    layer = numba.threading_layer()  # known only after a parallel kernel has run
+    import drjit as dr  # after gshade, which points it at a usable libLLVM
+
     info = machine_info(
-        [f"numba {numba.__version__}"],
-        [
-            f"numba: NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}, "
-            f"get_num_threads()={numba.get_num_threads()}, threading layer {layer!r}"
-        ],
+        [f"drjit {dr.__version__} (libLLVM {'.'.join(map(str, dr.detail.llvm_version()))})"],
+        [f"shape backend: {backend()}; Dr.Jit: {dr.thread_count()} threads"],
     )
     missed = [r.cells()[0] + f" ({r.form})" for r in rows if r.cells()[-1] == "NO"]
     first = max(first_ms, key=first_ms.get)
@@ -283,7 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         "`out=` derivatives equal the fresh ones.  Valid points: "
         + ", ".join(f"{k} {100 * x:.1f}%" for k, x in valid.items() if x < 1.0)
         + (" (all others 100%)." if any(x < 1.0 for x in valid.values()) else "all 100%."),
-        f"First (untimed) call, which loads the kernels from numba's cache or compiles them: "
+        f"First (untimed) call, which loads the kernels from Dr.Jit's cache or compiles them: "
         f"{first} {first_ms[first]:.0f} ms; the others "
         f"{min(first_ms.values()):.0f}-"
         f"{max(x for k, x in first_ms.items() if k != first):.0f} ms.",

@@ -13,10 +13,8 @@ import sys
 import numpy as np
 import gshade  # first: it points Dr.Jit at a usable LLVM
 import drjit as dr
-import numba
 threads = int(sys.argv[1])
 dr.set_thread_count(threads)
-numba.set_num_threads(threads)
 image = gshade.render(sys.argv[2], width=96, height=72, spp=4)
 np.savez(sys.argv[3], **image.channels)
 """

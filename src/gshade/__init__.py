@@ -11,7 +11,7 @@ images), ``gshade.rendering``, ``gshade.comparison`` and ``gshade.check``.
 __version__ = "0.1.0"
 
 from .errors import GshadeError
-from .rendering.variant import prepare_llvm
+from .llvm import prepare_llvm
 
 prepare_llvm()  # before anything imports Dr.Jit
 

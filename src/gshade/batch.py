@@ -214,7 +214,7 @@ def render_job(job: Job, folder: str) -> JobResult:
 
 
 def _warm_worker() -> None:
-    import gshade.rendering.pipeline  # noqa: F401  (imports numba and the kernels once)
+    import gshade.rendering.pipeline  # noqa: F401  (imports Mitsuba's side once)
 
 
 def run_batch(

@@ -391,8 +391,8 @@ def main(argv: list[str] | None = None) -> int:
 def console() -> None:
     """The ``gshade`` command: run, flush, and leave without the interpreter's finalisation.
 
-    Everything is written and closed by then; tearing down Mitsuba's JIT, numba's threads and
-    the modules would add about 0.4 s to every command (measured), for nothing.
+    Everything is written and closed by then; tearing down Mitsuba's JIT, its threads and the
+    modules would add about 0.4 s to every command (measured), for nothing.
     """
     try:
         status = main()

@@ -10,61 +10,25 @@ falls back to ``scalar_rgb`` with one warning.
 
 from __future__ import annotations
 
-import glob
 import os
-import re
-import sys
 import warnings
-from functools import cache, lru_cache
-from pathlib import Path
+from functools import cache
 
 from ..errors import GshadeError
+from ..llvm import MIN_LLVM, find_llvm, llvm_version, prepare_llvm
 
-__all__ = ["VARIANTS", "find_llvm", "llvm_version", "mitsuba", "resolve_variant", "select_variant"]
+__all__ = [
+    "MIN_LLVM",
+    "VARIANTS",
+    "find_llvm",
+    "llvm_version",
+    "mitsuba",
+    "prepare_llvm",
+    "resolve_variant",
+    "select_variant",
+]
 
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
-MIN_LLVM = 17
-
-
-def llvm_version(path: str | os.PathLike) -> int | None:
-    """Major version of a libLLVM from its file name (libLLVM.so.23.1, libLLVM-19.so, ...)."""
-    name = Path(path).name
-    match = re.match(r"libLLVM(?:-(\d+))?(?:[.\d]*)\.so(?:\.(\d+))?", name)
-    if not match:
-        return None
-    major = match.group(1) or match.group(2)
-    return int(major) if major else None
-
-
-def _candidates() -> list[str]:
-    prefixes = dict.fromkeys([sys.prefix, sys.base_prefix, "/usr/local", "/usr"])
-    patterns = []
-    for prefix in prefixes:
-        patterns += [f"{prefix}/lib/libLLVM*.so*", f"{prefix}/lib64/libLLVM*.so*"]
-    patterns += [
-        "/usr/lib/llvm-*/lib/libLLVM*.so*",
-        "/usr/lib/*-linux-gnu/libLLVM*.so*",
-        "/opt/homebrew/opt/llvm/lib/libLLVM*.dylib",
-        "/usr/local/opt/llvm/lib/libLLVM*.dylib",
-    ]
-    found = []
-    for pattern in patterns:
-        found += sorted(glob.glob(pattern))
-    return found
-
-
-@lru_cache(maxsize=1)
-def find_llvm() -> str | None:
-    """Path of the newest libLLVM >= 17 found, or DRJIT_LIBLLVM_PATH if the user set it."""
-    chosen = os.environ.get("DRJIT_LIBLLVM_PATH")
-    if chosen:
-        return chosen
-    best: tuple[int, str] | None = None
-    for path in _candidates():
-        version = llvm_version(path)
-        if version is not None and version >= MIN_LLVM and (best is None or version > best[0]):
-            best = (version, path)
-    return best[1] if best else None
 
 
 @cache
@@ -134,14 +98,6 @@ def select_variant(requested: str = "auto") -> str:
         except RuntimeError as exc:
             raise GshadeError(f"variant: cuda_ad_rgb cannot run here ({exc})") from None
     return variant
-
-
-def prepare_llvm() -> None:
-    """Point Dr.Jit at a usable LLVM before anything imports it (called by ``import gshade``)."""
-    if "drjit" not in sys.modules and "DRJIT_LIBLLVM_PATH" not in os.environ:
-        llvm = find_llvm()
-        if llvm is not None:
-            os.environ["DRJIT_LIBLLVM_PATH"] = llvm
 
 
 def mitsuba():

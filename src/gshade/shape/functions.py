@@ -302,6 +302,7 @@ def evaluate(
     d: ArrayLike,
     *,
     gradient: bool = True,
+    backend: str = "auto",
     **params,
 ) -> ShapeValues:
     """Evaluate a shape function on a derivatives array.
@@ -316,6 +317,9 @@ def evaluate(
         for f, one more for the gradient.
     gradient : bool
         Whether to compute the surface gradient grad_S f = [f_u f_v] I^-1 [p_u; p_v].
+    backend : {"auto", "drjit", "numpy"}
+        Where the formula runs: Dr.Jit's LLVM backend (one compiled, multithreaded kernel;
+        "auto" picks it wherever a libLLVM >= 17 is available) or numpy.
     **params
         The function's parameters (``SHAPE_FUNCTIONS[name].parameters``).
 
@@ -338,22 +342,13 @@ def evaluate(
         )
     shape = d.shape[2:-1]
     flat = d.reshape(d.shape[0], d.shape[1], -1, 3)
-    if flat.shape[0] < fn.order + 2:  # kernels read one order beyond f's own
-        padded = np.zeros((fn.order + 2, fn.order + 2, *flat.shape[2:]))
-        padded[: flat.shape[0], : flat.shape[1]] = flat
-        flat = padded
     if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
         prm[kernels.IRREGULAR] = IRREGULAR_TOL * _derivative_scale(flat) ** 2
-    n = flat.shape[2]
-    f = np.empty(n)
-    status = np.empty(n, dtype=np.int8)
-    grad = np.empty((3, n)) if gradient else np.empty((3, 0))
-    kernels.run(fn.code, option, prm, flat, f, grad, status, gradient)
-    if np.any(status == kernels.EYE_ON_SURFACE):
+    f, grad, valid, eye = kernels.run(fn.code, option, prm, flat, gradient, backend)
+    if eye.any():
         raise GshadeError(
             f"{fn.name}: eye_point: expected a point off the surface, got "
             f"{kw['eye_point'].tolist()}, which lies on it"
         )
-    valid = (status == kernels.VALID).reshape(shape)
     gradient_out = np.moveaxis(grad, 0, -1).reshape((*shape, 3)) if gradient else None
-    return ShapeValues(f.reshape(shape), gradient_out, valid)
+    return ShapeValues(f.reshape(shape), gradient_out, valid.reshape(shape))

@@ -1,158 +1,147 @@
-"""First-order jets for compiled shape-function kernels.
+"""First-order jets on whole arrays, for the shape-function kernels.
 
-A jet is a tuple (f, f_u, f_v): a value with its partial derivatives in u and v.  The
-functions below apply the chain rule, so a shape function written once as a formula in the
-surface derivatives yields its exact parametric gradient too (forward-mode
-differentiation, exact to round-off — no finite differences).  They are compiled with
-numba and inlined into the per-point kernels of :mod:`gshade.shape.kernels`.
+A jet ``Jet(f, f_u, f_v)`` is a value with its partial derivatives in u and v.  Arithmetic
+on jets applies the chain rule, so a shape function written once as a formula in the surface
+derivatives yields its exact parametric gradient too (forward-mode differentiation, exact to
+round-off — no finite differences).
 
-A vector is a tuple of three jets.  ``vec(d, i, j, k)`` reads the jet of the derivative
-d^(i+j)p / du^i dv^j at point k: its own value and the next derivatives in u and v.
+The components are arrays of one *backend*: numpy, or Dr.Jit's LLVM arrays, where the whole
+formula is traced lazily and compiled into one vectorised, multithreaded kernel (and cached on
+disk).  :class:`Backend` holds the few elementary functions the formulas need; everything
+else is operator arithmetic, which both array types share.  A vector is a tuple of three jets.
 """
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
+from typing import Any
 
-from numba import njit
+import numpy as np
 
 __all__ = [
-    "add",
+    "NUMPY",
+    "Backend",
+    "Jet",
     "arccos",
     "arctan2",
-    "const",
     "cross",
-    "cross_const",
-    "div",
     "dot",
-    "dot_const",
     "jabs",
-    "mul",
-    "scale",
-    "shift",
     "sqrt",
-    "sub",
-    "vec",
-    "vsub_const",
 ]
 
 
-@njit(cache=True)
-def const(x):
-    return (x, 0.0, 0.0)
+@dataclass(frozen=True)
+class Backend:
+    """The elementary functions of one array type (numpy or Dr.Jit)."""
+
+    name: str
+    sqrt: Any
+    acos: Any
+    atan2: Any
+    abs: Any
+    isfinite: Any
+    select: Any  # select(mask, a, b): a where mask, b elsewhere
+
+    def maximum(self, a, b):
+        # a select, not dr.maximum: LLVM < 17 cannot lower fmaximum (see gshade.llvm)
+        return self.select(a > b, a, b)
+
+    def minimum(self, a, b):
+        return self.select(a < b, a, b)
 
 
-@njit(cache=True)
-def add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+NUMPY = Backend("numpy", np.sqrt, np.arccos, np.arctan2, np.abs, np.isfinite, np.where)
 
 
-@njit(cache=True)
-def sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+class Jet:
+    """A value with its first partial derivatives: (f, f_u, f_v)."""
+
+    __slots__ = ("f", "u", "v")
+    __array_ufunc__ = None  # numpy arrays on the left defer to the jet's reflected operators
+
+    def __init__(self, f, u, v) -> None:
+        self.f, self.u, self.v = f, u, v
+
+    def __add__(self, b):
+        if isinstance(b, Jet):
+            return Jet(self.f + b.f, self.u + b.u, self.v + b.v)
+        return Jet(self.f + b, self.u, self.v)
+
+    __radd__ = __add__
+
+    def __sub__(self, b):
+        if isinstance(b, Jet):
+            return Jet(self.f - b.f, self.u - b.u, self.v - b.v)
+        return Jet(self.f - b, self.u, self.v)
+
+    def __rsub__(self, a):
+        return Jet(a - self.f, -self.u, -self.v)
+
+    def __neg__(self):
+        return Jet(-self.f, -self.u, -self.v)
+
+    def __mul__(self, b):
+        if isinstance(b, Jet):
+            return Jet(self.f * b.f, self.u * b.f + self.f * b.u, self.v * b.f + self.f * b.v)
+        return Jet(self.f * b, self.u * b, self.v * b)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, b):
+        if isinstance(b, Jet):
+            inv = 1.0 / b.f
+            q = self.f * inv
+            return Jet(q, (self.u - q * b.u) * inv, (self.v - q * b.v) * inv)
+        inv = 1.0 / b
+        return Jet(self.f * inv, self.u * inv, self.v * inv)
+
+    def __rtruediv__(self, a):
+        inv = 1.0 / self.f
+        q = a * inv
+        return Jet(q, -q * self.u * inv, -q * self.v * inv)
 
 
-@njit(cache=True)
-def mul(a, b):
-    return (a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + a[0] * b[2])
-
-
-@njit(cache=True)
-def scale(a, s):
-    """s a for a number s."""
-    return (a[0] * s, a[1] * s, a[2] * s)
-
-
-@njit(cache=True)
-def shift(a, s):
-    """a + s for a number s."""
-    return (a[0] + s, a[1], a[2])
-
-
-@njit(cache=True)
-def div(a, b):
-    inv = 1.0 / b[0]
-    q = a[0] * inv
-    return (q, (a[1] - q * b[1]) * inv, (a[2] - q * b[2]) * inv)
-
-
-@njit(cache=True)
-def sqrt(a):
+def sqrt(a: Jet, xp: Backend) -> Jet:
     """sqrt(max(a, 0)); the derivative is taken as 0 where a <= 0."""
-    r = math.sqrt(max(a[0], 0.0))
-    s = 0.5 / r if r > 0.0 else 0.0
-    return (r, s * a[1], s * a[2])
+    r = xp.sqrt(xp.maximum(a.f, 0.0))
+    s = xp.select(r > 0.0, 0.5 / r, 0.0)
+    return Jet(r, s * a.u, s * a.v)
 
 
-@njit(cache=True)
-def jabs(a):
-    if a[0] < 0.0:
-        return (-a[0], -a[1], -a[2])
-    return a
+def jabs(a: Jet, xp: Backend) -> Jet:
+    sign = xp.select(a.f < 0.0, -1.0, 1.0)
+    return Jet(a.f * sign, a.u * sign, a.v * sign)
 
 
-@njit(cache=True)
-def arccos(a):
+def arccos(a: Jet, xp: Backend) -> Jet:
     """arccos of a clipped to [-1, 1]; the (infinite) derivative at ±1 is taken as 0."""
-    c = min(1.0, max(-1.0, a[0]))
-    s = math.sqrt(1.0 - c * c)
-    g = -1.0 / s if s > 0.0 else 0.0
-    return (math.acos(c), g * a[1], g * a[2])
+    c = xp.minimum(xp.maximum(a.f, -1.0), 1.0)
+    s = xp.sqrt(1.0 - c * c)
+    g = xp.select(s > 0.0, -1.0 / s, 0.0)
+    return Jet(xp.acos(c), g * a.u, g * a.v)
 
 
-@njit(cache=True)
-def arctan2(y, x):
+def arctan2(y: Jet, x: Jet, xp: Backend) -> Jet:
     """atan2(y, x), with d atan2 = (x dy - y dx) / (x^2 + y^2)."""
-    r2 = x[0] * x[0] + y[0] * y[0]
-    inv = 1.0 / r2 if r2 > 0.0 else 0.0
-    return (
-        math.atan2(y[0], x[0]),
-        (x[0] * y[1] - y[0] * x[1]) * inv,
-        (x[0] * y[2] - y[0] * x[2]) * inv,
-    )
+    r2 = x.f * x.f + y.f * y.f
+    inv = xp.select(r2 > 0.0, 1.0 / r2, 0.0)
+    return Jet(xp.atan2(y.f, x.f), (x.f * y.u - y.f * x.u) * inv, (x.f * y.v - y.f * x.v) * inv)
 
 
-@njit(cache=True)
 def dot(a, b):
-    return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+    """<a, b> for vectors of jets, or of jets and constants."""
+    if not isinstance(a[0], Jet):  # constants go right: Dr.Jit arrays do not defer to jets
+        a, b = b, a
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True)
-def dot_const(a, c):
-    """<a, c> for a constant 3-vector c (an array)."""
-    return add(add(scale(a[0], c[0]), scale(a[1], c[1])), scale(a[2], c[2]))
-
-
-@njit(cache=True)
 def cross(a, b):
+    """a x b for vectors of jets, or of jets and constants."""
+    if not isinstance(a[0], Jet):
+        return tuple(-c for c in cross(b, a))
     return (
-        sub(mul(a[1], b[2]), mul(a[2], b[1])),
-        sub(mul(a[2], b[0]), mul(a[0], b[2])),
-        sub(mul(a[0], b[1]), mul(a[1], b[0])),
-    )
-
-
-@njit(cache=True)
-def cross_const(a, c):
-    """a x c for a constant 3-vector c."""
-    return (
-        sub(scale(a[1], c[2]), scale(a[2], c[1])),
-        sub(scale(a[2], c[0]), scale(a[0], c[2])),
-        sub(scale(a[0], c[1]), scale(a[1], c[0])),
-    )
-
-
-@njit(cache=True)
-def vsub_const(a, c):
-    """a - c for a constant 3-vector c."""
-    return (shift(a[0], -c[0]), shift(a[1], -c[1]), shift(a[2], -c[2]))
-
-
-@njit(cache=True)
-def vec(d, i, j, k):
-    """The jet of d^(i+j)p / du^i dv^j at point k of a derivatives array (.., .., n, 3)."""
-    return (
-        (d[i, j, k, 0], d[i + 1, j, k, 0], d[i, j + 1, k, 0]),
-        (d[i, j, k, 1], d[i + 1, j, k, 1], d[i, j + 1, k, 1]),
-        (d[i, j, k, 2], d[i + 1, j, k, 2], d[i, j + 1, k, 2]),
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
     )

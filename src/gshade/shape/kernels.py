@@ -1,207 +1,237 @@
-"""Compiled per-point kernels of the shape functions (formulas in ``functions.py``'s docs).
+"""The shape functions' formulas on whole arrays of points (see ``functions.py``'s docs).
 
-Each kernel reads the jets of the surface derivatives at one point and returns the jet of
-f and a status (1 valid, 0 undefined there, 2 eye point on the surface).  ``run`` loops
-over the points in parallel and turns (f, f_u, f_v) into the surface gradient.
+Each formula reads the jets of the surface derivatives (:mod:`gshade.shape.jets`) and returns
+the jet of f with a mask of the points where f is defined.  :func:`run` evaluates one of them
+on a derivatives array and turns (f, f_u, f_v) into the surface gradient.
+
+Two backends run the same formulas: Dr.Jit's LLVM backend, which traces a formula into one
+vectorised, multithreaded kernel (compiled once, then loaded from Dr.Jit's disk cache), and
+numpy, used where no usable libLLVM is found (see :mod:`gshade.llvm`).  Parameters enter the
+Dr.Jit kernels as opaque values, so new parameter values reuse the compiled kernel.
 """
 
 from __future__ import annotations
 
-import math
+import os
+from functools import cache
 
 import numpy as np
-from numba import njit, prange
+from numpy.typing import NDArray
 
-from .jets import (
-    add,
-    arccos,
-    arctan2,
-    cross,
-    cross_const,
-    div,
-    dot,
-    dot_const,
-    jabs,
-    mul,
-    scale,
-    sqrt,
-    sub,
-    vec,
-    vsub_const,
-)
+from ..errors import GshadeError
+from ..llvm import drjit_llvm_ready
+from .jets import NUMPY, Backend, Jet, arccos, arctan2, cross, dot, jabs, sqrt
+
+__all__ = ["BACKENDS", "backend", "run"]
 
 PLANAR, ISOPHOTES, REFLECTION, HIGHLIGHT, PARAMETRISATION = 0, 1, 2, 3, 4
 GAUSSIAN, MEAN, MAX_PRINCIPAL, MIN_PRINCIPAL, ABSOLUTE, RMS = 5, 6, 7, 8, 9, 10
 
-VALID, UNDEFINED, EYE_ON_SURFACE = 1, 0, 2
 #: index in the parameter vector of the |p_u x p_v| at or below which a point is irregular
 IRREGULAR = 23
+#: the backends :func:`run` accepts ("auto": Dr.Jit where its LLVM works, else numpy)
+BACKENDS = ("auto", "drjit", "numpy")
 
 
-@njit(cache=True)
-def _planar_sections(d, k, prm):
-    return dot_const(vec(d, 0, 0, k), prm[0:3]), VALID
+def _planar_sections(vec, prm, option, xp):
+    return dot(vec(0, 0), prm[0:3]), None, None
 
 
-@njit(cache=True)
-def _isophotes(d, k, prm, angle):
-    N = cross(vec(d, 1, 0, k), vec(d, 0, 1, k))
-    length = sqrt(dot(N, N))
-    if length[0] <= prm[IRREGULAR]:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    f = div(dot_const(N, prm[0:3]), length)
-    if angle:
-        f = arccos(f)
-    return f, VALID
+def _isophotes(vec, prm, angle, xp):
+    N = cross(vec(1, 0), vec(0, 1))
+    length = sqrt(dot(N, N), xp)
+    f = dot(N, prm[0:3]) / length
+    return (arccos(f, xp) if angle else f), length.f > prm[IRREGULAR], None
 
 
-@njit(cache=True)
-def _reflection_lines(d, k, prm, at_infinity):
+def _reflection_lines(vec, prm, at_infinity, xp):
     """r = w - 2 <w, N> N / <N, N> with w = p - e; plane: s = <(p - p0) x a2, r> / <c, r>."""
-    p = vec(d, 0, 0, k)
-    N = cross(vec(d, 1, 0, k), vec(d, 0, 1, k))
+    p = vec(0, 0)
+    N = cross(vec(1, 0), vec(0, 1))
     NN = dot(N, N)
-    w = vsub_const(p, prm[0:3])
-    if dot(w, w)[0] == 0.0:
-        return (0.0, 0.0, 0.0), EYE_ON_SURFACE
-    if NN[0] <= prm[IRREGULAR] * prm[IRREGULAR]:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    t = scale(div(dot(w, N), NN), 2.0)
-    r = (sub(w[0], mul(t, N[0])), sub(w[1], mul(t, N[1])), sub(w[2], mul(t, N[2])))
+    w = tuple(p[i] - prm[i] for i in range(3))
+    eye = dot(w, w).f == 0.0
+    valid = NN.f > prm[IRREGULAR] * prm[IRREGULAR]
+    t = 2.0 * (dot(w, N) / NN)
+    r = tuple(w[i] - t * N[i] for i in range(3))
     if at_infinity:
-        b = prm[12:15]
-        ref = prm[15:18]
-        return arctan2(dot_const(r, b), dot_const(r, ref)), VALID
-    a2 = prm[9:12]
+        return arctan2(dot(r, prm[12:15]), dot(r, prm[15:18]), xp), valid, eye
     c = prm[18:21]
-    q = vsub_const(p, prm[3:6])
-    cr = dot_const(r, c)
-    mu_sign = -dot_const(q, c)[0] * cr[0]
-    if cr[0] == 0.0 or mu_sign <= 0.0:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    return div(dot(cross_const(q, a2), r), cr), VALID
+    q = tuple(p[i] - prm[3 + i] for i in range(3))
+    cr = dot(r, c)
+    mu_sign = -dot(q, c).f * cr.f  # the sign of the ray parameter at the light plane
+    valid = valid & (cr.f != 0.0) & (mu_sign > 0.0)
+    return dot(cross(q, prm[9:12]), r) / cr, valid, eye
 
 
-@njit(cache=True)
-def _highlight_lines(d, k, prm, distance):
+def _highlight_lines(vec, prm, distance, xp):
     """plane: s = <(p - p0) x a2, N> / <c, N>;  distance: <E x N, p - A> / |E x N|."""
-    p = vec(d, 0, 0, k)
-    N = cross(vec(d, 1, 0, k), vec(d, 0, 1, k))
-    length = math.sqrt(max(dot(N, N)[0], 0.0))
-    if length <= prm[IRREGULAR]:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    q = vsub_const(p, prm[0:3])
+    p = vec(0, 0)
+    N = cross(vec(1, 0), vec(0, 1))
+    length = xp.sqrt(xp.maximum(dot(N, N).f, 0.0))
+    valid = length > prm[IRREGULAR]
+    q = tuple(p[i] - prm[i] for i in range(3))
     if distance:
-        EN = cross_const(N, prm[6:9])  # N x E = -(E x N)
-        norm = sqrt(dot(EN, EN))
-        if not norm[0] > 1e-12 * length:
-            return (0.0, 0.0, 0.0), UNDEFINED
-        return scale(div(dot(EN, q), norm), -1.0), VALID
-    c = prm[9:12]
-    cn = dot_const(N, c)
-    if not abs(cn[0]) > 1e-12 * length * prm[12]:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    return div(dot(cross_const(q, prm[6:9]), N), cn), VALID
+        EN = cross(N, prm[6:9])  # N x E = -(E x N)
+        norm = sqrt(dot(EN, EN), xp)
+        return -(dot(EN, q) / norm), valid & (norm.f > 1e-12 * length), None
+    cn = dot(N, prm[9:12])
+    valid = valid & (xp.abs(cn.f) > 1e-12 * length * prm[12])
+    return dot(cross(q, prm[6:9]), N) / cn, valid, None
 
 
-@njit(cache=True)
-def _parametrisation_quality(d, k):
-    pu, pv = vec(d, 1, 0, k), vec(d, 0, 1, k)
+def _parametrisation_quality(vec, prm, option, xp):
+    pu, pv = vec(1, 0), vec(0, 1)
     E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
-    s = add(E, G)
-    if s[0] <= 0.0:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    dEG = sub(E, G)
-    return div(add(mul(dEG, dEG), scale(mul(F, F), 4.0)), mul(s, s)), VALID
+    s = E + G
+    dEG = E - G
+    return (dEG * dEG + 4.0 * (F * F)) / (s * s), s.f > 0.0, None
 
 
-@njit(cache=True)
-def _curvature(d, k, which, prm):
-    """K = (L'N' - M'^2)/W^4, H = (E N' - 2F M' + G L')/(2 W^3), W = |N|, L' = <p_uu, N>, ...;
-    ((k1 - k2)/2)^2 = ((G L' - E N')^2 / 4 + (G M' - F N')(E M' - F L')) / W^6."""
-    pu, pv = vec(d, 1, 0, k), vec(d, 0, 1, k)
-    N = cross(pu, pv)
-    W2 = dot(N, N)
-    if W2[0] <= prm[IRREGULAR] * prm[IRREGULAR]:
-        return (0.0, 0.0, 0.0), UNDEFINED
-    E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
-    L, M, Nn = dot(vec(d, 2, 0, k), N), dot(vec(d, 1, 1, k), N), dot(vec(d, 0, 2, k), N)
-    inv2 = div((1.0, 0.0, 0.0), W2)
-    inv4 = mul(inv2, inv2)
-    K = mul(sub(mul(L, Nn), mul(M, M)), inv4)
-    if which == GAUSSIAN:
-        return K, VALID
-    W3 = mul(W2, sqrt(W2))
-    H = div(add(sub(mul(E, Nn), scale(mul(F, M), 2.0)), mul(G, L)), scale(W3, 2.0))
-    if which == MEAN:
-        return H, VALID
-    if which == RMS:
-        return sqrt(sub(scale(mul(H, H), 2.0), K)), VALID
-    gap = sub(mul(G, L), mul(E, Nn))
-    disc = add(
-        scale(mul(gap, gap), 0.25), mul(sub(mul(G, M), mul(F, Nn)), sub(mul(E, M), mul(F, L)))
-    )
-    root = sqrt(mul(disc, mul(inv4, inv2)))
-    if which == MAX_PRINCIPAL:
-        return add(H, root), VALID
-    if which == MIN_PRINCIPAL:
-        return sub(H, root), VALID
-    return add(jabs(add(H, root)), jabs(sub(H, root))), VALID  # ABSOLUTE
+def _curvature(which):
+    def formula(vec, prm, option, xp):
+        """K = (L'N' - M'^2)/W^4, H = (E N' - 2F M' + G L')/(2 W^3), W = |N|, L' = <p_uu, N>,
+        ...; ((k1 - k2)/2)^2 = ((G L' - E N')^2 / 4 + (G M' - F N')(E M' - F L')) / W^6."""
+        pu, pv = vec(1, 0), vec(0, 1)
+        N = cross(pu, pv)
+        W2 = dot(N, N)
+        valid = W2.f > prm[IRREGULAR] * prm[IRREGULAR]
+        E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
+        L, M, Nn = dot(vec(2, 0), N), dot(vec(1, 1), N), dot(vec(0, 2), N)
+        inv2 = 1.0 / W2
+        inv4 = inv2 * inv2
+        K = (L * Nn - M * M) * inv4
+        if which == GAUSSIAN:
+            return K, valid, None
+        H = (E * Nn - 2.0 * (F * M) + G * L) / (2.0 * (W2 * sqrt(W2, xp)))
+        if which == MEAN:
+            return H, valid, None
+        if which == RMS:
+            return sqrt(2.0 * (H * H) - K, xp), valid, None
+        gap = G * L - E * Nn
+        disc = 0.25 * (gap * gap) + (G * M - F * Nn) * (E * M - F * L)
+        root = sqrt(disc * (inv4 * inv2), xp)
+        if which == MAX_PRINCIPAL:
+            return H + root, valid, None
+        if which == MIN_PRINCIPAL:
+            return H - root, valid, None
+        return jabs(H + root, xp) + jabs(H - root, xp), valid, None  # ABSOLUTE
+
+    return formula
 
 
-@njit(cache=True)
-def _point(code, option, prm, d, k):
-    if code == PLANAR:
-        return _planar_sections(d, k, prm)
-    if code == ISOPHOTES:
-        return _isophotes(d, k, prm, option)
-    if code == REFLECTION:
-        return _reflection_lines(d, k, prm, option)
-    if code == HIGHLIGHT:
-        return _highlight_lines(d, k, prm, option)
-    if code == PARAMETRISATION:
-        return _parametrisation_quality(d, k)
-    return _curvature(d, k, code, prm)
+_FORMULAS = {
+    PLANAR: _planar_sections,
+    ISOPHOTES: _isophotes,
+    REFLECTION: _reflection_lines,
+    HIGHLIGHT: _highlight_lines,
+    PARAMETRISATION: _parametrisation_quality,
+    **{c: _curvature(c) for c in (GAUSSIAN, MEAN, MAX_PRINCIPAL, MIN_PRINCIPAL, ABSOLUTE, RMS)},
+}
 
 
-@njit(cache=True, parallel=True)
-def run(code, option, prm, d, f, grad, status, with_gradient):
-    """Evaluate shape function ``code`` at every point of ``d`` (shape (.., .., n, 3)).
+@cache
+def _drjit() -> Backend:
+    import drjit as dr
 
-    Writes f (n,), status (n,) and, if ``with_gradient``, grad (3, n) =
-    ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2).
+    return Backend("drjit", dr.sqrt, dr.acos, dr.atan2, dr.abs, dr.isfinite, dr.select)
+
+
+def backend(name: str = "auto") -> str:
+    """The backend that ``name`` means here: "drjit" where Dr.Jit's LLVM backend works
+    (and ``GSHADE_SHAPE_BACKEND`` does not say "numpy"), else "numpy"."""
+    if name not in BACKENDS:
+        raise GshadeError(f"backend: expected one of {', '.join(BACKENDS)}, got {name!r}")
+    if name == "auto":
+        name = os.environ.get("GSHADE_SHAPE_BACKEND", "auto")
+        if name not in BACKENDS:
+            raise GshadeError(
+                f"GSHADE_SHAPE_BACKEND: expected one of {', '.join(BACKENDS)}, got {name!r}"
+            )
+    if name == "auto":
+        return "drjit" if drjit_llvm_ready() else "numpy"
+    if name == "drjit" and not drjit_llvm_ready():
+        raise GshadeError("backend: drjit needs Dr.Jit's LLVM backend with libLLVM >= 17")
+    return name
+
+
+def run(
+    code: int,
+    option: int,
+    prm: NDArray,
+    d: NDArray,
+    with_gradient: bool,
+    backend_name: str = "auto",
+) -> tuple[NDArray, NDArray | None, NDArray, NDArray]:
+    """Evaluate shape function ``code`` at every point of ``d`` (shape (o+1, o+1, n, 3)).
+
+    Returns f (n,), the gradient (3, n) or None, valid (n,) and eye (n,): points where the
+    eye lies on the surface (reflection lines).  The gradient is
+    ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2); f and the gradient are 0 where
+    f is undefined (or not finite).  Derivatives beyond d's order are taken as zero.
     """
-    n = d.shape[2]
-    for k in prange(n):
-        jf, st = _point(code, option, prm, d, k)
-        if st == VALID and not (
-            math.isfinite(jf[0]) and math.isfinite(jf[1]) and math.isfinite(jf[2])
-        ):
-            st = UNDEFINED
-        status[k] = st
-        f[k] = jf[0] if st == VALID else 0.0
+    name = backend(backend_name)
+    n, order = d.shape[2], d.shape[0] - 1
+    if name == "drjit":
+        import drjit as dr
+        from drjit.llvm import Float64
+
+        xp = _drjit()
+        params = [dr.opaque(Float64, float(x)) for x in prm]
+        zero = dr.zeros(Float64, n)
+
+        def array(i, j, c):
+            return Float64(np.ascontiguousarray(d[i, j, :, c]))
+    else:
+        xp = NUMPY
+        params = [float(x) for x in prm]
+        zero = np.zeros(n)
+
+        def array(i, j, c):
+            return d[i, j, :, c]
+
+    cache: dict[tuple[int, int, int], object] = {}
+
+    def component(i, j, c):
+        if i + j > order:
+            return zero
+        if (i, j, c) not in cache:
+            cache[i, j, c] = array(i, j, c)
+        return cache[i, j, c]
+
+    def vec(i, j):
+        return tuple(
+            Jet(component(i, j, c), component(i + 1, j, c), component(i, j + 1, c))
+            for c in range(3)
+        )
+
+    with np.errstate(all="ignore"):
+        jet, valid, eye = _FORMULAS[code](vec, params, option, xp)
+        finite = xp.isfinite(jet.f) & xp.isfinite(jet.u) & xp.isfinite(jet.v)
+        valid = finite if valid is None else valid & finite
+        if eye is not None:
+            valid = valid & ~eye
+        f = xp.select(valid, jet.f, 0.0)
+        outputs = [f, valid]
+        if eye is not None:
+            outputs.append(eye)
         if with_gradient:
-            pux, puy, puz = d[1, 0, k, 0], d[1, 0, k, 1], d[1, 0, k, 2]
-            pvx, pvy, pvz = d[0, 1, k, 0], d[0, 1, k, 1], d[0, 1, k, 2]
-            E = pux * pux + puy * puy + puz * puz
-            F = pux * pvx + puy * pvy + puz * pvz
-            G = pvx * pvx + pvy * pvy + pvz * pvz
+            pu = [component(1, 0, c) for c in range(3)]
+            pv = [component(0, 1, c) for c in range(3)]
+            E = pu[0] * pu[0] + pu[1] * pu[1] + pu[2] * pu[2]
+            F = pu[0] * pv[0] + pu[1] * pv[1] + pu[2] * pv[2]
+            G = pv[0] * pv[0] + pv[1] * pv[1] + pv[2] * pv[2]
             det = E * G - F * F
-            if st == VALID and det > 0.0:
-                a = (G * jf[1] - F * jf[2]) / det
-                b = (E * jf[2] - F * jf[1]) / det
-            else:
-                a = 0.0
-                b = 0.0
-            grad[0, k] = a * pux + b * pvx
-            grad[1, k] = a * puy + b * pvy
-            grad[2, k] = a * puz + b * pvz
-
-
-def warm_up() -> None:
-    """Compile (or load from the cache) every kernel once."""
-    d = np.zeros((4, 4, 1, 3))
-    d[1, 0, 0, 0] = d[0, 1, 0, 1] = 1.0
-    prm = np.zeros(24)
-    for code in range(RMS + 1):
-        run(code, 0, prm, d, np.empty(1), np.empty((3, 1)), np.empty(1, np.int8), True)
+            ok = valid & (det > 0.0)
+            a = xp.select(ok, (G * jet.u - F * jet.v) / det, 0.0)
+            b = xp.select(ok, (E * jet.v - F * jet.u) / det, 0.0)
+            outputs += [a * pu[c] + b * pv[c] for c in range(3)]
+        if name == "drjit":
+            dr.eval(*outputs)
+            outputs = [np.array(x) for x in outputs]
+    f, valid = np.broadcast_to(outputs[0], n), np.broadcast_to(outputs[1], n).astype(bool)
+    eye = np.broadcast_to(outputs[2], n).astype(bool) if eye is not None else np.zeros(n, bool)
+    grad = None
+    if with_gradient:
+        grad = np.stack([np.broadcast_to(g, n) for g in outputs[-3:]])
+    return np.ascontiguousarray(f, dtype=np.float64), grad, valid, eye
