@@ -389,3 +389,43 @@ def test_teapot_collapsed_edges_give_finite_flagged_values():
     reg = regularised_derivatives(patch, u, v, 3)
     res = evaluate("mean", reg.d)
     assert res.valid.all() and np.all(np.isfinite(res.f))
+
+
+# --------------------------------------------------------------------------- backends
+
+
+@pytest.mark.parametrize("name", sorted(SHAPE_FUNCTIONS))
+def test_drjit_and_numpy_backends_agree(name):
+    """The formulas run on Dr.Jit's LLVM backend and on numpy; both must give the same
+    values, gradients and masks (to round-off: LLVM may fuse multiply-adds)."""
+    pytest.importorskip("drjit")
+    from gshade.shape.kernels import backend
+
+    if backend() != "drjit":
+        pytest.skip("no usable libLLVM here: only the numpy backend runs")
+    rng = np.random.default_rng(7)
+    P = np.zeros((4, 4, 3))
+    P[..., 0] = np.arange(4)[:, None]
+    P[..., 1] = np.arange(4)[None, :]
+    P[..., 2] = rng.normal(scale=0.7, size=(4, 4))
+    patch = BezierPatch(P, rng.uniform(0.6, 1.5, (4, 4)))
+    d = patch.derivatives(*patch.parameter_grid(40, 30), 3)
+    d[..., 0, 0, :] = 0.0  # an irregular point: flagged by both
+    params = {"eye_point": [1.5, -6, 4]} if name == "reflection_lines" else {}
+    forms = SHAPE_FUNCTIONS[name].parameters.get("form")
+    for form in forms.choices if forms else (None,):
+        kw = {**params, **({"form": form} if form else {})}
+        a = evaluate(name, d, backend="drjit", **kw)
+        b = evaluate(name, d, backend="numpy", **kw)
+        np.testing.assert_array_equal(a.valid, b.valid)
+        assert not a.valid[0, 0] or SHAPE_FUNCTIONS[name].order == 0
+        scale = np.abs(b.f).max() + 1
+        np.testing.assert_allclose(a.f, b.f, rtol=1e-12, atol=1e-12 * scale)
+        gscale = np.abs(b.gradient).max() + 1
+        np.testing.assert_allclose(a.gradient, b.gradient, rtol=1e-10, atol=1e-12 * gscale)
+
+
+def test_unknown_backend_is_named():
+    d = plane_patch().derivatives(0.5, 0.5, 2)
+    with pytest.raises(GshadeError, match="backend: expected one of auto, drjit, numpy"):
+        evaluate("isophotes", d, backend="cuda")

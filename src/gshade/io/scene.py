@@ -75,6 +75,8 @@ from ..geometry import (
     sphere,
     torus,
 )
+from ..geometry.geometric_splines import ENDS as NU_ENDS
+from ..geometry.geometric_splines import NuSplinePatch
 from ..geometry.junctions import junction_patch
 from ..shape.functions import SHAPE_FUNCTIONS
 from .newell import read_newell
@@ -104,6 +106,7 @@ SURFACE_TYPES = (
     "torus",
     "cylinder",
     "betaspline",
+    "nuspline",
     "junction",
 )
 DISPLAYS = ("stripes", "colormap", "both")
@@ -120,7 +123,8 @@ _SURFACE_KEYS = {
     "sphere": ("radius",),
     "torus": ("major", "minor"),
     "cylinder": ("radius", "height"),
-    "betaspline": ("points", "beta1", "beta2"),
+    "betaspline": ("points", "beta1", "beta2", "beta1_u", "beta2_u", "beta1_v", "beta2_v"),
+    "nuspline": ("points", "nu_u", "nu_v", "knots_u", "knots_v", "ends"),
     "junction": ("points", "continuity", "alpha", "beta", "gamma", "delta", "epsilon", "zeta"),
 }
 _TOP_KEYS = ("name", "surface", "shape", "camera", "render", "check", "sweep")
@@ -461,6 +465,26 @@ def _table(file: str, raw: dict[str, Any], name: str) -> dict[str, Any]:
 
 # --------------------------------------------------------------------------- surfaces
 
+
+def _number_or_list(t: _Table, key: str, count: int, what: str, *, positive: bool) -> Any:
+    """A number (one value for all) or a list of ``count`` numbers; None if absent."""
+    bound = "> 0" if positive else ">= 0"
+    expected = f"a number {bound} or a list of {count} numbers {bound} ({what})"
+    x = t.raw(key, None, expected)
+    if x is None:
+        return None
+
+    def ok(v: Any) -> bool:
+        return _is_number(v) and math.isfinite(v) and (v > 0 if positive else v >= 0)
+
+    if ok(x):
+        return float(x)
+    if isinstance(x, list) and count > 0 and len(x) == count and all(ok(v) for v in x):
+        return [float(v) for v in x]
+    found = f" ({len(x)} numbers)" if isinstance(x, list) and len(x) != count else ""
+    raise t.error(key, f"expected {expected}, got {_show(x)}{found}")
+
+
 _NET = ("(m+1) rows of n+1 points [x, y, z]", "a row of points [x, y, z]", "a point [x, y, z]")
 _WEIGHTS = ("(m+1) rows of n+1 positive numbers", "a row of positive numbers")
 _CURVE = ("a list of Bézier control points [x, y, z]", "a point [x, y, z]")
@@ -543,10 +567,48 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
             patches = [first, junction_patch(first, continuity, **connection)]
     elif kind == "betaspline":
         points = t.array("points", _NET, 3)
+        if min(points.shape[:2]) < 4:
+            raise t.error(
+                "points",
+                f"expected at least 4 rows of at least 4 points (a cubic β-spline), got "
+                f"{points.shape[0]} rows of {points.shape[1]}",
+            )
         beta1 = t.number("beta1", 1.0, lo=0)
         beta2 = t.number("beta2", 0.0, lo=0, closed=True)
+        per_direction = {}
+        for d, rows in (("u", points.shape[0]), ("v", points.shape[1])):
+            what = f"one per interior junction in {d}: {'rows' if d == 'u' else 'points per row'}"
+            what += f" ({rows}) - 4"
+            for key, positive in ((f"beta1_{d}", True), (f"beta2_{d}", False)):
+                per_direction[key] = _number_or_list(t, key, rows - 4, what, positive=positive)
         with reported:
-            patches = [BetaSplinePatch(points, beta1, beta2)]
+            patches = [BetaSplinePatch(points, beta1, beta2, **per_direction)]
+    elif kind == "nuspline":
+        points = t.array("points", _NET, 3)
+        ends = t.raw("ends", "natural")
+        if not (
+            ends in NU_ENDS
+            or (isinstance(ends, list) and len(ends) == 2 and all(e in NU_ENDS for e in ends))
+        ):
+            raise t.error(
+                "ends",
+                f"expected one of {_one_of(NU_ENDS)} or a pair [u, v] of them, got {_show(ends)}",
+            )
+        closed = [e == "closed" for e in ([ends] * 2 if isinstance(ends, str) else ends)]
+        given: dict[str, Any] = {"ends": tuple(ends) if isinstance(ends, list) else ends}
+        for k, d in enumerate("uv"):
+            count = points.shape[k]
+            rows = "rows" if d == "u" else "points per row"
+            if f"knots_{d}" in raw:
+                wrap = " + 1, closed" if closed[k] else ""
+                expected = f"a list of {count + closed[k]} increasing knots ({count} {rows}{wrap})"
+                given[f"knots_{d}"] = t.array(f"knots_{d}", (expected,))
+            nu = _number_or_list(
+                t, f"nu_{d}", count, f"one per knot: {count} {rows}", positive=False
+            )
+            given[f"nu_{d}"] = 0.0 if nu is None else nu
+        with reported:
+            patches = [NuSplinePatch(points, **given)]
     elif kind == "sphere":
         radius = t.number("radius", 1.0, lo=0)
         patches = [sphere(radius)]
