@@ -403,6 +403,7 @@ def test_closed_nu_spline_curves_are_g2_where_they_close():
             r"beta2: expected numbers >= 0 \(the tension\), got -1.0 at junction 2",
         ),
         (lambda: BetaSplineCurve(np.zeros((4, 3)), [1.0]), "no interior junction"),
+        (lambda: BetaSplineCurve(np.zeros((7, 3)), [1e308] * 3), "small enough for a finite"),
         (lambda: BetaSplineCurve(np.zeros((7, 3)), "x"), "beta1: expected a number > 0"),
         (lambda: BetaSplineCurve(np.zeros((7, 3)), -0.5), "beta1: expected a number > 0"),
         (
@@ -525,3 +526,41 @@ def test_bad_geometric_spline_scenes(tmp_path, case):
     text = str(info.value)
     assert text.startswith(f"{tmp_path / 'scene.toml'}: [[surface]] 2 ("), text
     assert "\n" not in text
+
+
+WRONG_VALUES = [
+    "x",
+    0,
+    -1,
+    True,
+    [],
+    [1],
+    [1, 2, 3],
+    [[1, 2, 3]],
+    {"a": 1},
+    ["closed"],
+    [1e308] * 3,
+]
+
+
+@pytest.mark.parametrize(
+    ("scene", "key"),
+    [
+        *(("nuspline-mean", k) for k in ("points", "nu_u", "nu_v", "knots_u", "knots_v", "ends")),
+        *(("betaspline-junctions", k) for k in ("beta1", "beta2", "beta1_u", "beta2_v")),
+    ],
+)
+def test_any_wrong_value_of_a_geometric_spline_key_gives_a_gshade_error(scene, key):
+    from gshade.io import load_scene
+
+    from .conftest import ROOT
+
+    path = ROOT / "scenes" / f"{scene}.toml"
+    load_scene(path)
+    for value in WRONG_VALUES:
+        try:
+            load_scene(path, {f"surface.1.{key}": value})
+        except GshadeError as exc:
+            text = str(exc)
+            assert text.startswith(f"{path}: [[surface]] 1 ("), text
+            assert "\n" not in text and key in text, text

@@ -14,7 +14,7 @@ from .differential import (
     second_fundamental_form,
     unit_normal,
 )
-from .geometric_splines import BetaSplineCurve, BetaSplinePatch, nu_spline
+from .geometric_splines import BetaSplineCurve, BetaSplinePatch, NuSplinePatch, nu_spline
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
 from .revolution import circle, cylinder, revolve, sphere, torus
@@ -28,6 +28,7 @@ __all__ = [
     "BezierPatch",
     "CoonsPatch",
     "Curve",
+    "NuSplinePatch",
     "Patch",
     "bernstein_basis",
     "circle",

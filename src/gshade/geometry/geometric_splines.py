@@ -221,6 +221,8 @@ def nu_spline(
 
 def _pair(value, name: str) -> tuple:
     """A (u, v) pair from one value for both directions or a pair."""
+    if isinstance(value, np.ndarray) and value.ndim > 0:
+        value = list(value)
     if isinstance(value, str) or not isinstance(value, Sequence):
         return value, value
     if len(value) != 2:
@@ -430,6 +432,16 @@ class BetaSplineBasis:
         b2 = _shape_values(beta2, count, names[1], False, n_points)
         self.interval = (0.0, float(n_points - 3))
         segments = n_points - 3
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            self._build(b1, b2, count, segments)
+        if not np.all(np.isfinite(self.segment_coefficients)):
+            raise GshadeError(
+                f"{names[0]}, {names[1]}: expected values small enough for a finite basis, got "
+                f"{_show(beta1)} and {_show(beta2)}"
+            )
+
+    def _build(self, b1: float | NDArray, b2: float | NDArray, count: int, segments: int) -> None:
+        """The per-arc coefficients, global (Barsky's closed form) or per junction."""
         if isinstance(b1, float) and isinstance(b2, float):
             self.beta1, self.beta2 = b1, b2
             self.per_junction = False
