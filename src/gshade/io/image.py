@@ -211,6 +211,7 @@ def write_exr(
     attributes = _check_header(target, header)
     # lossless ZIP per scanline: read everywhere, and faster to write than 16-line ZIP
     attributes["compression"] = OpenEXR.ZIPS_COMPRESSION
+    _use_all_cores()
     attributes["type"] = OpenEXR.scanlineimage
 
     def write(name: str) -> None:
@@ -218,6 +219,19 @@ def write_exr(
         OpenEXR.File(dict(attributes), dict(data)).write(name)
 
     return atomic_write(target, ".exr", write)
+
+
+@cache
+def _use_all_cores() -> None:
+    """Let OpenEXR compress (and decompress) scanline blocks on every usable core: its
+    global pool has no threads by default (a 16-channel 1024 x 768 file: 0.19 s -> 0.12 s
+    on 2 cores, measured)."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    if OpenEXR.global_thread_count() < cores:
+        OpenEXR.set_global_thread_count(cores)
 
 
 def _plain(value: object) -> object:
@@ -268,6 +282,7 @@ def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], d
             f"got {magic.hex(' ') or 'an empty file'}"
         )
     try:
+        _use_all_cores()
         exr = OpenEXR.File(str(path), separate_channels=True)
         raw_header = exr.header()
         raw_channels = exr.channels()

@@ -214,8 +214,8 @@ def render(scene, **overrides) -> RenderedImage:
     lap("render")
 
     data_sensor = mi.load_dict(view.sensor(mi, 1, settings.seed, sampler="centre"))
-    data_integrator = make_integrator(isettings, textures, lut, data=True)
-    mi.render(mi_scene, sensor=data_sensor, integrator=data_integrator, seed=settings.seed, spp=1)
+    integrator.data = True  # the same textures, traced into the data kernel
+    mi.render(mi_scene, sensor=data_sensor, integrator=integrator, seed=settings.seed, spp=1)
     data = np.array(data_sensor.film().bitmap(), dtype=np.float32)  # R G B A x y hit
     dr.sync_thread()
     lap("render_data")
