@@ -36,6 +36,13 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--spp", type=int, help="samples per pixel")
     render.add_argument("--variant", help="auto | llvm_ad_rgb | scalar_rgb | cuda_ad_rgb")
     render.add_argument(
+        "--junctions",
+        action="store_true",
+        default=None,
+        help="draw the patch junctions coloured by continuity class "
+        "(G0 red, G1 orange, G2 green, G3 blue)",
+    )
+    render.add_argument(
         "--set",
         action="append",
         default=[],
@@ -141,7 +148,7 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
     from .io.scene import parse_overrides
 
     overrides = parse_overrides(args.set)
-    for key in ("width", "height", "spp", "variant"):
+    for key in ("width", "height", "spp", "variant", "junctions"):
         value = getattr(args, key, None)
         if value is not None:
             overrides[f"render.{key}"] = value

@@ -150,6 +150,7 @@ _RENDER_KEYS = (
     "tessellation",
     "chord_tolerance",
     "texture_resolution",
+    "junctions",
 )
 _CHECK_KEYS = (
     "width",
@@ -242,6 +243,7 @@ class RenderSettings:
     tessellation: int | None
     chord_tolerance: float
     texture_resolution: int | None
+    junctions: bool = False
 
 
 @dataclass(frozen=True)
@@ -374,6 +376,12 @@ class _Table:
         if not _is_int(x) or x < minimum:
             raise self.error(key, f"expected {expected}, got {_show(x)}")
         return int(x)
+
+    def boolean(self, key: str, default: Any = _MISSING) -> Any:
+        value = self.raw(key, default, "true or false")
+        if not isinstance(value, bool):
+            raise self.error(key, f"expected true or false, got {_show(value)}")
+        return value
 
     def choice(self, key: str, choices: Sequence[str], default: Any = _MISSING) -> Any:
         expected = f"one of {_one_of(choices)}"
@@ -752,6 +760,7 @@ def _render(file: str, raw: dict[str, Any]) -> RenderSettings:
         tessellation=t.integer("tessellation", None, minimum=2),
         chord_tolerance=t.number("chord_tolerance", 1e-3, lo=0),
         texture_resolution=t.integer("texture_resolution", None, minimum=1),
+        junctions=t.boolean("junctions", False),
     )
 
 
@@ -763,9 +772,7 @@ def _check(file: str, raw: dict[str, Any]) -> dict[str, Any]:
         if key in ("width", "height", "spp", "runs"):
             out[key] = t.integer(key)
         elif key == "statistical":
-            if not isinstance(raw[key], bool):
-                raise t.error(key, f"expected true or false, got {_show(raw[key])}")
-            out[key] = raw[key]
+            out[key] = t.boolean(key)
         elif key == "channels":
             c = raw[key]
             if not (isinstance(c, list) and c and all(isinstance(s, str) and s for s in c)):

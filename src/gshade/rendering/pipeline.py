@@ -222,6 +222,14 @@ def render(scene, **overrides) -> RenderedImage:
 
     channels = _channels(image, data, atlas, patches, view)
     lap("exact_channels")
+    junctions = None
+    if settings.junctions:
+        from ..continuity import continuity_report
+        from ..junction_lines import draw_junctions
+
+        junctions = continuity_report(list(patches))
+        channels = draw_junctions(channels, junctions, [p.domain for p in patches])
+        lap("junctions")
     legend = Legend(
         function=shape.function,
         order=function.order,
@@ -257,6 +265,10 @@ def render(scene, **overrides) -> RenderedImage:
         ),
         "legend": legend.text(),
     }
+    if junctions is not None:
+        from ..junction_lines import junction_metadata
+
+        metadata["junctions"] = junction_metadata(junctions)
     return RenderedImage(channels, metadata, legend, timings)
 
 
