@@ -334,13 +334,17 @@ class TensorProductPatch(Patch):
             iv = fv[:, None, None] + np.arange(kv)[None, None, :]
             local = self._net[iu, iv]  # (N, ku, kv, c)
         buf = np.zeros((order + 1, order + 1, c, u.size))
+        BvT = Bv.transpose(0, 2, 1)  # (o+1, kv, N)
         for i in range(order + 1):
+            # rows[b] = sum_a Bu[i][:, a] P[a, b]: (kv, c, N), point axis last and contiguous
             if local is None:
-                rows = (Bu[i] @ net).reshape(u.size, kv, c)
+                rows = (net.T @ Bu[i].T).reshape(kv, c, u.size)
             else:
-                rows = np.einsum("na,nabc->nbc", Bu[i], local)
+                rows = np.einsum("na,nabc->bcn", Bu[i], local)
             for j in range(order + 1 - i):
-                buf[i, j] = np.einsum("nbc,nb->cn", rows, Bv[j])
+                out = buf[i, j]
+                for b in range(kv):  # a few fused sweeps: twice as fast as one einsum
+                    out += rows[b] * BvT[j, b]
         if self.weights is None:
             return buf
         return project_patch_derivatives(buf[:, :, :3], buf[:, :, 3], order)
