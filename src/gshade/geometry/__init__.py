@@ -18,6 +18,7 @@ from .geometric_splines import BetaSplineCurve, BetaSplinePatch, NuSplinePatch, 
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
 from .revolution import circle, cylinder, revolve, sphere, torus
+from .subdivision import StamPatch, subdivision_patches
 
 __all__ = [
     "BSplineCurve",
@@ -30,6 +31,7 @@ __all__ = [
     "Curve",
     "NuSplinePatch",
     "Patch",
+    "StamPatch",
     "bernstein_basis",
     "circle",
     "cylinder",
@@ -47,6 +49,7 @@ __all__ = [
     "revolve",
     "second_fundamental_form",
     "sphere",
+    "subdivision_patches",
     "torus",
     "toward_interior",
     "unit_normal",

@@ -2,6 +2,7 @@
 
 from .image import linear_to_srgb, read_exr, write_exr, write_png
 from .newell import parse_newell, read_newell
+from .obj import ObjMesh, parse_obj, read_obj, read_obj_mesh
 from .scene import (
     Camera,
     RenderSettings,
@@ -15,6 +16,7 @@ from .scene import (
 
 __all__ = [
     "Camera",
+    "ObjMesh",
     "RenderSettings",
     "Scene",
     "Shape",
@@ -22,10 +24,13 @@ __all__ = [
     "linear_to_srgb",
     "load_scene",
     "parse_newell",
+    "parse_obj",
     "parse_overrides",
     "parse_scene",
     "read_exr",
     "read_newell",
+    "read_obj",
+    "read_obj_mesh",
     "write_exr",
     "write_png",
 ]

@@ -11,6 +11,8 @@ The keys are a public contract::
     # coons:    v0, v1, u0, u1 = Bézier control points of p(u, 0), p(u, 1), p(0, v), p(1, v);
     #           cross_v0, cross_v1, cross_u0, cross_u1 (optional: bicubic blending)
     # sphere:   radius = 1;  torus: major = 2, minor = 0.5;  cylinder: radius = 1, height = 1
+    # subdivision: file = "data/cube.obj" (a quad mesh, relative to the scene file),
+    #           levels = 0 (refinement steps before the patches are made, 0 to 4)
     [shape]
     function = "isophotes"             # a name in gshade.shape.SHAPE_FUNCTIONS
     light = [0, 0, 1]                  # the function's parameters, by name
@@ -78,8 +80,10 @@ from ..geometry import (
 from ..geometry.geometric_splines import ENDS as NU_ENDS
 from ..geometry.geometric_splines import NuSplinePatch
 from ..geometry.junctions import junction_patch
+from ..geometry.subdivision import subdivision_patches
 from ..shape.functions import SHAPE_FUNCTIONS
 from .newell import read_newell
+from .obj import read_obj_mesh
 
 __all__ = [
     "CAMERA_TYPES",
@@ -108,12 +112,15 @@ SURFACE_TYPES = (
     "betaspline",
     "nuspline",
     "junction",
+    "subdivision",
 )
 DISPLAYS = ("stripes", "colormap", "both")
 LIGHTINGS = ("lit", "flat")
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
 CAMERA_TYPES = ("perspective", "orthographic")
 NEWELL_UP = ("z", "y", "x")
+#: Most refinement steps a subdivision surface may ask for (4^levels times the patches).
+MAX_SUBDIVISION_LEVELS = 4
 
 _SURFACE_KEYS = {
     "newell": ("file", "up"),
@@ -126,6 +133,7 @@ _SURFACE_KEYS = {
     "betaspline": ("points", "beta1", "beta2", "beta1_u", "beta2_u", "beta1_v", "beta2_v"),
     "nuspline": ("points", "nu_u", "nu_v", "knots_u", "knots_v", "ends"),
     "junction": ("points", "continuity", "alpha", "beta", "gamma", "delta", "epsilon", "zeta"),
+    "subdivision": ("file", "levels"),
 }
 _TOP_KEYS = ("name", "surface", "shape", "camera", "render", "check", "sweep")
 _SHAPE_KEYS = (
@@ -530,6 +538,31 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
             )
         with reported:
             patches = read_newell(data_file, up=up)
+    elif kind == "subdivision":
+        name = t.string("file", expected="a path to an OBJ file (a quad mesh)")
+        levels = t.integer("levels", 0, minimum=0)
+        if levels > MAX_SUBDIVISION_LEVELS:
+            raise t.error(
+                "levels",
+                f"expected an integer from 0 to {MAX_SUBDIVISION_LEVELS} (each level multiplies "
+                f"the patches by 4), got {_show(raw['levels'])}",
+            )
+        data_file = base / name
+        if not data_file.is_file():
+            raise t.error(
+                "file",
+                f"expected an existing file (relative to the scene file), got {_show(name)} "
+                f"(no such file: {data_file})",
+            )
+        with reported:
+            mesh = read_obj_mesh(data_file)
+            patches = subdivision_patches(
+                mesh.vertices,
+                mesh.faces,
+                levels=levels,
+                source=str(data_file),
+                face_lines=mesh.face_lines,
+            )
     elif kind == "bezier":
         points = t.array("points", _NET, 3)
         weights = t.array("weights", _WEIGHTS) if "weights" in raw else None

@@ -91,12 +91,23 @@ class ShapeTextures:
     twist_st: NDArray[np.float32]
 
 
+#: Texels evaluated per shape-function call (the derivatives of a chunk take ~50 MB).
+CHUNK_TEXELS = 1 << 17
+
+
 def shape_textures(
     patches: list[Patch] | tuple[Patch, ...],
     atlas: Atlas,
     functions: list[tuple[ShapeFunction, dict]],
 ) -> ShapeTextures:
-    """Evaluate shape functions with their gradients, and the surface, on every patch's tile."""
+    """Evaluate shape functions with their gradients, and the surface, on every patch's tile.
+
+    Patches are evaluated in chunks of about :data:`CHUNK_TEXELS` texels, one
+    shape-function call per chunk (a compiled kernel launch, whatever the number of patches).
+    At irregular texels (collapsed edges, extraordinary vertices) the slopes f_s, f_t are
+    one-sided differences of f: the exact ones may be unbounded there (a curvature near an
+    extraordinary vertex), and would make the Hermite interpolant overshoot.
+    """
     T = atlas.tile
     H, W = atlas.height, atlas.width
     values = [np.zeros((H, W, 3), dtype=np.float32) for _ in functions]
@@ -105,23 +116,42 @@ def shape_textures(
     geometry = [np.zeros((H, W, 3), dtype=np.float32) for _ in range(4)]
     grid = np.linspace(0.0, 1.0, T)
     order = max(2, max(fn.order for fn, _ in functions) + 1)
-    for k, patch in enumerate(patches):
-        (u0, u1), (v0, v1) = patch.domain
-        u = (u0 + (u1 - u0) * grid)[:, None]
-        v = (v0 + (v1 - v0) * grid)[None, :]
-        d = regularised_derivatives(patch, u, v, order).d
-        r0, c0 = (k // atlas.cols) * T, (k % atlas.cols) * T
-        tile = (slice(r0, r0 + T), slice(c0, c0 + T))
-        # rows follow t (v), columns follow s (u): a tile is the transpose of the (u, v) grid
-        p_s, p_t = d[1, 0] * (u1 - u0), d[0, 1] * (v1 - v0)
-        p_st = d[1, 1] * (u1 - u0) * (v1 - v0)
-        for image, field in zip(geometry, (d[0, 0], p_s, p_t, p_st), strict=True):
-            image[tile] = field.transpose(1, 0, 2)
-        for j, (fn, params) in enumerate(functions):
+    per_chunk = max(1, CHUNK_TEXELS // (T * T))
+    for first in range(0, len(patches), per_chunk):
+        chunk = range(first, min(first + per_chunk, len(patches)))
+        d = np.empty((order + 1, order + 1, len(chunk), T, T, 3))
+        regular = np.empty((len(chunk), T, T), dtype=bool)
+        scales = []
+        for c, k in enumerate(chunk):
+            patch = patches[k]
+            (u0, u1), (v0, v1) = patch.domain
+            u = (u0 + (u1 - u0) * grid)[:, None]
+            v = (v0 + (v1 - v0) * grid)[None, :]
+            rd = regularised_derivatives(patch, u, v, order)
+            d[:, :, c], regular[c] = rd.d, rd.regular
+            scales.append((u1 - u0, v1 - v0))
+        # (s, t) are the normalised parameters: p_s = (u1 - u0) p_u, p_t = (v1 - v0) p_v
+        su = np.array([a for a, _ in scales])[:, None, None, None]
+        sv = np.array([b for _, b in scales])[:, None, None, None]
+        p_s, p_t, p_st = d[1, 0] * su, d[0, 1] * sv, d[1, 1] * su * sv
+        shaped = []
+        for fn, params in functions:
             res = evaluate(fn, d[: fn.order + 2, : fn.order + 2], **params)
             f_s = np.sum(res.gradient * p_s, -1)
             f_t = np.sum(res.gradient * p_t, -1)
-            values[j][tile] = np.stack([res.f, f_s, f_t], -1).transpose(1, 0, 2)
-            twist[j][tile] = np.gradient(f_s, 1.0 / (T - 1), axis=1).T
-            valid[j][tile] = res.valid.T
+            if not regular.all():
+                irr = ~regular
+                f_s[irr] = np.gradient(res.f, 1.0 / (T - 1), axis=1)[irr]
+                f_t[irr] = np.gradient(res.f, 1.0 / (T - 1), axis=2)[irr]
+            shaped.append((res, f_s, f_t))
+        for c, k in enumerate(chunk):
+            r0, c0 = (k // atlas.cols) * T, (k % atlas.cols) * T
+            tile = (slice(r0, r0 + T), slice(c0, c0 + T))
+            # rows follow t (v), columns follow s (u): a tile is the transpose of the grid
+            for image, field in zip(geometry, (d[0, 0, c], p_s[c], p_t[c], p_st[c]), strict=True):
+                image[tile] = field.transpose(1, 0, 2)
+            for j, (res, f_s, f_t) in enumerate(shaped):
+                values[j][tile] = np.stack([res.f[c], f_s[c], f_t[c]], -1).transpose(1, 0, 2)
+                twist[j][tile] = np.gradient(f_s[c], 1.0 / (T - 1), axis=1).T
+                valid[j][tile] = res.valid[c].T
     return ShapeTextures(atlas, values, twist, valid, *geometry)

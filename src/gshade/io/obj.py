@@ -1,0 +1,224 @@
+"""Wavefront OBJ polygon meshes: the vertices and faces, for subdivision surfaces.
+
+Read statements::
+
+    v x y z [w]          a vertex (w, and colours r g b after x y z, are ignored)
+    f a b c ...          a face: vertex references a, a/t, a/t/n or a//n; 1-based, or
+                         negative: relative to the vertices read so far (-1 = the last)
+
+Ignored: ``vn``, ``vt``, ``vp``, ``o``, ``g``, ``s``, ``usemtl``, ``mtllib``, ``l``, ``p``
+and the other display statements, comments (``#`` to the end of the line) and blank lines.
+Free-form geometry (``cstype``, ``curv``, ``surf``, ...) is refused: it would be missing
+from the picture.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import SurfaceDataError
+
+__all__ = ["ObjMesh", "parse_obj", "read_obj", "read_obj_mesh"]
+
+_IGNORED = frozenset(
+    {
+        "vn",
+        "vt",
+        "vp",
+        "o",
+        "g",
+        "s",
+        "usemtl",
+        "mtllib",
+        "usemap",
+        "maplib",
+        "l",
+        "p",
+        "lod",
+        "bevel",
+        "c_interp",
+        "d_interp",
+        "shadow_obj",
+        "trace_obj",
+    }
+)
+_FREE_FORM = frozenset(
+    {
+        "cstype",
+        "deg",
+        "bmat",
+        "step",
+        "curv",
+        "curv2",
+        "surf",
+        "parm",
+        "trim",
+        "hole",
+        "scrv",
+        "sp",
+        "end",
+        "con",
+    }
+)
+
+
+class ObjMesh(NamedTuple):
+    """A polygon mesh read from OBJ: 0-based faces and the line each face was on."""
+
+    vertices: NDArray[np.float64]
+    faces: list[tuple[int, ...]]
+    face_lines: list[int]
+
+
+def parse_obj(text: str, source: str = "<string>") -> ObjMesh:
+    """Parse OBJ text (see the module docstring for what is read).
+
+    Returns
+    -------
+    ObjMesh
+        ``vertices`` (n, 3), ``faces`` as tuples of 0-based vertex indices, ``face_lines``.
+
+    Raises
+    ------
+    SurfaceDataError
+        One line naming the source, the line number, what was expected and what was found.
+    """
+
+    def fail(line: int | None, message: str) -> SurfaceDataError:
+        where = f"{source}, line {line}" if line is not None else source
+        return SurfaceDataError(f"{where}: {message}")
+
+    vertices: list[tuple[float, float, float]] = []
+    faces: list[tuple[int, ...]] = []
+    face_lines: list[int] = []
+    pending: list[tuple[int, int, int]] = []  # (face, line, 1-based index) to check at the end
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0]
+        fields = line.split()
+        if not fields:
+            continue
+        word, args = fields[0], fields[1:]
+        if word == "v":
+            try:
+                if not 3 <= len(args) <= 7:
+                    raise ValueError
+                numbers = [float(a) for a in args]
+                xyz = (numbers[0], numbers[1], numbers[2])
+            except ValueError:
+                raise fail(
+                    number,
+                    f"expected a vertex 'v x y z' (3 numbers, optionally w or r g b), found "
+                    f"{line.strip()!r}",
+                ) from None
+            if not all(np.isfinite(xyz)):
+                raise fail(number, f"expected finite coordinates, found {line.strip()!r}")
+            vertices.append(xyz)
+        elif word == "f":
+            if len(args) < 3:
+                raise fail(
+                    number,
+                    f"expected a face 'f a b c ...' (at least 3 vertex references), found "
+                    f"{line.strip()!r}",
+                )
+            refs = []
+            for arg in args:
+                parts = arg.split("/")
+                ok = 1 <= len(parts) <= 3 and all(
+                    _is_int(p) or (k > 0 and p == "") for k, p in enumerate(parts)
+                )
+                if not ok:
+                    raise fail(
+                        number,
+                        f"expected vertex references a, a/t, a/t/n or a//n (integers), found "
+                        f"{arg!r}",
+                    )
+                index = int(parts[0])
+                if index == 0:
+                    raise fail(number, "expected a vertex index other than 0 (OBJ counts from 1)")
+                if index < 0:
+                    if -index > len(vertices):
+                        raise fail(
+                            number,
+                            f"expected a relative vertex index from -1 to -{len(vertices)} "
+                            f"({len(vertices)} vertices so far), found {index}",
+                        )
+                    refs.append(len(vertices) + index)
+                else:
+                    refs.append(index - 1)
+                    pending.append((len(faces), number, index))
+            faces.append(tuple(refs))
+            face_lines.append(number)
+        elif word in _IGNORED:
+            continue
+        elif word in _FREE_FORM:
+            raise fail(
+                number,
+                f"expected a polygon mesh (v and f statements), found free-form geometry "
+                f"{word!r}, which gshade does not read",
+            )
+        else:
+            raise fail(
+                number,
+                f"expected an OBJ statement such as 'v' or 'f', found {word!r}",
+            )
+    for _, number, index in pending:
+        if index > len(vertices):
+            raise fail(
+                number,
+                f"expected vertex indices from 1 to {len(vertices)}, found {index}",
+            )
+    if not faces:
+        raise fail(None, "expected at least one face ('f' statement), found none")
+    V = np.array(vertices, dtype=np.float64).reshape(-1, 3)
+    return ObjMesh(V, faces, face_lines)
+
+
+def _is_int(text: str) -> bool:
+    body = text[1:] if text[:1] in "+-" else text
+    return body.isdigit() and body.isascii()
+
+
+def read_obj_mesh(path: str | os.PathLike) -> ObjMesh:
+    """Read an OBJ file: :class:`ObjMesh` with the face lines (for messages)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise SurfaceDataError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise SurfaceDataError(f"{path}: expected an OBJ file, got a directory") from None
+    except OSError as exc:
+        raise SurfaceDataError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")  # names in comments or groups: never needed
+    return parse_obj(text, str(path))
+
+
+def read_obj(path: str | os.PathLike) -> tuple[NDArray[np.float64], list[tuple[int, ...]]]:
+    """Read the vertices and faces of an OBJ file.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    vertices : ndarray, shape (n, 3)
+    faces : list of tuple of int
+        0-based vertex indices of each face, in the file's order.
+
+    Raises
+    ------
+    SurfaceDataError
+        Naming the file, the line, what was expected and what was found (e.g.
+        ``mesh.obj, line 12: expected vertex indices from 1 to 8, found 9``).
+    """
+    mesh = read_obj_mesh(path)
+    return mesh.vertices, mesh.faces
