@@ -318,6 +318,16 @@ def test_refinement_keeps_limit_points_and_orientation(cube1):
 # --------------------------------------------------------------------------- regular meshes
 
 
+def assert_patches_are_spans(patches, surface, columns, n):
+    """Patch f (row-major over the faces, ``columns`` per row) is the uniform B-spline
+    surface's span [3 + i, 4 + i] x [3 + j, 4 + j], derivatives to order 2 included."""
+    u, v = np.linspace(0, 1, n)[:, None], np.linspace(0, 1, n)[None, :]
+    for f, p in enumerate(patches):
+        i, j = divmod(f, columns)
+        expected = surface.derivatives(u + 3 + i, v + 3 + j, 2)
+        np.testing.assert_allclose(p.derivatives(u, v, 2), expected, atol=1e-12)
+
+
 def test_regular_closed_mesh_is_the_uniform_bicubic_bspline():
     V, F = torus_mesh(6, 5)
     patches = subdivision_patches(V, F)
@@ -325,11 +335,7 @@ def test_regular_closed_mesh_is_the_uniform_bicubic_bspline():
     net = V.reshape(6, 5, 3)
     wrapped = net[np.arange(-1, 8) % 6][:, np.arange(-1, 7) % 5]  # 9 x 8 periodic net
     surface = BSplinePatch(wrapped, (3, 3), (np.arange(13.0), np.arange(12.0)))
-    u, v = np.linspace(0, 1, 7)[:, None], np.linspace(0, 1, 7)[None, :]
-    for f, p in enumerate(patches):
-        i, j = divmod(f, 5)
-        expected = surface.derivatives(u + 3 + i, v + 3 + j, 2)
-        np.testing.assert_allclose(p.derivatives(u, v, 2), expected, atol=1e-12)
+    assert_patches_are_spans(patches, surface, columns=5, n=7)
 
 
 def test_open_grid_is_the_bspline_over_phantom_points():
@@ -344,11 +350,7 @@ def test_open_grid_is_the_bspline_over_phantom_points():
     net = np.concatenate([2 * net[:1] - net[1:2], net, 2 * net[-1:] - net[-2:-1]], axis=0)
     net = np.concatenate([2 * net[:, :1] - net[:, 1:2], net, 2 * net[:, -1:] - net[:, -2:-1]], 1)
     surface = BSplinePatch(net, (3, 3), (np.arange(13.0), np.arange(13.0)))
-    u, v = np.linspace(0, 1, 5)[:, None], np.linspace(0, 1, 5)[None, :]
-    for f, p in enumerate(patches):
-        i, j = divmod(f, 6)
-        expected = surface.derivatives(u + 3 + i, v + 3 + j, 2)
-        np.testing.assert_allclose(p.derivatives(u, v, 2), expected, atol=1e-12)
+    assert_patches_are_spans(patches, surface, columns=6, n=5)
     assert_limit_points_on_patches(V, F, patches, 2, complete=True)
 
 

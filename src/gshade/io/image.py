@@ -22,6 +22,7 @@ import OpenEXR
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from .files import read_bytes
 
 __all__ = [
     "atomic_write",
@@ -267,15 +268,7 @@ def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], d
         If the file is missing, unreadable, not an OpenEXR file, truncated or corrupt.
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            magic = f.read(4)
-    except FileNotFoundError:
-        raise GshadeError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise GshadeError(f"{path}: expected an OpenEXR file, got a directory") from None
-    except OSError as exc:
-        raise GshadeError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    magic = read_bytes(path, "an OpenEXR file", size=4)
     if magic != _EXR_MAGIC:
         raise GshadeError(
             f"{path}: expected an OpenEXR file (starting with bytes 76 2f 31 01), "

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import SurfaceDataError
+from .files import read_bytes
 
 __all__ = ["ObjMesh", "parse_obj", "read_obj", "read_obj_mesh"]
 
@@ -186,14 +187,7 @@ def _is_int(text: str) -> bool:
 def read_obj_mesh(path: str | os.PathLike) -> ObjMesh:
     """Read an OBJ file: :class:`ObjMesh` with the face lines (for messages)."""
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise SurfaceDataError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise SurfaceDataError(f"{path}: expected an OBJ file, got a directory") from None
-    except OSError as exc:
-        raise SurfaceDataError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    data = read_bytes(path, "an OBJ file", SurfaceDataError)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:

@@ -82,6 +82,7 @@ from ..geometry.geometric_splines import NuSplinePatch
 from ..geometry.junctions import junction_patch
 from ..geometry.subdivision import subdivision_patches
 from ..shape.functions import SHAPE_FUNCTIONS
+from .files import read_bytes
 from .newell import read_newell
 from .obj import read_obj_mesh
 
@@ -506,6 +507,18 @@ _WEIGHTS = ("(m+1) rows of n+1 positive numbers", "a row of positive numbers")
 _CURVE = ("a list of Bézier control points [x, y, z]", "a point [x, y, z]")
 
 
+def _data_file(t: _Table, base: Path, name: str) -> Path:
+    """The data file a surface's ``file`` key names (relative to the scene file)."""
+    data_file = base / name
+    if not data_file.is_file():
+        raise t.error(
+            "file",
+            f"expected an existing file (relative to the scene file), got {_show(name)} "
+            f"(no such file: {data_file})",
+        )
+    return data_file
+
+
 def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path | None]:
     head = f"[[surface]] {index}"
     if not isinstance(raw, dict):
@@ -529,13 +542,7 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
     if kind == "newell":
         name = t.string("file", expected="a path to a file in Newell's format")
         up = t.choice("up", NEWELL_UP, "z")
-        data_file = base / name
-        if not data_file.is_file():
-            raise t.error(
-                "file",
-                f"expected an existing file (relative to the scene file), got {_show(name)} "
-                f"(no such file: {data_file})",
-            )
+        data_file = _data_file(t, base, name)
         with reported:
             patches = read_newell(data_file, up=up)
     elif kind == "subdivision":
@@ -547,13 +554,7 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
                 f"expected an integer from 0 to {MAX_SUBDIVISION_LEVELS} (each level multiplies "
                 f"the patches by 4), got {_show(raw['levels'])}",
             )
-        data_file = base / name
-        if not data_file.is_file():
-            raise t.error(
-                "file",
-                f"expected an existing file (relative to the scene file), got {_show(name)} "
-                f"(no such file: {data_file})",
-            )
+        data_file = _data_file(t, base, name)
         with reported:
             mesh = read_obj_mesh(data_file)
             patches = subdivision_patches(
@@ -1055,14 +1056,7 @@ def load_scene(path: str | os.PathLike, overrides: dict[str, object] | None = No
     """
     path = Path(path)
     file = str(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise GshadeError(f"{file}: no such file") from None
-    except IsADirectoryError:
-        raise GshadeError(f"{file}: expected a scene file (TOML), got a directory") from None
-    except OSError as exc:
-        raise GshadeError(f"{file}: cannot read the file ({exc.strerror or exc})") from None
+    data = read_bytes(path, "a scene file (TOML)")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
