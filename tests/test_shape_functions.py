@@ -259,7 +259,7 @@ def test_gradient_matches_finite_differences(seed, name):
     patch = BezierPatch(P, rng.uniform(0.6, 1.5, (4, 4)))
     u, v = rng.uniform(0.1, 0.9, 12), rng.uniform(0.1, 0.9, 12)
     params = {"eye_point": [1.5, -6, 4]} if name == "reflection_lines" else {}
-    res = evaluate(name, patch.derivatives(u, v, 3), **params)
+    res = evaluate(name, patch.derivatives(u, v, 3), partials=True, **params)
     h = 1e-6
 
     def f(uu, vv):
@@ -273,6 +273,9 @@ def test_gradient_matches_finite_differences(seed, name):
     # grad_S f reproduces the parametric derivatives: <grad, p_u> = f_u, <grad, p_v> = f_v
     np.testing.assert_allclose(np.sum(res.gradient * d[1, 0], -1)[ok], fu[ok], atol=1e-5 * scale)
     np.testing.assert_allclose(np.sum(res.gradient * d[0, 1], -1)[ok], fv[ok], atol=1e-5 * scale)
+    # the parametric partials themselves
+    np.testing.assert_allclose(res.partials[ok, 0], fu[ok], atol=1e-5 * scale)
+    np.testing.assert_allclose(res.partials[ok, 1], fv[ok], atol=1e-5 * scale)
     n = unit_normal(d).n
     assert np.abs(np.sum(res.gradient * n, -1)).max() < 1e-9 * scale
 

@@ -91,8 +91,33 @@ class ShapeTextures:
     twist_st: NDArray[np.float32]
 
 
-#: Texels evaluated per shape-function call (the derivatives of a chunk take ~50 MB).
-CHUNK_TEXELS = 1 << 17
+#: Texels per shape-function call: small tiles are evaluated many patches at a time (one
+#: kernel launch per chunk), large ones one patch at a time (no copy into a chunk buffer).
+CHUNK_TEXELS = 1 << 15
+
+
+def _chunk_derivatives(patches, chunk, grid, order):
+    """Derivatives of the patches ``chunk`` on the tile grid: (order+1, order+1, n, T, T, 3)
+    (component-major underneath, as the shape kernels read it), regularity (n, T, T) and
+    the parameter spans (n, 2)."""
+    T = grid.size
+    d = regular = None
+    spans = np.empty((len(chunk), 2))
+    for c, k in enumerate(chunk):
+        patch = patches[k]
+        (u0, u1), (v0, v1) = patch.domain
+        u = (u0 + (u1 - u0) * grid)[:, None]
+        v = (v0 + (v1 - v0) * grid)[None, :]
+        rd = regularised_derivatives(patch, u, v, order)
+        spans[c] = u1 - u0, v1 - v0
+        if len(chunk) == 1:
+            return rd.d[:, :, None], rd.regular[None], spans
+        if d is None:
+            buffer = np.empty((order + 1, order + 1, 3, len(chunk), T, T))
+            d = np.moveaxis(buffer, 2, -1)
+            regular = np.empty((len(chunk), T, T), dtype=bool)
+        d[:, :, c], regular[c] = rd.d, rd.regular
+    return d, regular, spans
 
 
 def shape_textures(
@@ -100,13 +125,12 @@ def shape_textures(
     atlas: Atlas,
     functions: list[tuple[ShapeFunction, dict]],
 ) -> ShapeTextures:
-    """Evaluate shape functions with their gradients, and the surface, on every patch's tile.
+    """Evaluate shape functions with their slopes, and the surface, on every patch's tile.
 
-    Patches are evaluated in chunks of about :data:`CHUNK_TEXELS` texels, one
-    shape-function call per chunk (a compiled kernel launch, whatever the number of patches).
-    At irregular texels (collapsed edges, extraordinary vertices) the slopes f_s, f_t are
-    one-sided differences of f: the exact ones may be unbounded there (a curvature near an
-    extraordinary vertex), and would make the Hermite interpolant overshoot.
+    The slopes are exact: f_s = (u1 - u0) f_u and f_t = (v1 - v0) f_v from the kernels'
+    jets.  At irregular texels (collapsed edges, extraordinary vertices) they are one-sided
+    differences of f instead: the exact ones may be unbounded there (a curvature near an
+    extraordinary vertex) and would make the Hermite interpolant overshoot.
     """
     T = atlas.tile
     H, W = atlas.height, atlas.width
@@ -115,34 +139,26 @@ def shape_textures(
     twist = [np.zeros((H, W), dtype=np.float32) for _ in functions]
     geometry = [np.zeros((H, W, 3), dtype=np.float32) for _ in range(4)]
     grid = np.linspace(0.0, 1.0, T)
+    h = 1.0 / (T - 1)
     order = max(2, max(fn.order for fn, _ in functions) + 1)
     per_chunk = max(1, CHUNK_TEXELS // (T * T))
     for first in range(0, len(patches), per_chunk):
         chunk = range(first, min(first + per_chunk, len(patches)))
-        d = np.empty((order + 1, order + 1, len(chunk), T, T, 3))
-        regular = np.empty((len(chunk), T, T), dtype=bool)
-        scales = []
-        for c, k in enumerate(chunk):
-            patch = patches[k]
-            (u0, u1), (v0, v1) = patch.domain
-            u = (u0 + (u1 - u0) * grid)[:, None]
-            v = (v0 + (v1 - v0) * grid)[None, :]
-            rd = regularised_derivatives(patch, u, v, order)
-            d[:, :, c], regular[c] = rd.d, rd.regular
-            scales.append((u1 - u0, v1 - v0))
-        # (s, t) are the normalised parameters: p_s = (u1 - u0) p_u, p_t = (v1 - v0) p_v
-        su = np.array([a for a, _ in scales])[:, None, None, None]
-        sv = np.array([b for _, b in scales])[:, None, None, None]
+        d, regular, spans = _chunk_derivatives(patches, chunk, grid, order)
+        su = spans[:, 0, None, None, None]
+        sv = spans[:, 1, None, None, None]
         p_s, p_t, p_st = d[1, 0] * su, d[0, 1] * sv, d[1, 1] * su * sv
         shaped = []
         for fn, params in functions:
-            res = evaluate(fn, d[: fn.order + 2, : fn.order + 2], **params)
-            f_s = np.sum(res.gradient * p_s, -1)
-            f_t = np.sum(res.gradient * p_t, -1)
+            res = evaluate(
+                fn, d[: fn.order + 2, : fn.order + 2], gradient=False, partials=True, **params
+            )
+            f_s = res.partials[..., 0] * spans[:, 0, None, None]
+            f_t = res.partials[..., 1] * spans[:, 1, None, None]
             if not regular.all():
                 irr = ~regular
-                f_s[irr] = np.gradient(res.f, 1.0 / (T - 1), axis=1)[irr]
-                f_t[irr] = np.gradient(res.f, 1.0 / (T - 1), axis=2)[irr]
+                f_s[irr] = np.gradient(res.f, h, axis=1)[irr]
+                f_t[irr] = np.gradient(res.f, h, axis=2)[irr]
             shaped.append((res, f_s, f_t))
         for c, k in enumerate(chunk):
             r0, c0 = (k // atlas.cols) * T, (k % atlas.cols) * T
@@ -152,6 +168,6 @@ def shape_textures(
                 image[tile] = field.transpose(1, 0, 2)
             for j, (res, f_s, f_t) in enumerate(shaped):
                 values[j][tile] = np.stack([res.f[c], f_s[c], f_t[c]], -1).transpose(1, 0, 2)
-                twist[j][tile] = np.gradient(f_s[c], 1.0 / (T - 1), axis=1).T
+                twist[j][tile] = np.gradient(f_s[c], h, axis=1).T
                 valid[j][tile] = res.valid[c].T
     return ShapeTextures(atlas, values, twist, valid, *geometry)

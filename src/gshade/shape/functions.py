@@ -33,7 +33,8 @@ __all__ = [
 
 
 class ShapeValues(NamedTuple):
-    """Values f (shape (...)), surface gradient (shape (..., 3), or None) and validity.
+    """Values f (shape (...)), surface gradient (shape (..., 3), or None), validity, and
+    the parametric partials (f_u, f_v) (shape (..., 2), or None).
 
     ``valid`` is False where the function is undefined (e.g. the reflected ray misses the
     light plane, or the point is irregular); values there are finite (never NaN).
@@ -42,6 +43,7 @@ class ShapeValues(NamedTuple):
     f: NDArray[np.float64]
     gradient: NDArray[np.float64] | None
     valid: NDArray[np.bool_]
+    partials: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -302,6 +304,7 @@ def evaluate(
     d: ArrayLike,
     *,
     gradient: bool = True,
+    partials: bool = False,
     backend: str = "auto",
     **params,
 ) -> ShapeValues:
@@ -317,6 +320,9 @@ def evaluate(
         for f, one more for the gradient.
     gradient : bool
         Whether to compute the surface gradient grad_S f = [f_u f_v] I^-1 [p_u; p_v].
+    partials : bool
+        Whether to return the parametric partial derivatives (f_u, f_v) too (they need the
+        same extra derivative order as the gradient).
     backend : {"auto", "drjit", "numpy"}
         Where the formula runs: Dr.Jit's LLVM backend (one compiled, multithreaded kernel;
         "auto" picks it wherever a libLLVM >= 17 is available) or numpy.
@@ -334,21 +340,25 @@ def evaluate(
     d = np.asarray(d, dtype=np.float64)
     if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
         raise GshadeError(f"derivatives: expected shape (order+1, order+1, ..., 3), got {d.shape}")
-    need = fn.order + (1 if gradient else 0)
+    need = fn.order + (1 if gradient or partials else 0)
     if d.shape[0] - 1 < need:
         raise GshadeError(
             f"{fn.name}: needs derivatives of order {need} (order {fn.order}"
-            f"{' + 1 for the gradient' if gradient else ''}), got order {d.shape[0] - 1}"
+            f"{' + 1 for the gradient' if gradient or partials else ''}), got order "
+            f"{d.shape[0] - 1}"
         )
     shape = d.shape[2:-1]
     flat = d.reshape(d.shape[0], d.shape[1], -1, 3)
     if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
         prm[kernels.IRREGULAR] = IRREGULAR_TOL * _derivative_scale(flat) ** 2
-    f, grad, valid, eye = kernels.run(fn.code, option, prm, flat, gradient, backend)
+    f, grad, valid, eye, fuv = kernels.run(
+        fn.code, option, prm, flat, gradient, backend, with_partials=partials
+    )
     if eye.any():
         raise GshadeError(
             f"{fn.name}: eye_point: expected a point off the surface, got "
             f"{kw['eye_point'].tolist()}, which lies on it"
         )
     gradient_out = np.moveaxis(grad, 0, -1).reshape((*shape, 3)) if gradient else None
-    return ShapeValues(f.reshape(shape), gradient_out, valid.reshape(shape))
+    partials_out = np.moveaxis(fuv, 0, -1).reshape((*shape, 2)) if partials else None
+    return ShapeValues(f.reshape(shape), gradient_out, valid.reshape(shape), partials_out)

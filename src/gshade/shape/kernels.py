@@ -162,13 +162,15 @@ def run(
     d: NDArray,
     with_gradient: bool,
     backend_name: str = "auto",
-) -> tuple[NDArray, NDArray | None, NDArray, NDArray]:
+    with_partials: bool = False,
+) -> tuple[NDArray, NDArray | None, NDArray, NDArray, NDArray | None]:
     """Evaluate shape function ``code`` at every point of ``d`` (shape (o+1, o+1, n, 3)).
 
-    Returns f (n,), the gradient (3, n) or None, valid (n,) and eye (n,): points where the
-    eye lies on the surface (reflection lines).  The gradient is
-    ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2); f and the gradient are 0 where
-    f is undefined (or not finite).  Derivatives beyond d's order are taken as zero.
+    Returns f (n,), the gradient (3, n) or None, valid (n,), eye (n,): points where the
+    eye lies on the surface (reflection lines), and the partials (f_u, f_v) (2, n) or None.
+    The gradient is ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2); f, the gradient
+    and the partials are 0 where f is undefined (or not finite).  Derivatives beyond d's
+    order are taken as zero.
     """
     name = backend(backend_name)
     n, order = d.shape[2], d.shape[0] - 1
@@ -226,12 +228,17 @@ def run(
             a = xp.select(ok, (G * jet.u - F * jet.v) / det, 0.0)
             b = xp.select(ok, (E * jet.v - F * jet.u) / det, 0.0)
             outputs += [a * pu[c] + b * pv[c] for c in range(3)]
+        if with_partials:
+            outputs += [xp.select(valid, jet.u, 0.0), xp.select(valid, jet.v, 0.0)]
         if name == "drjit":
             dr.eval(*outputs)
             outputs = [np.array(x) for x in outputs]
     f, valid = np.broadcast_to(outputs[0], n), np.broadcast_to(outputs[1], n).astype(bool)
     eye = np.broadcast_to(outputs[2], n).astype(bool) if eye is not None else np.zeros(n, bool)
-    grad = None
+    grad = fuv = None
+    if with_partials:
+        fuv = np.stack([np.broadcast_to(g, n) for g in outputs[-2:]])
+        outputs = outputs[:-2]
     if with_gradient:
         grad = np.stack([np.broadcast_to(g, n) for g in outputs[-3:]])
-    return np.ascontiguousarray(f, dtype=np.float64), grad, valid, eye
+    return np.ascontiguousarray(f, dtype=np.float64), grad, valid, eye, fuv
