@@ -34,6 +34,7 @@ from gshade.geometry.subdivision import (
     subdivision_patches,
 )
 from gshade.io import load_scene, parse_obj, read_obj
+from gshade.shape import evaluate
 
 from .conftest import ROOT
 
@@ -572,3 +573,24 @@ def test_missing_obj_in_scene(tmp_path):
     path.write_text(scene_text("gone.obj"))
     with pytest.raises(GshadeError, match=r"file: expected an existing file .*gone\.obj"):
         load_scene(path)
+
+
+def test_curvature_artefacts_at_extraordinary_vertices(drum1):
+    """The known defect of Catmull–Clark surfaces that the curvature pictures show: toward
+    an extraordinary vertex the curvature's surface gradient grows without bound (and for
+    valence 5 the Gaussian curvature itself keeps growing), while at a regular vertex both
+    stay bounded."""
+    patches = subdivision_patches(*drum1)
+    r = 10.0 ** -np.arange(1, 6)
+    for valence in (3, 5):
+        patch = next(p for p in patches if isinstance(p, StamPatch) and p.valence == valence)
+        K = evaluate("gaussian", patch.derivatives(r, r, 3))
+        slope = np.linalg.norm(K.gradient, axis=-1)
+        assert K.valid.all() and np.all(np.diff(slope) > 0), (valence, slope)
+        assert slope[-1] > 1e3 * slope[0], (valence, slope)
+        if valence == 5:
+            assert np.all(np.diff(K.f) > 0) and K.f[-1] > 4 * K.f[0]
+    regular = next(p for p in patches if isinstance(p, BezierPatch))
+    K = evaluate("gaussian", regular.derivatives(r, r, 3))
+    slope = np.linalg.norm(K.gradient, axis=-1)
+    assert slope.max() < 2 * slope.min() + 1.0
