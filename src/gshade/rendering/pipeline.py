@@ -340,8 +340,8 @@ def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) 
         v = v0 + (v1 - v0) * st[group, 1]
         rays = view.pixel_rays(pixels // W, pixels % W)
         u, v, d, settled = _intersect(patch, u, v, *rays)
-        if not settled.all():
-            d = patch.derivatives(u, v, 1)
+        if not settled.all():  # those kept their start values: evaluate them there
+            d[:, :, ~settled] = patch.derivatives(u[~settled], v[~settled], 1)
         normal = unit_normal(d)
         n = normal.n
         if not normal.regular.all():  # limits at collapsed edges need higher derivatives
