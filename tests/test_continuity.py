@@ -108,3 +108,45 @@ def test_teapot_report_and_cli_json():
         "curvature_gradient_jump",
         "samples",
     }
+
+
+def test_explicit_pairs_are_measured_and_mismatched_ones_named():
+    from gshade import GshadeError
+
+    a, b = pairs()["G1"]
+    c = BezierPatch(b.points + np.array([0.0, 0.0, 0.3]), domain=b.domain)  # lifted off
+    (junction,) = continuity_report([a, b, c], pairs=[(1, "u0", 0, "u1")])
+    assert junction.cls == "G1" and junction.patches == (1, 0) and not junction.reversed
+    reversed_b = BezierPatch(b.points[::-1, ::-1], domain=b.domain)
+    (junction,) = continuity_report([a, reversed_b], pairs=[(0, "u1", 1, "u1")])
+    assert junction.cls == "G1" and junction.reversed
+    for pair, message in [
+        ((0, "u1", 2, "u0"), r"pair 0:u1,2:u0: the boundaries do not match: they are 0.3 apart"),
+        ((0, "u1", 1, "v0"), "the boundaries do not match"),
+        ((0, "u1", 5, "u0"), "patch 5: expected a patch index from 0 to 2"),
+        ((0, "w1", 1, "u0"), "side 'w1': expected one of u0, u1, v0, v1"),
+        ((1, "u0", 1, "u1"), "expected two different patches"),
+    ]:
+        with pytest.raises(GshadeError, match=message):
+            continuity_report([a, b, c], pairs=[pair])
+
+
+def test_cli_pair_errors_exit_2_with_one_line():
+    scene = str(ROOT / "scenes" / "junctions-mean.toml")
+    for pair, message in [
+        ("0:u1,2:u0", "gshade: error: pair 0:u1,2:u0: the boundaries do not match"),
+        ("0-u1", "gshade: error: --pair: expected I:SIDE,J:SIDE"),
+    ]:
+        result = subprocess.run(
+            [sys.executable, "-m", "gshade.cli", "continuity", scene, "--pair", pair],
+            capture_output=True,
+            text=True,
+        )
+        assert result.returncode == 2
+        assert result.stderr.startswith(message) and result.stderr.count("\n") == 1
+    result = subprocess.run(
+        [sys.executable, "-m", "gshade.cli", "continuity", scene, "--pair", "0:u1,1:u0"],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 0 and "1 junctions: 1 G1" in result.stdout

@@ -134,6 +134,13 @@ def build_parser() -> argparse.ArgumentParser:
         ("g3", "1/length^2"),
     ):
         cont.add_argument(f"--tol-{order}", type=float, help=f"{order.upper()} tolerance ({unit})")
+    cont.add_argument(
+        "--pair",
+        action="append",
+        metavar="I:SIDE,J:SIDE",
+        help="measure just this junction, e.g. 0:u1,1:u0 (sides u0 u1 v0 v1; repeatable); "
+        "an error if the two boundaries do not coincide",
+    )
     cont.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     cont.set_defaults(run=_continuity)
 
@@ -267,6 +274,18 @@ def _figure(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_pair(text: str) -> tuple[int, str, int, str]:
+    """'0:u1,1:u0' -> (0, 'u1', 1, 'u0')."""
+    try:
+        (i, si), (j, sj) = (part.split(":") for part in text.split(","))
+        return int(i), si.strip(), int(j), sj.strip()
+    except ValueError:
+        raise GshadeError(
+            f"--pair: expected I:SIDE,J:SIDE such as 0:u1,1:u0 (SIDE one of u0 u1 v0 v1), "
+            f"got {text!r}"
+        ) from None
+
+
 def _continuity(args: argparse.Namespace) -> int:
     import json
 
@@ -285,7 +304,8 @@ def _continuity(args: argparse.Namespace) -> int:
         g2=args.tol_g2,
         g3=args.tol_g3,
     )
-    report = continuity_report(patches, samples=args.samples, tolerances=tol)
+    pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
+    report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
     if args.json:
         print(
             json.dumps(

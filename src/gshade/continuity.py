@@ -26,7 +26,7 @@ from .geometry import Patch, regularised_derivatives, unit_normal
 from .geometry.differential import first_fundamental_form, second_fundamental_form
 from .shape import evaluate
 
-__all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions"]
+__all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions", "junction_between"]
 
 SIDES = ("u0", "u1", "v0", "v1")
 CLASSES = ("none", "G0", "G1", "G2", "G3")
@@ -110,6 +110,37 @@ def find_junctions(patches, tolerance: float, probes: int = 5):
     return found
 
 
+def junction_between(
+    patches, i: int, side_i: str, j: int, side_j: str, tolerance: float, probes: int = 9
+) -> tuple[int, str, int, str, bool]:
+    """The junction (i, side_i, j, side_j, reversed) of two given boundaries.
+
+    Raises GshadeError naming the pair when a patch or side does not exist, or when the two
+    boundaries do not coincide within ``tolerance`` in either orientation.
+    """
+    name = f"pair {i}:{side_i},{j}:{side_j}"
+    for k, side in ((i, side_i), (j, side_j)):
+        if not 0 <= k < len(patches):
+            raise GshadeError(
+                f"{name}: patch {k}: expected a patch index from 0 to {len(patches) - 1}"
+            )
+        if side not in SIDES:
+            raise GshadeError(f"{name}: side {side!r}: expected one of {', '.join(SIDES)}")
+    if i == j:
+        raise GshadeError(f"{name}: expected two different patches")
+    t = np.linspace(0.0, 1.0, probes)
+    a = _side_points(patches[i], side_i, t)
+    b = _side_points(patches[j], side_j, t)
+    same = float(np.linalg.norm(a - b, axis=-1).max())
+    flipped = float(np.linalg.norm(a - b[::-1], axis=-1).max())
+    if min(same, flipped) > tolerance:
+        raise GshadeError(
+            f"{name}: the boundaries do not match: they are {min(same, flipped):.3g} apart "
+            f"at the most (in the closer orientation), more than the G0 tolerance {tolerance:.3g}"
+        )
+    return i, side_i, j, side_j, flipped < same
+
+
 def _geometry(patch: Patch, side: str, t: NDArray):
     u, v = _side_params(patch, side, t)
     d = regularised_derivatives(patch, u, v, 3).d
@@ -182,16 +213,26 @@ def classify(m: dict, tol: Tolerances) -> str:
 
 
 def continuity_report(
-    patches, *, samples: int = 32, tolerances: Tolerances | None = None
+    patches,
+    *,
+    samples: int = 32,
+    tolerances: Tolerances | None = None,
+    pairs: list[tuple[int, str, int, str]] | None = None,
 ) -> list[Junction]:
-    """Every junction of the patches, measured and classified."""
+    """Every junction of the patches, measured and classified; with ``pairs`` ((i, side_i,
+    j, side_j), ...), just those, each checked to be a junction (:func:`junction_between`)."""
     if samples < 1:
         raise GshadeError(f"--samples: expected at least 1, got {samples}")
     pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
     tol = tolerances or Tolerances.for_size(diag)
     out = []
-    for junction in find_junctions(patches, max(tol.g0, 1e-12 * diag)):
+    g0 = max(tol.g0, 1e-12 * diag)
+    if pairs is None:
+        junctions = find_junctions(patches, g0)
+    else:
+        junctions = [junction_between(patches, *pair, g0) for pair in pairs]
+    for junction in junctions:
         m = measure(patches, junction, samples)
         i, si, j, sj, rev = junction
         out.append(Junction((i, j), (si, sj), rev, classify(m, tol), samples=samples, **m))
