@@ -26,6 +26,7 @@ from ..image import RenderedImage
 from ..shape import SHAPE_FUNCTIONS, Legend, auto_range, get_shape_function
 from .camera import frame_view
 from .integrator import IntegratorSettings, make_integrator
+from .surface_hits import surface_hits
 from .tessellate import chord_resolution, tessellate
 from .textures import Atlas, shape_textures
 from .variant import select_variant
@@ -284,36 +285,6 @@ def _jsonable(x):
     return x
 
 
-def _intersect(patch, u, v, origin, direction, iterations: int = 1):
-    """Refine (u, v) so that p(u, v) lies on the rays origin + t direction: Newton on
-    p(u, v) - o - t d = 0 from the mesh's interpolated parameters (Cramer's rule for the
-    3 x 3 systems).  Points whose iteration does not settle keep their start values."""
-    (u0, u1), (v0, v1) = patch.domain
-    uu, vv = u.copy(), v.copy()
-    # the renderer's data pass already took one Newton step (float32, Hermite-interpolated
-    # surface, ~1e-6 relative): one more in float64 reaches round-off
-    d = patch.derivatives(uu, vv, 1)
-    t = np.einsum("ij,ij->i", d[0, 0] - origin, direction)
-    scale = np.linalg.norm(d[0, 0] - origin, axis=1)
-    for _ in range(iterations):
-        r = origin + t[:, None] * direction - d[0, 0]  # [p_u p_v -d] (du, dv, dt) = r
-        pu, pv, c = d[1, 0], d[0, 1], -direction
-        pv_c = np.cross(pv, c)
-        det = np.einsum("ij,ij->i", pu, pv_c)
-        ok = np.abs(det) > 1e-300
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        du = np.einsum("ij,ij->i", r, pv_c) * inv
-        dv = np.einsum("ij,ij->i", pu, np.cross(r, c)) * inv
-        dt = np.einsum("ij,ij->i", pu, np.cross(pv, r)) * inv
-        uu = np.clip(uu + du, u0, u1)
-        vv = np.clip(vv + dv, v0, v1)
-        t = t + dt
-        d = patch.derivatives(uu, vv, 1)
-    residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
-    settled = residual <= 1e-7 * np.maximum(scale, 1e-300)
-    return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
-
-
 def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) -> dict:
     """The EXR channels: the picture, coverage and f from the samples; P, N, u, v and the
     patch index where the ray through the pixel centre meets the exact surface."""
@@ -322,34 +293,23 @@ def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) 
     f = np.where(A > 0, image[..., 4] / np.where(A > 0, A, 1.0), 0.0)
     hit = np.flatnonzero(data[..., 6].ravel() > 0.5)
     patch_index, st = atlas.locate(data[..., 4:6].reshape(-1, 2)[hit].astype(np.float64))
+    domains = np.array([[*p.domain[0], *p.domain[1]] for p in patches])[patch_index]
+    u = domains[:, 0] + (domains[:, 1] - domains[:, 0]) * st[:, 0]
+    v = domains[:, 2] + (domains[:, 3] - domains[:, 2]) * st[:, 1]
+    u, v, d, _ = surface_hits(patches, patch_index, u, v, *view.pixel_rays(hit // W, hit % W))
+    normal = unit_normal(d)
+    n = normal.n
+    if not normal.regular.all():  # limits at collapsed edges need higher derivatives
+        irr = np.flatnonzero(~normal.regular)
+        for k in np.unique(patch_index[irr]):
+            at = irr[patch_index[irr] == k]
+            n[at] = patch_normals(patches[k], u[at], v[at]).n
     P = np.zeros((H * W, 3))
     N = np.zeros((H * W, 3))
     U = np.zeros(H * W)
     V = np.zeros(H * W)
     patch_of = np.full(H * W, -1.0)
-    order = np.argsort(patch_index, kind="stable")
-    bounds = np.flatnonzero(np.diff(patch_index[order])) + 1
-    for group in np.split(order, bounds):
-        if group.size == 0:
-            continue
-        k = int(patch_index[group[0]])
-        pixels = hit[group]
-        patch = patches[k]
-        (u0, u1), (v0, v1) = patch.domain
-        u = u0 + (u1 - u0) * st[group, 0]
-        v = v0 + (v1 - v0) * st[group, 1]
-        rays = view.pixel_rays(pixels // W, pixels % W)
-        u, v, d, settled = _intersect(patch, u, v, *rays)
-        if not settled.all():  # those kept their start values: evaluate them there
-            d[:, :, ~settled] = patch.derivatives(u[~settled], v[~settled], 1)
-        normal = unit_normal(d)
-        n = normal.n
-        if not normal.regular.all():  # limits at collapsed edges need higher derivatives
-            irr = ~normal.regular
-            n[irr] = patch_normals(patch, u[irr], v[irr]).n
-        P[pixels], N[pixels] = d[0, 0], n
-        U[pixels], V[pixels] = u, v
-        patch_of[pixels] = k
+    P[hit], N[hit], U[hit], V[hit], patch_of[hit] = d[0, 0], n, u, v, patch_index
     P, N = P.reshape(H, W, 3), N.reshape(H, W, 3)
     U, V = U.reshape(H, W), V.reshape(H, W)
     out = {"R": image[..., 0], "G": image[..., 1], "B": image[..., 2], "A": A, "f": f}

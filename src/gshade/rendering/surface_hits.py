@@ -1,0 +1,202 @@
+"""Exact ray–surface hits: where the ray through each pixel centre meets the exact patch.
+
+The render's data pass gives, per pixel, the patch and its parameters from one float32
+Newton step on the Hermite-interpolated surface (about 1e-6 relative).  One more Newton step
+on p(u, v) - o - t d = 0 in float64, on the exact patch, reaches round-off:
+[p_u p_v -d] (du, dv, dt) = o + t d - p, solved by Cramer's rule.  Points whose step does not
+settle (a silhouette pixel whose centre ray misses the patch) keep their start values.
+
+Two implementations of the same step: polynomial Bézier patches of one degree are done all
+at once in one Dr.Jit float64 kernel (their control points gathered per point, the Bernstein
+bases in closed form), every other patch by numpy through its own ``derivatives``.  They
+agree to round-off (tested); the kernel saves the per-patch overhead (a teapot in 10 ms
+instead of 200 ms, 10,000 patches in a few ms per 1,000).
+"""
+
+from __future__ import annotations
+
+from math import comb
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry import BezierPatch, Patch
+from ..shape.kernels import backend
+
+__all__ = ["surface_hits"]
+
+#: A Newton step has settled when |p - o - t d| <= SETTLED * |p - o|.
+SETTLED = 1e-7
+
+
+def _newton_numpy(patch: Patch, u, v, origin, direction):
+    """One float64 Newton step on one patch; (u, v, derivatives (2, 2, N, 3), settled)."""
+    (u0, u1), (v0, v1) = patch.domain
+    d = patch.derivatives(u, v, 1)
+    t = np.einsum("ij,ij->i", d[0, 0] - origin, direction)
+    scale = np.linalg.norm(d[0, 0] - origin, axis=1)
+    r = origin + t[:, None] * direction - d[0, 0]  # [p_u p_v -d] (du, dv, dt) = r
+    pu, pv, c = d[1, 0], d[0, 1], -direction
+    pv_c = np.cross(pv, c)
+    det = np.einsum("ij,ij->i", pu, pv_c)
+    ok = np.abs(det) > 1e-300
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    du = np.einsum("ij,ij->i", r, pv_c) * inv
+    dv = np.einsum("ij,ij->i", pu, np.cross(r, c)) * inv
+    dt = np.einsum("ij,ij->i", pu, np.cross(pv, r)) * inv
+    uu = np.clip(u + du, u0, u1)
+    vv = np.clip(v + dv, v0, v1)
+    t = t + dt
+    d = patch.derivatives(uu, vv, 1)
+    residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
+    settled = residual <= SETTLED * np.maximum(scale, 1e-300)
+    if not settled.all():  # those keep their start values: evaluate them there
+        d[:, :, ~settled] = patch.derivatives(u[~settled], v[~settled], 1)
+    return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
+
+
+def _bernstein(dr, degree: int, s):
+    """Values and first derivatives of the Bernstein basis at s (Dr.Jit arrays)."""
+    one = 1.0 - s
+    powers_s, powers_1 = [1.0], [1.0]
+    for _ in range(degree):
+        powers_s.append(powers_s[-1] * s)
+        powers_1.append(powers_1[-1] * one)
+
+    def basis(n, i):
+        return comb(n, i) * powers_s[i] * powers_1[n - i] if 0 <= i <= n else 0.0
+
+    values = [basis(degree, i) for i in range(degree + 1)]
+    slopes = [degree * (basis(degree - 1, i - 1) - basis(degree - 1, i)) for i in range(degree + 1)]
+    return values, slopes
+
+
+def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direction):
+    """One float64 Newton step on many polynomial Bézier patches of one degree at once.
+
+    ``local`` (N,) indexes ``patches``; returns what :func:`_newton_numpy` does."""
+    import drjit as dr
+    from drjit.llvm import Float64, UInt32
+
+    m, n = patches[0].degree
+    stride = (m + 1) * (n + 1) * 3
+    nets = Float64(np.concatenate([p.points.ravel() for p in patches]))
+    lo = np.array([[p.domain[0][0], p.domain[1][0]] for p in patches])
+    span = np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches])
+    base = UInt32(local.astype(np.uint32) * stride)
+    su, sv = Float64(span[local, 0]), Float64(span[local, 1])
+    ou, ov = Float64(lo[local, 0]), Float64(lo[local, 1])
+    o = [Float64(np.ascontiguousarray(origin[:, c])) for c in range(3)]
+    w = [Float64(np.ascontiguousarray(direction[:, c])) for c in range(3)]
+    u0, v0 = Float64(u), Float64(v)
+
+    def evaluate(uu, vv):
+        """p, p_u, p_v at (uu, vv): lists of 3 coordinates."""
+        bu, du = _bernstein(dr, m, (uu - ou) / su)
+        bv, dv = _bernstein(dr, n, (vv - ov) / sv)
+        p, pu, pv = [0.0] * 3, [0.0] * 3, [0.0] * 3
+        for i in range(m + 1):
+            for j in range(n + 1):
+                for c in range(3):
+                    x = dr.gather(Float64, nets, base + 3 * (i * (n + 1) + j) + c)
+                    p[c] = p[c] + (bu[i] * bv[j]) * x
+                    pu[c] = pu[c] + (du[i] * bv[j]) * x
+                    pv[c] = pv[c] + (bu[i] * dv[j]) * x
+        return p, [x / su for x in pu], [x / sv for x in pv]
+
+    def dot(a, b):
+        return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+    def cross(a, b):
+        return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+    p, pu, pv = evaluate(u0, v0)
+    q = [p[c] - o[c] for c in range(3)]
+    t = dot(q, w)
+    scale = dr.sqrt(dot(q, q))
+    r = [o[c] + t * w[c] - p[c] for c in range(3)]
+    c_ = [-x for x in w]
+    pv_c = cross(pv, c_)
+    det = dot(pu, pv_c)
+    inv = dr.select(dr.abs(det) > 1e-300, 1.0 / det, 0.0)
+    du = dot(r, pv_c) * inv
+    dv = dot(pu, cross(r, c_)) * inv
+    dt = dot(pu, cross(pv, r)) * inv
+
+    def clamp(x, a, b):
+        return dr.select(x < a, a, dr.select(x > b, b, x))
+
+    u1 = clamp(u0 + du, ou, ou + su)
+    v1 = clamp(v0 + dv, ov, ov + sv)
+    t = t + dt
+    p1, pu1, pv1 = evaluate(u1, v1)
+    res = [p1[c] - o[c] - t * w[c] for c in range(3)]
+    settled = dr.sqrt(dot(res, res)) <= SETTLED * scale
+    # unsettled points keep their start values
+    out = [
+        dr.select(settled, a, b)
+        for a, b in zip([u1, v1, *p1, *pu1, *pv1], [u0, v0, *p, *pu, *pv], strict=True)
+    ]
+    dr.eval(*out, settled)
+    out = [np.array(x) for x in out]
+    d = np.zeros((2, 2, u.size, 3))
+    d[0, 0] = np.stack(out[2:5], -1)
+    d[1, 0] = np.stack(out[5:8], -1)
+    d[0, 1] = np.stack(out[8:11], -1)
+    return out[0], out[1], d, np.array(settled, dtype=bool)
+
+
+def surface_hits(
+    patches: list[Patch] | tuple[Patch, ...],
+    index: NDArray,
+    u: NDArray,
+    v: NDArray,
+    origin: NDArray,
+    direction: NDArray,
+    backend_name: str = "auto",
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """One exact Newton step for each ray (origin, direction) from (u, v) on patch index.
+
+    Returns the parameters (u, v) (N,), the derivatives of order <= 1 there (2, 2, N, 3) and
+    whether the step settled (N,); unsettled points keep their start parameters.
+    ``backend_name``: "auto" (Dr.Jit for polynomial Bézier patches where it works), "drjit"
+    or "numpy" (every patch through its ``derivatives``).
+    """
+    index = np.asarray(index, dtype=np.int64)
+    N = index.size
+    u_out, v_out = np.asarray(u, dtype=np.float64).copy(), np.asarray(v, dtype=np.float64).copy()
+    d = np.zeros((2, 2, N, 3))
+    settled = np.zeros(N, dtype=bool)
+    origin = np.broadcast_to(origin, (N, 3))
+    direction = np.broadcast_to(direction, (N, 3))
+    use_drjit = backend(backend_name) == "drjit"
+    groups: dict[tuple[int, int], list[int]] = {}
+    others = []
+    for k, patch in enumerate(patches):
+        if use_drjit and type(patch) is BezierPatch and not patch.rational:
+            groups.setdefault(patch.degree, []).append(k)
+        else:
+            others.append(k)
+    for members in groups.values():
+        lookup = np.full(len(patches), -1, dtype=np.int64)
+        lookup[members] = np.arange(len(members))
+        sel = np.flatnonzero(lookup[index] >= 0)
+        if sel.size:
+            result = _newton_bezier_drjit(
+                [patches[k] for k in members],
+                lookup[index[sel]],
+                u_out[sel],
+                v_out[sel],
+                origin[sel],
+                direction[sel],
+            )
+            u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
+    if others:
+        rest = np.flatnonzero(np.isin(index, others))
+        rest = rest[np.argsort(index[rest], kind="stable")]
+        for sel in np.split(rest, np.flatnonzero(np.diff(index[rest])) + 1):
+            if sel.size:
+                patch = patches[int(index[sel[0]])]
+                result = _newton_numpy(patch, u_out[sel], v_out[sel], origin[sel], direction[sel])
+                u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
+    return u_out, v_out, d, settled
