@@ -78,3 +78,24 @@ def test_bad_tessellation_arguments(teapot):
         tessellate([], 4)
     with pytest.raises(GshadeError, match="chord_tolerance: expected a positive number"):
         chord_resolution(teapot[0], 0.0)
+
+
+def test_textures_are_the_same_one_patch_or_many_at_a_time(monkeypatch):
+    """Tiles evaluated per patch (in place) and in chunks of patches (grouped Bézier
+    products, irregular patches redone one by one) hold the same values."""
+    from gshade.rendering import textures
+    from gshade.shape import get_shape_function
+
+    patches = read_newell(TEAPOT)  # collapsed edges included
+    atlas = textures.Atlas.for_patches(len(patches), 12)
+    functions = [(get_shape_function("mean"), {})]
+    monkeypatch.setattr(textures, "CHUNK_TEXELS", 1)
+    single = textures.shape_textures(patches, atlas, functions)
+    monkeypatch.setattr(textures, "CHUNK_TEXELS", 1 << 20)
+    grouped = textures.shape_textures(patches, atlas, functions)
+    for a, b in zip(
+        [*single.values, *single.twist, *single.valid, single.position, single.tangent_s],
+        [*grouped.values, *grouped.twist, *grouped.valid, grouped.position, grouped.tangent_s],
+        strict=True,
+    ):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6 * (1 + np.abs(a).max()))

@@ -22,12 +22,13 @@ import numpy as np
 from .. import __version__
 from ..errors import GshadeError
 from ..geometry import patch_normals, unit_normal
+from ..geometry.patch_groups import grid_derivatives
 from ..image import RenderedImage
 from ..shape import SHAPE_FUNCTIONS, Legend, auto_range, get_shape_function
 from .camera import frame_view
 from .integrator import IntegratorSettings, make_integrator
 from .surface_hits import surface_hits
-from .tessellate import chord_resolution, tessellate
+from .tessellate import max_chord_resolution, tessellate
 from .textures import Atlas, shape_textures
 from .variant import select_variant
 
@@ -116,7 +117,7 @@ def render(scene, **overrides) -> RenderedImage:
     import mitsuba as mi
 
     lap("setup")
-    box = np.concatenate([p(*p.parameter_grid(17, 17)).reshape(-1, 3) for p in patches])
+    box = grid_derivatives(patches, np.linspace(0.0, 1.0, 17))[:, 0, 0].reshape(-1, 3)
     lo, hi = box.min(axis=0), box.max(axis=0)
     view = frame_view(scene.camera, box, settings.width, settings.height)
     diag = float(np.linalg.norm(hi - lo)) or 1.0
@@ -126,7 +127,7 @@ def render(scene, **overrides) -> RenderedImage:
         tol = settings.chord_tolerance * diag
         if scene.camera.type == "perspective" or view.width is not None:
             tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
-        resolution = max(chord_resolution(p, tol) for p in patches)
+        resolution = max_chord_resolution(patches, tol)
         # keep the mesh within a few million vertices
         resolution = min(resolution, max(2, int(np.sqrt(4_000_000 / len(patches)))))
     mesh = tessellate(patches, resolution)

@@ -19,9 +19,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry import Patch, patch_normals
+from ..geometry import Patch, patch_normals, unit_normal
+from ..geometry.patch_groups import grid_derivatives
 
-__all__ = ["TriangleMesh", "chord_resolution", "tessellate"]
+__all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
 
 MAX_RESOLUTION = 512
 
@@ -46,28 +47,35 @@ class TriangleMesh:
         return self.positions.min(axis=0), self.positions.max(axis=0)
 
 
-def _normalised_second_derivatives(patch: Patch, samples: int = 9) -> float:
-    """max over a sample grid of |p_ss| + 2 |p_st| + |p_tt| in normalised parameters."""
-    (u0, u1), (v0, v1) = patch.domain
-    u, v = patch.parameter_grid(samples, samples)
-    d = patch.derivatives(u, v, 2)
-    du, dv = u1 - u0, v1 - v0
+def _normalised_second_derivatives(patches, samples: int = 9) -> NDArray:
+    """Per patch, max over a sample grid of |p_ss| + 2 |p_st| + |p_tt| in normalised
+    parameters."""
+    d = grid_derivatives(patches, np.linspace(0.0, 1.0, samples), 2)
+    spans = np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches])
+    du = spans[:, 0, None, None]
+    dv = spans[:, 1, None, None]
     norm = np.linalg.norm
     total = (
-        norm(d[2, 0], axis=-1) * du * du
-        + 2 * norm(d[1, 1], axis=-1) * du * dv
-        + norm(d[0, 2], axis=-1) * dv * dv
+        norm(d[:, 2, 0], axis=-1) * du * du
+        + 2 * norm(d[:, 1, 1], axis=-1) * du * dv
+        + norm(d[:, 0, 2], axis=-1) * dv * dv
     )
-    return float(total.max())
+    return total.reshape(len(patches), -1).max(axis=1)
+
+
+def max_chord_resolution(patches, tolerance: float) -> int:
+    """Grid points per side so that the chord error of every patch stays below
+    ``tolerance``: a bilinear cell of h x h deviates by at most h^2 / 8 times the bound."""
+    if not tolerance > 0:
+        raise GshadeError(f"chord_tolerance: expected a positive number, got {tolerance!r}")
+    bound = float(_normalised_second_derivatives(list(patches)).max())
+    cells = int(np.ceil(np.sqrt(bound / (8.0 * tolerance)))) if bound > 0 else 1
+    return int(np.clip(cells + 1, 2, MAX_RESOLUTION))
 
 
 def chord_resolution(patch: Patch, tolerance: float) -> int:
-    """Grid points per side so that the chord error stays below ``tolerance``."""
-    if not tolerance > 0:
-        raise GshadeError(f"chord_tolerance: expected a positive number, got {tolerance!r}")
-    bound = _normalised_second_derivatives(patch)
-    cells = int(np.ceil(np.sqrt(bound / (8.0 * tolerance)))) if bound > 0 else 1
-    return int(np.clip(cells + 1, 2, MAX_RESOLUTION))
+    """Grid points per side so that the chord error of one patch stays below ``tolerance``."""
+    return max_chord_resolution([patch], tolerance)
 
 
 def _grid_faces(n: int) -> NDArray[np.int32]:
@@ -108,32 +116,30 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
         raise GshadeError("tessellation: expected at least one patch")
     s = np.linspace(0.0, 1.0, n)
     st = np.stack(np.meshgrid(s, s, indexing="ij"), -1).reshape(-1, 2)
-    positions, normals, patch_ids, faces = [], [], [], []
-    grid_faces = _grid_faces(n)
-    for k, patch in enumerate(patches):
+    d = grid_derivatives(patches, s, 1)  # (patches, 2, 2, n, n, 3)
+    normal = unit_normal(np.moveaxis(d, 0, 2))
+    normals = normal.n
+    for k in np.flatnonzero(~normal.regular.all(axis=(1, 2))):
+        # limits at collapsed edges need higher derivatives and the way into the domain
+        patch = patches[k]
         (u0, u1), (v0, v1) = patch.domain
-        u = (u0 + (u1 - u0) * s)[:, None]
-        v = (v0 + (v1 - v0) * s)[None, :]
-        normal = patch_normals(patch, u, v)
-        p = patch(u, v).reshape(-1, 3)
-        positions.append(p)
-        normals.append(normal.n.reshape(-1, 3))
-        patch_ids.append(np.full(n * n, k, dtype=np.int32))
-        faces.append(grid_faces + k * n * n)
-    P = np.concatenate(positions)
+        a, b = np.nonzero(~normal.regular[k])
+        u, v = u0 + (u1 - u0) * s[a], v0 + (v1 - v0) * s[b]
+        normals[k, a, b] = patch_normals(patch, u, v).n
+    P = d[:, 0, 0].reshape(-1, 3).copy()
     scale = float(np.ptp(P, axis=0).max()) or 1.0
     on_edge = np.zeros((n, n), dtype=bool)
     on_edge[[0, -1], :] = True
     on_edge[:, [0, -1]] = True
     _weld(P, np.tile(on_edge.ravel(), len(patches)), 1e-9 * scale)
-    F = np.concatenate(faces)
+    F = (_grid_faces(n)[None] + (n * n * np.arange(len(patches)))[:, None, None]).reshape(-1, 3)
     area = np.linalg.norm(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]), axis=1)
     F = F[area > 1e-14 * scale * scale]
     return TriangleMesh(
         positions=P,
-        normals=np.concatenate(normals),
+        normals=normals.reshape(-1, 3),
         params=np.tile(st, (len(patches), 1)),
-        patch=np.concatenate(patch_ids),
+        patch=np.repeat(np.arange(len(patches), dtype=np.int32), n * n),
         faces=F,
         resolution=n,
     )
