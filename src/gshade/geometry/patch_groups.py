@@ -17,10 +17,22 @@ from .bernstein import bernstein_basis
 from .bezier import BezierPatch
 from .patch import Patch, check_order
 
-__all__ = ["grid_derivatives"]
+__all__ = ["bezier_groups", "grid_derivatives"]
 
 #: Patches per matrix product (bounds the temporary arrays).
 _CHUNK = 4096
+
+
+def bezier_groups(patches) -> tuple[dict[tuple[int, int], list[int]], list[int]]:
+    """The indices of the polynomial Bézier patches by degree, and of all other patches."""
+    groups: dict[tuple[int, int], list[int]] = {}
+    others = []
+    for k, patch in enumerate(patches):
+        if type(patch) is BezierPatch and not patch.rational:
+            groups.setdefault(patch.degree, []).append(k)
+        else:
+            others.append(k)
+    return groups, others
 
 
 def grid_derivatives(
@@ -47,15 +59,12 @@ def grid_derivatives(
     s = np.asarray(s, dtype=np.float64).ravel()
     n = s.size
     out = np.zeros((len(patches), order + 1, order + 1, n, n, 3))
-    groups: dict[tuple[int, int], list[int]] = {}
-    for k, patch in enumerate(patches):
-        if type(patch) is BezierPatch and not patch.rational:
-            groups.setdefault(patch.degree, []).append(k)
-        else:
-            (u0, u1), (v0, v1) = patch.domain
-            u = (u0 + (u1 - u0) * s)[:, None]
-            v = (v0 + (v1 - v0) * s)[None, :]
-            out[k] = patch.derivatives(u, v, order)
+    groups, others = bezier_groups(patches)
+    for k in others:
+        (u0, u1), (v0, v1) = patches[k].domain
+        u = (u0 + (u1 - u0) * s)[:, None]
+        v = (v0 + (v1 - v0) * s)[None, :]
+        out[k] = patches[k].derivatives(u, v, order)
     for (m, mv), members in groups.items():
         Bu = bernstein_basis(m, s, order)  # (o+1, n, m+1), derivatives in s
         Bv = bernstein_basis(mv, s, order)

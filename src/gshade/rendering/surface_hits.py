@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import BezierPatch, Patch
+from ..geometry.patch_groups import bezier_groups
 from ..shape.kernels import backend
 
 __all__ = ["surface_hits"]
@@ -169,14 +170,9 @@ def surface_hits(
     settled = np.zeros(N, dtype=bool)
     origin = np.broadcast_to(origin, (N, 3))
     direction = np.broadcast_to(direction, (N, 3))
-    use_drjit = backend(backend_name) == "drjit"
-    groups: dict[tuple[int, int], list[int]] = {}
-    others = []
-    for k, patch in enumerate(patches):
-        if use_drjit and type(patch) is BezierPatch and not patch.rational:
-            groups.setdefault(patch.degree, []).append(k)
-        else:
-            others.append(k)
+    groups, others = bezier_groups(patches)
+    if backend(backend_name) != "drjit":
+        groups, others = {}, list(range(len(patches)))
     for members in groups.values():
         lookup = np.full(len(patches), -1, dtype=np.int64)
         lookup[members] = np.arange(len(members))
