@@ -110,6 +110,17 @@ def _define(mi, dr):
             }
         )
 
+    def packed(arrays):
+        """A Dr.Jit texture of the arrays' channels side by side (H, W, sum of channels)."""
+        channels = [a[..., None] if a.ndim == 2 else a for a in arrays]
+        data = np.ascontiguousarray(np.concatenate(channels, -1), dtype=np.float32)
+        return mi.Texture2f(
+            mi.TensorXf(data),
+            use_accel=False,
+            filter_mode=dr.FilterMode.Linear,
+            wrap_mode=dr.WrapMode.Clamp,
+        )
+
     def opaque(x):
         return x if scalar else dr.opaque(Float, x)
 
@@ -118,21 +129,18 @@ def _define(mi, dr):
             self.data = data
             self.display = DISPLAY_CODES[settings.display]
             self.lit = settings.lighting == "lit"
-            self.values = bitmap(textures["values"])
-            self.values_texels = bitmap(textures["values"], "nearest")
-            self.twist = bitmap(textures["twist"], "nearest")
-            self.tangent_s = bitmap(textures["tangent_s"])
-            self.tangent_t = bitmap(textures["tangent_t"])
-            self.position = bitmap(textures["position"], "nearest")
-            self.tangent_s_texels = bitmap(textures["tangent_s"], "nearest")
-            self.tangent_t_texels = bitmap(textures["tangent_t"], "nearest")
-            self.twist_st = bitmap(textures["twist_st"], "nearest")
+            # one texture per kind of data, all a texel's channels fetched at once
+            self.geometry = packed(
+                [textures[k] for k in ("position", "tangent_s", "tangent_t", "twist_st")]
+            )  # p, p_s, p_t, p_st: 12 channels
+            self.values = packed(
+                [textures["values"], textures["twist"], textures["valid"]]
+            )  # f, f_s, f_t, f_st, valid
             self.atlas_w, self.atlas_h, self.tile = settings.atlas_size
-            self.valid = bitmap(textures["valid"])
             if self.display == BOTH:
-                self.colour_values = bitmap(textures["colour_values"], "nearest")
-                self.colour_twist = bitmap(textures["colour_twist"], "nearest")
-                self.colour_valid = bitmap(textures["colour_valid"])
+                self.colour_values = packed(
+                    [textures["colour_values"], textures["colour_twist"], textures["colour_valid"]]
+                )
             if lut is not None:
                 self.lut = bitmap(lut[None, :, :])
                 self.lut_size = lut.shape[0]
@@ -153,10 +161,10 @@ def _define(mi, dr):
             si.uv = mi.Point2f((t * (self.lut_size - 1) + 0.5) / self.lut_size, 0.5)
             return self.lut.eval(si)
 
-        def _cell(self, si):
-            """The texel cell around si.uv inside its tile: the lower corner's texel indices,
-            the cubic Hermite weights (values and derivative weights per direction), and the
-            corners' texture coordinates."""
+        def _cell(self, si, texture, hit):
+            """The texel cell around si.uv inside its tile: the four corner texels (all
+            channels, in the order (i, j), (i+1, j), (i, j+1), (i+1, j+1)) and the cell
+            coordinates (a, b) in [0, 1]^2."""
             X = si.uv.x * self.atlas_w - 0.5
             Y = si.uv.y * self.atlas_h - 0.5
             c0 = dr.floor((X + 0.5) / self.tile) * self.tile
@@ -165,48 +173,39 @@ def _define(mi, dr):
             j = ops.clip(dr.floor(Y), r0, r0 + self.tile - 2)
             a = ops.clip(X - i, 0.0, 1.0)
             b = ops.clip(Y - j, 0.0, 1.0)
+            # the cell's centre: a linear lookup there reads exactly these four texels
+            centre = mi.Point2f((i + 1.0) / self.atlas_w, (j + 1.0) / self.atlas_h)
+            return texture.eval_fetch(centre, hit), a, b
+
+        def _hermite(self, corners, a, b, first: int, stride: int = 1):
+            """Bicubic Hermite interpolation (error O(h^4)) from exact values and s, t and
+            st derivatives at the cell's corners: the channels ``first + k * stride`` for
+            k = 0..3 hold the value, d/ds, d/dt and d2/dsdt."""
             h = 1.0 / (self.tile - 1)  # texel spacing in the normalised parameters
             va = (1 - a * a * (3 - 2 * a), a * a * (3 - 2 * a))
             da = (a * (1 - a) * (1 - a) * h, -a * a * (1 - a) * h)
             vb = (1 - b * b * (3 - 2 * b), b * b * (3 - 2 * b))
             db = (b * (1 - b) * (1 - b) * h, -b * b * (1 - b) * h)
-            corners = []
-            for di in (0, 1):
-                for dj in (0, 1):
-                    uv = mi.Point2f((i + di + 0.5) / self.atlas_w, (j + dj + 0.5) / self.atlas_h)
-                    weights = (va[di] * vb[dj], da[di] * vb[dj], va[di] * db[dj], da[di] * db[dj])
-                    corners.append((uv, weights))
-            return corners
-
-        def _hermite(self, corners, hit, value, d_s, d_t, d_st):
-            """Bicubic Hermite interpolation (error O(h^4)) from exact values and s, t and
-            st derivatives at the cell's corners: each argument is (texture, channel) with
-            channel None for a 3-vector, else the component of a 3-channel texture."""
-            si = dr.zeros(mi.SurfaceInteraction3f)
-            total = None
-            for uv, weights in corners:
-                si.uv = uv
-                for (texture, channel), w in zip((value, d_s, d_t, d_st), weights, strict=True):
-                    x = texture.eval(si, hit)
-                    x = mi.Vector3f(x) if channel is None else x[channel]
-                    total = w * x if total is None else total + w * x
+            total = 0.0
+            for texel, (di, dj) in zip(corners, ((0, 0), (1, 0), (0, 1), (1, 1)), strict=True):
+                weights = (va[di] * vb[dj], da[di] * vb[dj], va[di] * db[dj], da[di] * db[dj])
+                for k, w in enumerate(weights):
+                    total = total + w * texel[first + k * stride]
             return total
+
+        @staticmethod
+        def _bilinear(corners, a, b, channel):
+            c = [texel[channel] for texel in corners]
+            return (c[0] * (1 - a) + c[1] * a) * (1 - b) + (c[2] * (1 - a) + c[3] * a) * b
 
         def _onto_surface(self, si, ray, hit):
             """Move si.uv from the mesh's interpolated parameters to the exact surface point
             on the ray: one Newton step on p(s, t) = hit + tau d ([p_s p_t -d] (ds, dt, dtau)
             = hit - p by Cramer's rule), with p from bicubic Hermite interpolation."""
-            corners = self._cell(si)
-            p = self._hermite(
-                corners,
-                hit,
-                (self.position, None),
-                (self.tangent_s_texels, None),
-                (self.tangent_t_texels, None),
-                (self.twist_st, None),
-            )
-            ps = mi.Vector3f(self.tangent_s.eval(si, hit))
-            pt = mi.Vector3f(self.tangent_t.eval(si, hit))
+            corners, a, b = self._cell(si, self.geometry, hit)
+            p = mi.Vector3f(*(self._hermite(corners, a, b, c, 3) for c in range(3)))
+            ps = mi.Vector3f(*(self._bilinear(corners, a, b, 3 + c) for c in range(3)))
+            pt = mi.Vector3f(*(self._bilinear(corners, a, b, 6 + c) for c in range(3)))
             r = si.p - p
             c = -ray.d
             det = dr.dot(ps, dr.cross(pt, c))
@@ -223,9 +222,13 @@ def _define(mi, dr):
             y = ops.clip(y, (r0 + 0.5) / self.atlas_h, (r0 + self.tile - 0.5) / self.atlas_h)
             si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
 
-        def _shape_value(self, si, hit, values, twist):
-            corners = self._cell(si)
-            return self._hermite(corners, hit, (values, 0), (values, 1), (values, 2), (twist, 0))
+        def _shape_value(self, si, hit, texture):
+            """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
+            defined (bilinear validity > 1/2), from one fetch of the cell's texels."""
+            corners, a, b = self._cell(si, texture, hit)
+            f = self._hermite(corners, a, b, 0)
+            slopes = (self._bilinear(corners, a, b, 1), self._bilinear(corners, a, b, 2))
+            return f, slopes, self._bilinear(corners, a, b, 4) > 0.5
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
@@ -243,24 +246,22 @@ def _define(mi, dr):
                 )
             si.compute_uv_partials(ray)
             self._onto_surface(si, ray, hit)
-            fv = self.values.eval(si, hit)  # bilinear (f, f_s, f_t): the gradient for AA
-            f = self._shape_value(si, hit, self.values_texels, self.twist)
-            defined = self.valid.eval_1(si, hit) > 0.5
+            f, (f_s, f_t), defined = self._shape_value(si, hit, self.values)
             if self.display == COLORMAP:
                 colour = self._lookup(f)
             else:
                 # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates
-                fx = fv.y * si.duv_dx.x * self.ks + fv.z * si.duv_dx.y * self.kt
-                fy = fv.y * si.duv_dy.x * self.ks + fv.z * si.duv_dy.y * self.kt
+                fx = f_s * si.duv_dx.x * self.ks + f_t * si.duv_dx.y * self.kt
+                fy = f_s * si.duv_dy.x * self.ks + f_t * si.duv_dy.y * self.kt
                 s = Float64(f) / Float64(self.period) + Float64(self.phase)
                 a = Float64(fx) / Float64(self.period)
                 b = Float64(fy) / Float64(self.period)
                 cov = Float(coverage_formula(s, a, b, self.duty, ops))
                 colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
                 if self.display == BOTH:
-                    g = self._shape_value(si, hit, self.colour_values, self.colour_twist)
+                    g, _, colour_defined = self._shape_value(si, hit, self.colour_values)
                     colour = self._lookup(g) * (1.0 - 0.65 * cov)
-                    defined = defined & (self.colour_valid.eval_1(si, hit) > 0.5)
+                    defined = defined & colour_defined
             colour = dr.select(defined, colour, Color3f(UNDEFINED))
             if self.lit:
                 n = si.sh_frame.n
