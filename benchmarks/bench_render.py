@@ -70,7 +70,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
-from report import RESULTS, machine_info, markdown_table, text_table, write_section
+from report import RESULTS, load_average, machine_info, markdown_table, text_table, write_section
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "scenes" / "teapot-isophotes.toml"
@@ -340,13 +340,6 @@ def mib(kb: float) -> str:
 
 def met(ok: bool | None) -> str:
     return "-" if ok is None else ("yes" if ok else "NO")
-
-
-def load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "unknown"
 
 
 # --------------------------------------------------------------------------- C and S
@@ -696,7 +689,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.repeats = QUICK_REPEATS if args.quick else REPEATS
     args.scale_repeats = QUICK_SCALE_REPEATS if args.quick else SCALE_REPEATS
-    load_start = load()
+    load_start = load_average()
     if not SCENE.is_file():
         raise SanityError(f"{SCENE} is missing")
 
@@ -779,7 +772,7 @@ def main(argv: list[str] | None = None) -> int:
         "corner values checked on a 3 x 2 sheet before the runs.  Peak RSS: the CLI child's "
         "ru_maxrss from os.wait4 (its own, not the benchmark's).  Marginal per patch: (value "
         "- value at 1 patch) / (n - 1), the cost of each added patch without the fixed costs.",
-        f"Load average (1, 5, 15 min): {load_start} at the start, {load()} at the end.",
+        f"Load average (1, 5, 15 min): {load_start} at the start, {load_average()} at the end.",
         "Targets missed: " + (", ".join(misses) if misses else "none") + ".",
     ]
     for sr in scale:

@@ -54,6 +54,7 @@ import numpy as np
 from report import (
     RESULTS,
     Timing,
+    load_average,
     machine_info,
     markdown_table,
     text_table,
@@ -222,13 +223,6 @@ def section(info: dict[str, str], rows: list[Row], notes: list[str], args) -> st
     return "\n".join(lines)
 
 
-def load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "unknown"
-
-
 # --------------------------------------------------------------------------- main
 
 
@@ -238,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="fewer repeats")
     args = parser.parse_args(argv)
     args.repeats = QUICK_REPEATS if args.quick else REPEATS
-    load_start = load()
+    load_start = load_average()
 
     patch = make_patch(np.random.default_rng(SEED))
     u, v = patch.parameter_grid(GRID, GRID)
@@ -259,10 +253,7 @@ def main(argv: list[str] | None = None) -> int:
         {c.label: (lambda c=c: evaluate(c.name, d, **c.params)) for c in cases}, args.repeats
     )
     on_numpy = time_interleaved(
-        {
-            c.label: (lambda c=c: evaluate(c.name, d, backend="numpy", **c.params))
-            for c in cases
-        },
+        {c.label: (lambda c=c: evaluate(c.name, d, backend="numpy", **c.params)) for c in cases},
         QUICK_REPEATS,
     )
     rows = [
@@ -315,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{first} {first_ms[first]:.0f} ms; the others "
         f"{min(first_ms.values()):.0f}-"
         f"{max(x for k, x in first_ms.items() if k != first):.0f} ms.",
-        f"Load average (1, 5, 15 min): {load_start} at the start, {load()} at the end.",
+        f"Load average (1, 5, 15 min): {load_start} at the start, {load_average()} at the end.",
         "Targets missed: " + (", ".join(missed) if missed else "none") + ".",
     ]
 

@@ -98,6 +98,14 @@ def time_interleaved(fns: dict[str, Callable[[], object]], repeats: int) -> dict
 # --------------------------------------------------------------------------- machine info
 
 
+def load_average() -> str:
+    """The 1, 5 and 15 minute load averages, for the report's notes."""
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "unknown"
+
+
 def cpu_model() -> str:
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():

@@ -17,10 +17,21 @@ from .bernstein import bernstein_basis
 from .bezier import BezierPatch
 from .patch import Patch, check_order
 
-__all__ = ["bezier_groups", "grid_derivatives"]
+__all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
 
 #: Patches per matrix product (bounds the temporary arrays).
 _CHUNK = 4096
+
+
+def domain_spans(patches) -> NDArray[np.float64]:
+    """(u1 - u0, v1 - v0) of each patch's domain: shape (len(patches), 2)."""
+    return np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches]).reshape(-1, 2)
+
+
+def patch_grid(patch: Patch, s: NDArray) -> tuple[NDArray, NDArray]:
+    """The grid u = u0 + (u1 - u0) s, v = v0 + (v1 - v0) s, shaped for the grid algorithm."""
+    (u0, u1), (v0, v1) = patch.domain
+    return (u0 + (u1 - u0) * s)[:, None], (v0 + (v1 - v0) * s)[None, :]
 
 
 def bezier_groups(patches) -> tuple[dict[tuple[int, int], list[int]], list[int]]:
@@ -61,19 +72,14 @@ def grid_derivatives(
     out = np.zeros((len(patches), order + 1, order + 1, n, n, 3))
     groups, others = bezier_groups(patches)
     for k in others:
-        (u0, u1), (v0, v1) = patches[k].domain
-        u = (u0 + (u1 - u0) * s)[:, None]
-        v = (v0 + (v1 - v0) * s)[None, :]
-        out[k] = patches[k].derivatives(u, v, order)
+        out[k] = patches[k].derivatives(*patch_grid(patches[k], s), order)
     for (m, mv), members in groups.items():
         Bu = bernstein_basis(m, s, order)  # (o+1, n, m+1), derivatives in s
         Bv = bernstein_basis(mv, s, order)
         for start in range(0, len(members), _CHUNK):
             chunk = members[start : start + _CHUNK]
             nets = np.stack([patches[k].points for k in chunk])  # (G, m+1, mv+1, 3)
-            span = np.array(
-                [[np.ptp(patches[k].domain[0]), np.ptp(patches[k].domain[1])] for k in chunk]
-            )
+            span = domain_spans([patches[k] for k in chunk])
             for i in range(order + 1):
                 # rows[g, a, b, c] = sum_i' Bu[i][a, i'] P[g, i', b, c]
                 rows = np.einsum("ai,gibc->gabc", Bu[i], nets, optimize=True)

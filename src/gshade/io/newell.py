@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from ..errors import SurfaceDataError
 from ..geometry import BezierPatch
+from .files import read_bytes
 
 __all__ = ["parse_newell", "read_newell"]
 
@@ -137,11 +138,10 @@ def read_newell(path: str | os.PathLike, up: str = "z") -> list[BezierPatch]:
     if up not in _TO_Z_UP:
         raise SurfaceDataError(f"up: expected one of 'x', 'y', 'z', got {up!r}")
     path = Path(path)
+    data = read_bytes(path, "a file in Newell's format", SurfaceDataError)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SurfaceDataError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
         raise SurfaceDataError(f"{path}: cannot read the file ({exc})") from None
     vertices, nets = parse_newell(text, str(path))
     vertices = vertices @ _TO_Z_UP[up].T

@@ -9,8 +9,9 @@ surface under soft light (sky occlusion from one cosine-distributed ray, a shado
 and a head light).  AOV ``f`` is f at hits and 0 elsewhere, so that its pixel mean divided
 by the coverage A is the mean over the samples that hit.
 
-A second mode (``data=True``) returns only the hit's atlas coordinates, for the per-pixel
-data channels that gshade then evaluates exactly (P, N, u, v, patch).
+A second mode (set ``integrator.data = True`` before a render) returns only the hit's atlas
+coordinates, for the per-pixel data channels that gshade then evaluates exactly (P, N, u, v,
+patch); it reads the same textures.
 
 Traced into one kernel in the ``llvm_ad_rgb`` variant (as fast as Mitsuba's own plugins);
 run per sample in ``scalar_rgb``.
@@ -73,13 +74,14 @@ def make_integrator(
     settings: IntegratorSettings,
     textures: dict[str, np.ndarray],
     lut: np.ndarray | None,
-    data: bool = False,
 ):
     """An integrator instance for the active Mitsuba variant.
 
-    ``textures``: 'values' (H, W, 3) float32 = (f, f_s, f_t) of the striped/primary function,
-    'valid' (H, W), and for ``display == 'both'`` 'colour_values' (H, W, 3) and
-    'colour_valid' of the colour-mapped function.  ``lut``: (256, 3) linear RGB colour map.
+    ``textures``: 'values' (H, W, 3) float32 = (f, f_s, f_t), 'twist' (H, W) = f_st and
+    'valid' (H, W) of the striped/primary function; for ``display == 'both'`` the same as
+    'colour_values', 'colour_twist', 'colour_valid' of the colour-mapped function; and the
+    surface's 'position', 'tangent_s', 'tangent_t', 'twist_st' (H, W, 3) (see
+    :class:`gshade.rendering.textures.ShapeTextures`).  ``lut``: (256, 3) linear RGB map.
     """
     import drjit as dr
     import mitsuba as mi
@@ -90,7 +92,7 @@ def make_integrator(
         cls = _define(mi, dr)
         _CLASSES[variant] = cls
     integrator = cls(mi.Properties())
-    integrator.configure(settings, textures, lut, data)
+    integrator.configure(settings, textures, lut)
     return integrator
 
 
@@ -125,8 +127,8 @@ def _define(mi, dr):
         return x if scalar else dr.opaque(Float, x)
 
     class GshadeIntegrator(mi.SamplingIntegrator):
-        def configure(self, settings, textures, lut, data):
-            self.data = data
+        def configure(self, settings, textures, lut):
+            self.data = False
             self.display = DISPLAY_CODES[settings.display]
             self.lit = settings.lighting == "lit"
             # one texture per kind of data, all a texel's channels fetched at once

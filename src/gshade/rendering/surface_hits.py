@@ -9,8 +9,9 @@ settle (a silhouette pixel whose centre ray misses the patch) keep their start v
 Two implementations of the same step: polynomial Bézier patches of one degree are done all
 at once in one Dr.Jit float64 kernel (their control points gathered per point, the Bernstein
 bases in closed form), every other patch by numpy through its own ``derivatives``.  They
-agree to round-off (tested); the kernel saves the per-patch overhead (a teapot in 10 ms
-instead of 200 ms, 10,000 patches in a few ms per 1,000).
+agree to round-off (tested); the kernel saves the per-patch work (measured warm: the
+teapot's 275,000 pixels in 0.07 s instead of 0.24 s; 10,000 patches' exact channels in
+0.5-0.6 s instead of 5.8 s).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import BezierPatch, Patch
-from ..geometry.patch_groups import bezier_groups
+from ..geometry.patch_groups import bezier_groups, domain_spans
 from ..shape.kernels import backend
 
 __all__ = ["surface_hits"]
@@ -56,7 +57,7 @@ def _newton_numpy(patch: Patch, u, v, origin, direction):
     return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
 
 
-def _bernstein(dr, degree: int, s):
+def _bernstein(degree: int, s):
     """Values and first derivatives of the Bernstein basis at s (Dr.Jit arrays)."""
     one = 1.0 - s
     powers_s, powers_1 = [1.0], [1.0]
@@ -83,7 +84,7 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
     stride = (m + 1) * (n + 1) * 3
     nets = Float64(np.concatenate([p.points.ravel() for p in patches]))
     lo = np.array([[p.domain[0][0], p.domain[1][0]] for p in patches])
-    span = np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches])
+    span = domain_spans(patches)
     base = UInt32(local.astype(np.uint32) * stride)
     su, sv = Float64(span[local, 0]), Float64(span[local, 1])
     ou, ov = Float64(lo[local, 0]), Float64(lo[local, 1])
@@ -93,8 +94,8 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
 
     def evaluate(uu, vv):
         """p, p_u, p_v at (uu, vv): lists of 3 coordinates."""
-        bu, du = _bernstein(dr, m, (uu - ou) / su)
-        bv, dv = _bernstein(dr, n, (vv - ov) / sv)
+        bu, du = _bernstein(m, (uu - ou) / su)
+        bv, dv = _bernstein(n, (vv - ov) / sv)
         p, pu, pv = [0.0] * 3, [0.0] * 3, [0.0] * 3
         for i in range(m + 1):
             for j in range(n + 1):

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
-from ..geometry.patch_groups import grid_derivatives
+from ..geometry.patch_groups import domain_spans, grid_derivatives
 
 __all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
 
@@ -51,7 +51,7 @@ def _normalised_second_derivatives(patches, samples: int = 9) -> NDArray:
     """Per patch, max over a sample grid of |p_ss| + 2 |p_st| + |p_tt| in normalised
     parameters."""
     d = grid_derivatives(patches, np.linspace(0.0, 1.0, samples), 2)
-    spans = np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches])
+    spans = domain_spans(patches)
     du = spans[:, 0, None, None]
     dv = spans[:, 1, None, None]
     norm = np.linalg.norm

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
-from ..geometry.patch_groups import grid_derivatives
+from ..geometry.patch_groups import domain_spans, grid_derivatives, patch_grid
 from ..shape import ShapeFunction, evaluate
 
 __all__ = ["Atlas", "ShapeTextures", "shape_textures"]
@@ -97,25 +97,21 @@ class ShapeTextures:
 CHUNK_TEXELS = 1 << 15
 
 
-def _patch_grid(patch, grid):
-    (u0, u1), (v0, v1) = patch.domain
-    return (u0 + (u1 - u0) * grid)[:, None], (v0 + (v1 - v0) * grid)[None, :]
-
-
 def _chunk_derivatives(patches, chunk, grid, order):
     """Derivatives of the patches ``chunk`` on the tile grid: (order+1, order+1, n, T, T, 3),
     regularised at irregular points (see :func:`gshade.geometry.regularised_derivatives`),
     the regularity (n, T, T) and the parameter spans (n, 2)."""
     members = [patches[k] for k in chunk]
-    spans = np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in members])
+    spans = domain_spans(members)
     if len(members) == 1:  # in place, no copy
-        rd = regularised_derivatives(members[0], *_patch_grid(members[0], grid), order)
+        rd = regularised_derivatives(members[0], *patch_grid(members[0], grid), order)
         return rd.d[:, :, None], rd.regular[None], spans
     d = np.moveaxis(grid_derivatives(members, grid, order), 0, 2)
     regular = ~irregular_mask(d)
+    # the chunk-wide test only finds candidates: each patch is judged on its own scale
     for c in np.flatnonzero(~regular.all(axis=(1, 2))):
-        rd = regularised_derivatives(members[c], *_patch_grid(members[c], grid), order)
-        d[:, :, c] = rd.d
+        rd = regularised_derivatives(members[c], *patch_grid(members[c], grid), order)
+        d[:, :, c], regular[c] = rd.d, rd.regular
     return d, regular, spans
 
 

@@ -213,10 +213,9 @@ def run(
         valid = finite if valid is None else valid & finite
         if eye is not None:
             valid = valid & ~eye
-        f = xp.select(valid, jet.f, 0.0)
-        outputs = [f, valid]
+        outputs = {"f": [xp.select(valid, jet.f, 0.0)], "valid": [valid]}
         if eye is not None:
-            outputs.append(eye)
+            outputs["eye"] = [eye]
         if with_gradient:
             pu = [component(1, 0, c) for c in range(3)]
             pv = [component(0, 1, c) for c in range(3)]
@@ -227,18 +226,14 @@ def run(
             ok = valid & (det > 0.0)
             a = xp.select(ok, (G * jet.u - F * jet.v) / det, 0.0)
             b = xp.select(ok, (E * jet.v - F * jet.u) / det, 0.0)
-            outputs += [a * pu[c] + b * pv[c] for c in range(3)]
+            outputs["gradient"] = [a * pu[c] + b * pv[c] for c in range(3)]
         if with_partials:
-            outputs += [xp.select(valid, jet.u, 0.0), xp.select(valid, jet.v, 0.0)]
+            outputs["partials"] = [xp.select(valid, jet.u, 0.0), xp.select(valid, jet.v, 0.0)]
         if name == "drjit":
-            dr.eval(*outputs)
-            outputs = [np.array(x) for x in outputs]
-    f, valid = np.broadcast_to(outputs[0], n), np.broadcast_to(outputs[1], n).astype(bool)
-    eye = np.broadcast_to(outputs[2], n).astype(bool) if eye is not None else np.zeros(n, bool)
-    grad = fuv = None
-    if with_partials:
-        fuv = np.stack([np.broadcast_to(g, n) for g in outputs[-2:]])
-        outputs = outputs[:-2]
-    if with_gradient:
-        grad = np.stack([np.broadcast_to(g, n) for g in outputs[-3:]])
-    return np.ascontiguousarray(f, dtype=np.float64), grad, valid, eye, fuv
+            dr.eval(*(x for arrays in outputs.values() for x in arrays))
+    # numpy arrays of n values (formulas may leave a constant as a scalar)
+    out = {k: np.stack([np.broadcast_to(np.asarray(x), n) for x in v]) for k, v in outputs.items()}
+    f = np.ascontiguousarray(out["f"][0], dtype=np.float64)
+    valid = out["valid"][0].astype(bool)
+    eye = out["eye"][0].astype(bool) if "eye" in out else np.zeros(n, bool)
+    return f, out.get("gradient"), valid, eye, out.get("partials")
