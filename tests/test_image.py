@@ -128,7 +128,7 @@ def test_exr_failure_after_the_temporary_file_is_written(tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(image.os, "replace", refuse)
-    with pytest.raises(GshadeError, match=r"out.exr: cannot write the image: .*No space left"):
+    with pytest.raises(GshadeError, match=r"out.exr: cannot write the file: .*No space left"):
         write_exr(target, {"R": np.zeros((2, 3))})
     assert target.read_bytes() == before
     assert leftovers(tmp_path) == []
@@ -139,15 +139,15 @@ def test_exr_failure_inside_the_library_removes_the_temporary_file(tmp_path, mon
         raise RuntimeError("disk on fire")
 
     monkeypatch.setattr(image.OpenEXR, "File", broken)
-    with pytest.raises(GshadeError, match=r"new.exr: cannot write the image: disk on fire"):
+    with pytest.raises(GshadeError, match=r"new.exr: cannot write the file: disk on fire"):
         write_exr(tmp_path / "new.exr", {"R": np.zeros((2, 3))})
     assert list(tmp_path.iterdir()) == []
 
 
 def test_exr_write_to_a_missing_directory_or_a_directory(tmp_path):
-    with pytest.raises(GshadeError, match=r"nowhere/a.exr: cannot write the image: .*directory"):
+    with pytest.raises(GshadeError, match=r"nowhere/a.exr: cannot write the file: .*does not exist"):
         write_exr(tmp_path / "nowhere" / "a.exr", {"R": np.zeros((2, 3))})
-    with pytest.raises(GshadeError, match=r": cannot write the image: it is a directory"):
+    with pytest.raises(GshadeError, match=r": cannot write the file: it is a directory"):
         write_exr(tmp_path, {"R": np.zeros((2, 3))})
 
 

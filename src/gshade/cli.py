@@ -163,19 +163,20 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
 
 
 def _render(args: argparse.Namespace) -> int:
+    from .io.outputs import output_file, staged, write_to
     from .io.scene import load_scene
     from .rendering import render
 
     scene = load_scene(args.scene, _scene_overrides(args))
-    output = Path(args.output or f"{scene.name}.exr")
-    for target in filter(None, (output, args.png)):
-        folder = Path(target).resolve().parent
-        if not folder.is_dir():
-            raise GshadeError(f"{target}: the folder {folder} does not exist")
-    image = render(scene)
-    image.write_exr(output)
-    if args.png:
-        image.write_png(args.png)
+    output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
+    targets = [output] + ([Path(args.png)] if args.png else [])
+    # the outputs' temporaries are made first: an unwritable target fails before rendering,
+    # and the targets change only once every file is written
+    with staged(targets) as names:
+        image = render(scene)
+        writers = [image.exr_writer(output)] + ([image.png_writer(args.png)] if args.png else [])
+        for target, writer, name in zip(targets, writers, names, strict=True):
+            write_to(name, writer, target)
     print(
         f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
         f"{image.metadata['legend']}"
@@ -399,12 +400,22 @@ def _shapes(args: argparse.Namespace) -> int:
     return 0
 
 
+def _terminated(signum: int, frame: object) -> None:
+    """SIGTERM (and SIGHUP) end a command as Ctrl-C does: through the ``finally`` clauses
+    that remove temporaries and stop workers, then with status 128 + the signal number."""
+    raise SystemExit(128 + signum)
+
+
 def main(argv: list[str] | None = None) -> int:
+    import signal
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()
         return 0
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _terminated)
     try:
         return args.run(args)
     except GshadeError as exc:
@@ -426,6 +437,8 @@ def console() -> None:
         sys.stdout.flush()
     except BrokenPipeError:  # e.g. `gshade continuity … | head`: the reader left early
         status = 0
+    except SystemExit as exc:  # a signal (see _terminated), or argparse
+        status = exc.code if isinstance(exc.code, int) else 2
     try:
         sys.stderr.flush()
     except BrokenPipeError:

@@ -10,6 +10,7 @@ parameters) at the pixel centre, ``patch`` (patch index at the pixel centre, -1 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,14 +61,36 @@ class RenderedImage:
     def __getitem__(self, name: str) -> NDArray[np.float32]:
         return self.channels[name]
 
+    def exr_writer(self, path: str | os.PathLike) -> Callable[[str], None]:
+        """All channels (float32) and the metadata, checked now, as a function writing them to
+        a file name given later (see :func:`gshade.io.image.exr_writer`)."""
+        from .io.image import exr_writer
+
+        return exr_writer(path, {k: self.channels[k] for k in CHANNELS}, header=self.metadata)
+
+    def png_writer(self, path: str | os.PathLike) -> Callable[[str], None]:
+        """The picture as an sRGB PNG with alpha, as a function writing it to a file name
+        given later."""
+        from .io.image import png_writer
+
+        return png_writer(path, self.straight_rgb, self.alpha)
+
     def write_exr(self, path: str | os.PathLike) -> None:
         """Write all channels (float32) and the metadata, atomically."""
-        from .io.image import write_exr
-
-        write_exr(path, {k: self.channels[k] for k in CHANNELS}, header=self.metadata)
+        self.write(exr=path)
 
     def write_png(self, path: str | os.PathLike) -> None:
         """Write the picture as an sRGB PNG with alpha, atomically."""
-        from .io.image import write_png
+        self.write(png=path)
 
-        write_png(path, self.straight_rgb, self.alpha)
+    def write(
+        self, exr: str | os.PathLike | None = None, png: str | os.PathLike | None = None
+    ) -> None:
+        """Write the EXR and / or the PNG: both are renamed onto their targets only when both
+        were written (:func:`gshade.io.outputs.staged`)."""
+        from .io.outputs import staged, write_to
+
+        writers = [(p, w) for p, w in ((exr, self.exr_writer), (png, self.png_writer)) if p]
+        with staged([p for p, _ in writers]) as names:
+            for (path, writer), name in zip(writers, names, strict=True):
+                write_to(name, writer(path), path)

@@ -12,7 +12,6 @@ attributes are strings, integers (EXR ``int``, 32 bits) and floats (EXR ``double
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Callable, Mapping
 from functools import cache
 from pathlib import Path
@@ -23,13 +22,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .files import read_bytes
+from .outputs import atomic_write
 
 __all__ = [
     "atomic_write",
+    "exr_writer",
     "linear_to_srgb",
     "read_exr",
     "read_exr_header",
     "write_exr",
+    "png_writer",
     "write_png",
 ]
 
@@ -55,47 +57,6 @@ _STRUCTURAL = frozenset(
 _RESERVED = _STRUCTURAL | {"tiles", "name", "version", "chunkCount", "view", "multiView"}
 
 _INT32 = (-(2**31), 2**31 - 1)
-
-
-# --------------------------------------------------------------------------- atomic writing
-
-
-@cache
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], None]) -> Path:
-    """Call ``write(temporary_name)``, then move the temporary file onto ``path``."""
-    path = Path(path)
-    if path.is_dir():
-        raise GshadeError(f"{path}: cannot write the image: it is a directory")
-    try:
-        tmp = tempfile.NamedTemporaryFile(
-            delete=False, dir=path.parent, prefix=f".{path.name}.", suffix=suffix
-        )
-    except OSError as exc:
-        raise GshadeError(
-            f"{path}: cannot write the image: {exc.strerror or exc} (directory {path.parent})"
-        ) from None
-    tmp.close()
-    try:
-        write(tmp.name)
-        os.chmod(tmp.name, 0o666 & ~_umask())
-        os.replace(tmp.name, path)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp.name)
-        except OSError:
-            pass
-        if isinstance(exc, GshadeError):
-            raise
-        if isinstance(exc, (OSError, RuntimeError, ValueError, TypeError)):
-            raise GshadeError(f"{path}: cannot write the image: {exc}") from exc
-        raise
-    return path
 
 
 # --------------------------------------------------------------------------- EXR
@@ -175,6 +136,31 @@ def _check_header(path: Path, header: Mapping[str, object] | None) -> dict[str, 
     return out
 
 
+def exr_writer(
+    path: str | os.PathLike,
+    channels: Mapping[str, ArrayLike],
+    header: Mapping[str, str | float | int] | None = None,
+    half: set[str] | None = None,
+) -> Callable[[str], None]:
+    """The channels and header checked now (errors name ``path``), as a function that
+    writes them to a file name given later (a temporary: see :mod:`gshade.io.outputs`).
+
+    See :func:`write_exr` for the parameters."""
+    target = Path(path)
+    data = _check_channels(target, channels, half)
+    attributes = _check_header(target, header)
+    # lossless ZIP per scanline: read everywhere, and faster to write than 16-line ZIP
+    attributes["compression"] = OpenEXR.ZIPS_COMPRESSION
+    attributes["type"] = OpenEXR.scanlineimage
+
+    def write(name: str) -> None:
+        _use_all_cores()
+        # OpenEXR.File replaces the values of the dict it is given: hand it a fresh one.
+        OpenEXR.File(dict(attributes), dict(data)).write(name)
+
+    return write
+
+
 def write_exr(
     path: str | os.PathLike,
     channels: Mapping[str, ArrayLike],
@@ -207,19 +193,7 @@ def write_exr(
     GshadeError
         For bad channels or header values, or if the file cannot be written.
     """
-    target = Path(path)
-    data = _check_channels(target, channels, half)
-    attributes = _check_header(target, header)
-    # lossless ZIP per scanline: read everywhere, and faster to write than 16-line ZIP
-    attributes["compression"] = OpenEXR.ZIPS_COMPRESSION
-    _use_all_cores()
-    attributes["type"] = OpenEXR.scanlineimage
-
-    def write(name: str) -> None:
-        # OpenEXR.File replaces the values of the dict it is given: hand it a fresh one.
-        OpenEXR.File(dict(attributes), dict(data)).write(name)
-
-    return atomic_write(target, ".exr", write)
+    return atomic_write(path, ".exr", exr_writer(path, channels, header, half))
 
 
 @cache
@@ -329,28 +303,11 @@ def _to_uint8(x: NDArray) -> NDArray[np.uint8]:
     return np.round(np.clip(x, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def write_png(path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None = None) -> Path:
-    """Write linear RGB (and straight alpha) as an 8-bit sRGB PNG, atomically.
-
-    Parameters
-    ----------
-    path : path-like
-    rgb : array_like, shape (height, width, 3)
-        Linear colour, not premultiplied by alpha; clipped to [0, 1] (NaN -> 0), then
-        sRGB-encoded and rounded to 8 bits.
-    alpha : array_like, shape (height, width), optional
-        Coverage in [0, 1], stored linearly (an RGBA PNG); without it the PNG is RGB.
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    GshadeError
-        For arrays of the wrong shape or type, or if the file cannot be written.
-    """
+def png_writer(
+    path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None = None
+) -> Callable[[str], None]:
+    """The picture checked and encoded now (errors name ``path``), as a function that writes
+    it to a file name given later.  See :func:`write_png` for the parameters."""
     import imageio.v3 as iio
 
     target = Path(path)
@@ -374,4 +331,29 @@ def write_png(path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None =
     def write(name: str) -> None:
         iio.imwrite(name, image, extension=".png")
 
-    return atomic_write(target, ".png", write)
+    return write
+
+
+def write_png(path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None = None) -> Path:
+    """Write linear RGB (and straight alpha) as an 8-bit sRGB PNG, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+    rgb : array_like, shape (height, width, 3)
+        Linear colour, not premultiplied by alpha; clipped to [0, 1] (NaN -> 0), then
+        sRGB-encoded and rounded to 8 bits.
+    alpha : array_like, shape (height, width), optional
+        Coverage in [0, 1], stored linearly (an RGBA PNG); without it the PNG is RGB.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    GshadeError
+        For arrays of the wrong shape or type, or if the file cannot be written.
+    """
+    return atomic_write(path, ".png", png_writer(path, rgb, alpha))
