@@ -71,7 +71,6 @@ def prepare_llvm() -> None:
             os.environ["DRJIT_LIBLLVM_PATH"] = llvm
 
 
-
 @lru_cache(maxsize=1)
 def drjit_llvm_ready() -> bool:
     """Whether Dr.Jit's LLVM backend is usable here: a libLLVM >= 17 was found, and Dr.Jit

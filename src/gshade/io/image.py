@@ -28,10 +28,10 @@ __all__ = [
     "atomic_write",
     "exr_writer",
     "linear_to_srgb",
+    "png_writer",
     "read_exr",
     "read_exr_header",
     "write_exr",
-    "png_writer",
     "write_png",
 ]
 
