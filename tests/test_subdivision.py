@@ -218,12 +218,15 @@ def test_obj_reference_forms_negative_indices_and_ignored_statements():
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("v 0 0\n", r"m.obj, line 1: expected a vertex 'v x y z' .*found 'v 0 0'"),
+        (
+            "v 0 0\n",
+            r"m.obj, line 1: expected a vertex 'v x y z' .*a line of 3 fields \(not shown\)",
+        ),
         ("v 0 0 x\n", r"line 1: expected a vertex"),
         ("v 0 0 inf\n", r"line 1: expected finite coordinates"),
         ("v 0 0 0\nv 1 0 0\nf 1 2\n", r"line 3: expected a face 'f a b c ...'"),
-        ("v 0 0 0\nf 1 2 x\n", r"line 2: expected vertex references .* found 'x'"),
-        ("v 0 0 0\nf 1 2/3/4/5 1\n", r"line 2: expected vertex references .* found '2/3/4/5'"),
+        ("v 0 0 0\nf 1 2 x\n", r"line 2: expected vertex references .* not \(not shown\)"),
+        ("v 0 0 0\nf 1 2/3/4/5 1\n", r"line 2: expected vertex references .* not"),
         ("v 0 0 0\nf 1 0 1\n", r"line 2: expected a vertex index other than 0"),
         ("v 0 0 0\nf 1 1 5\n", r"line 2: expected vertex indices from 1 to 1, found 5"),
         ("v 0 0 0\nf -1 -2 -1\n", r"line 2: expected a relative vertex index from -1 to -1"),

@@ -17,7 +17,13 @@ from numpy.typing import ArrayLike, NDArray
 from .differential import irregular_mask, unit_normal
 from .patch import Patch
 
-__all__ = ["RegularisedDerivatives", "patch_normals", "regularised_derivatives", "toward_interior"]
+__all__ = [
+    "RegularisedDerivatives",
+    "degenerate_patch",
+    "patch_normals",
+    "regularised_derivatives",
+    "toward_interior",
+]
 
 
 def toward_interior(patch: Patch, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
@@ -73,3 +79,40 @@ def regularised_derivatives(
     d[:, :, irr] = moved
     d[0, 0][irr] = position
     return RegularisedDerivatives(d, regular)
+
+
+def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 8):
+    """The first patch that is no surface, and why; None if every patch is one.
+
+    A patch is degenerate when its derivatives are not finite anywhere on an interior
+    sample grid (its data overflow), or when it is irregular (|p_u x p_v| ≈ 0, see
+    :func:`~gshade.geometry.differential.irregular_mask`) at every sample: all control
+    points equal, collinear points, a sphere too small for double precision.  Collapsed
+    edges (the teapot's lid) are irregular only at the boundary and pass.
+
+    Returns
+    -------
+    (int, str) or None
+        The patch's index and a reason for messages.
+    """
+    from .patch_groups import grid_derivatives
+
+    s = (np.arange(samples) + 0.5) / samples
+    chunk = 512  # patches per evaluation: bounded memory for large scenes
+    for start in range(0, len(patches), chunk):
+        group = list(patches[start : start + chunk])
+        with np.errstate(all="ignore"):
+            d = grid_derivatives(group, s, 1)
+        for k in range(len(group)):
+            dk = d[k]
+            # beyond 1e100 the curvatures' products of derivatives overflow
+            if not (np.abs(dk) <= 1e100).all():
+                return start + k, "its points or derivatives overflow (numbers too large)"
+            with np.errstate(all="ignore"):
+                irregular = irregular_mask(dk)
+            if irregular.all():
+                return start + k, (
+                    "it has no regular point (p_u x p_v = 0 everywhere: all control points "
+                    "equal or collinear, or a size below double precision)"
+                )
+    return None

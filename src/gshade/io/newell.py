@@ -20,7 +20,8 @@ from numpy.typing import NDArray
 
 from ..errors import SurfaceDataError
 from ..geometry import BezierPatch
-from .files import read_bytes
+from ..limits import MAX_DATA_FILE_BYTES, MAX_MAGNITUDE
+from .files import describe_fields, read_bytes
 
 __all__ = ["parse_newell", "read_newell"]
 
@@ -66,7 +67,12 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
             raise fail(None, f"expected the number of {what}, found the end of the file") from None
         if len(fields) != 1 or not fields[0].isdigit():
             raise fail(
-                number, f"expected the number of {what} (one integer), found {' '.join(fields)!r}"
+                number,
+                f"expected the number of {what} (one integer), found {describe_fields(fields)}",
+            )
+        if int(fields[0]) > len(text):  # each needs a line: more than the file could hold
+            raise fail(
+                number, f"expected the number of {what}, found a count above the file's size"
             )
         return number, int(fields[0])
 
@@ -82,7 +88,7 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
             raise fail(
                 number,
                 f"expected 16 vertex indices (positive integers) for patch {k + 1}, "
-                f"found {' '.join(fields)!r}",
+                f"found {describe_fields(fields)}",
             )
         nets[k] = [int(f) for f in fields]
         net_lines.append(number)
@@ -99,16 +105,16 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
             vertices[k] = [float(f) for f in fields]
         except ValueError:
             raise fail(
-                number, f"expected a vertex 'x, y, z' (3 numbers), found {' '.join(fields)!r}"
+                number, f"expected a vertex 'x, y, z' (3 numbers), found {describe_fields(fields)}"
             ) from None
-        if not np.all(np.isfinite(vertices[k])):
-            raise fail(number, f"expected finite coordinates, found {' '.join(fields)!r}")
+        if not np.all(np.abs(vertices[k]) <= MAX_MAGNITUDE):
+            raise fail(number, f"expected finite coordinates within ±{MAX_MAGNITUDE:g}")
     extra = next(lines, None)
     if extra is not None:
         raise fail(
             extra[0],
             f"expected the end of the file after {n_vertices} vertices, "
-            f"found {' '.join(extra[1])!r}",
+            f"found {describe_fields(extra[1])}",
         )
     bad = np.nonzero((nets < 1) | (nets > n_vertices))
     if bad[0].size:
@@ -138,7 +144,9 @@ def read_newell(path: str | os.PathLike, up: str = "z") -> list[BezierPatch]:
     if up not in _TO_Z_UP:
         raise SurfaceDataError(f"up: expected one of 'x', 'y', 'z', got {up!r}")
     path = Path(path)
-    data = read_bytes(path, "a file in Newell's format", SurfaceDataError)
+    data = read_bytes(
+        path, "a file in Newell's format", SurfaceDataError, limit=MAX_DATA_FILE_BYTES
+    )
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -22,7 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import SurfaceDataError
-from .files import read_bytes
+from ..limits import MAX_DATA_FILE_BYTES, MAX_MAGNITUDE
+from .files import describe_fields, read_bytes
 
 __all__ = ["ObjMesh", "parse_obj", "read_obj", "read_obj_mesh"]
 
@@ -114,17 +115,17 @@ def parse_obj(text: str, source: str = "<string>") -> ObjMesh:
                 raise fail(
                     number,
                     f"expected a vertex 'v x y z' (3 numbers, optionally w or r g b), found "
-                    f"{line.strip()!r}",
+                    f"{describe_fields(fields)}",
                 ) from None
-            if not all(np.isfinite(xyz)):
-                raise fail(number, f"expected finite coordinates, found {line.strip()!r}")
+            if not all(abs(x) <= MAX_MAGNITUDE for x in xyz):
+                raise fail(number, f"expected finite coordinates within ±{MAX_MAGNITUDE:g}")
             vertices.append(xyz)
         elif word == "f":
             if len(args) < 3:
                 raise fail(
                     number,
                     f"expected a face 'f a b c ...' (at least 3 vertex references), found "
-                    f"{line.strip()!r}",
+                    f"{describe_fields(fields)}",
                 )
             refs = []
             for arg in args:
@@ -135,8 +136,8 @@ def parse_obj(text: str, source: str = "<string>") -> ObjMesh:
                 if not ok:
                     raise fail(
                         number,
-                        f"expected vertex references a, a/t, a/t/n or a//n (integers), found "
-                        f"{arg!r}",
+                        "expected vertex references a, a/t, a/t/n or a//n (integers), found "
+                        "one that is not (not shown)",
                     )
                 index = int(parts[0])
                 if index == 0:
@@ -165,7 +166,12 @@ def parse_obj(text: str, source: str = "<string>") -> ObjMesh:
         else:
             raise fail(
                 number,
-                f"expected an OBJ statement such as 'v' or 'f', found {word!r}",
+                "expected an OBJ statement such as 'v' or 'f', found "
+                + (
+                    repr(word)
+                    if word.isalpha() and len(word) <= 12
+                    else "an unknown one (not shown)"
+                ),
             )
     for _, number, index in pending:
         if index > len(vertices):
@@ -187,7 +193,7 @@ def _is_int(text: str) -> bool:
 def read_obj_mesh(path: str | os.PathLike) -> ObjMesh:
     """Read an OBJ file: :class:`ObjMesh` with the face lines (for messages)."""
     path = Path(path)
-    data = read_bytes(path, "an OBJ file", SurfaceDataError)
+    data = read_bytes(path, "an OBJ file", SurfaceDataError, limit=MAX_DATA_FILE_BYTES)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:

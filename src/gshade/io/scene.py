@@ -80,11 +80,28 @@ from ..geometry import (
 from ..geometry.geometric_splines import ENDS as NU_ENDS
 from ..geometry.geometric_splines import NuSplinePatch
 from ..geometry.junctions import junction_patch
+from ..geometry.regularity import degenerate_patch
 from ..geometry.subdivision import subdivision_patches
+from ..limits import (
+    MAX_DEGREE,
+    MAX_IMAGE_SIDE,
+    MAX_MAGNITUDE,
+    MAX_NESTING,
+    MAX_PATCHES,
+    MAX_SCENE_FILE_BYTES,
+    MAX_SEED,
+    MAX_SPP,
+    MAX_STRING,
+    MAX_SUBDIVISION_LEVELS,
+    MAX_TESSELLATION,
+    MAX_TEXTURE_RESOLUTION,
+    MIN_CHORD_TOLERANCE,
+)
 from ..shape.functions import SHAPE_FUNCTIONS
 from .files import read_bytes
 from .newell import read_newell
 from .obj import read_obj_mesh
+from .outputs import output_name
 
 __all__ = [
     "CAMERA_TYPES",
@@ -120,8 +137,9 @@ LIGHTINGS = ("lit", "flat")
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
 CAMERA_TYPES = ("perspective", "orthographic")
 NEWELL_UP = ("z", "y", "x")
-#: Most refinement steps a subdivision surface may ask for (4^levels times the patches).
-MAX_SUBDIVISION_LEVELS = 4
+#: Environment variable: further folders (separated by os.pathsep) that surface data files
+#: may lie in besides the scene file's own folder.
+DATA_PATH_VARIABLE = "GSHADE_DATA_PATH"
 
 _SURFACE_KEYS = {
     "newell": ("file", "up"),
@@ -181,6 +199,8 @@ _SECTION_KEYS = {
     "check": _CHECK_KEYS,
 }
 _DEFAULT_FUNCTION = "isophotes"
+#: Shortest direction vector (light, view up, ...) accepted: normalising it stays exact.
+_MIN_DIRECTION = 1e-12
 _DEFAULT_STRIPES = 20.0
 _MISSING: Any = object()
 
@@ -375,14 +395,18 @@ class _Table:
             raise self.error(key, f"expected {expected}, got {_show(x)}")
         return float(x)
 
-    def integer(self, key: str, default: Any = _MISSING, *, minimum: int = 1) -> Any:
+    def integer(
+        self, key: str, default: Any = _MISSING, *, minimum: int = 1, maximum: int | None = None
+    ) -> Any:
         expected = {0: "an integer >= 0", 1: "a positive integer"}.get(
             minimum, f"an integer >= {minimum}"
         )
+        if maximum is not None:
+            expected = f"an integer from {minimum} to {maximum}"
         x = self.raw(key, default, expected)
         if x is default and key not in self.data:
             return x
-        if not _is_int(x) or x < minimum:
+        if not _is_int(x) or x < minimum or (maximum is not None and x > maximum):
             raise self.error(key, f"expected {expected}, got {_show(x)}")
         return int(x)
 
@@ -423,8 +447,12 @@ class _Table:
             or not all(_is_number(c) and math.isfinite(c) for c in x)
         ):
             raise self.error(key, f"expected {expected}, got {_show(x)}")
-        if nonzero and not any(x):
-            raise self.error(key, f"expected a non-zero direction [x, y, z], got {_show(x)}")
+        if nonzero and not math.hypot(*x) >= _MIN_DIRECTION:
+            raise self.error(
+                key,
+                f"expected a direction [x, y, z] of length at least {_MIN_DIRECTION:g}, "
+                f"got {_show(x)}",
+            )
         return (float(x[0]), float(x[1]), float(x[2]))
 
     def array(self, key: str, levels: Sequence[str], length: int | None = None) -> np.ndarray:
@@ -462,6 +490,70 @@ class _Table:
                     f"{', '.join(map(str, lengths))}",
                 )
         return np.asarray(x, dtype=np.float64)
+
+
+def _location(parts: Sequence[str | int], raw: dict[str, Any]) -> str:
+    """Where a value sits, as messages name it: ``[[surface]] 2 (bezier): points[0][3]``,
+    ``[camera] fov``, ``name``."""
+    rest = list(parts)
+    head = ""
+    if len(rest) >= 2 and rest[0] == "surface" and isinstance(rest[1], int):
+        table = raw["surface"][rest[1]]
+        kind = table.get("type") if isinstance(table, dict) else None
+        shown = f" ({kind})" if isinstance(kind, str) and kind in SURFACE_TYPES else ""
+        head, rest = f"[[surface]] {rest[1] + 1}{shown}: ", rest[2:]
+    elif len(rest) >= 2 and isinstance(rest[0], str) and isinstance(rest[1], str):
+        head, rest = f"[{rest[0]}] ", rest[1:]
+    text = ""
+    for p in rest:
+        text += f"[{p}]" if isinstance(p, int) else (f".{p}" if text else p)
+    return (head + text).strip().rstrip(":") or "(top level)"
+
+
+def _check_values(file: str, raw: dict[str, Any]) -> None:
+    """Bounds every scene value must meet whatever its key: numbers finite and within
+    ±MAX_MAGNITUDE (integers too: no overflow when they become floats), strings of at
+    most MAX_STRING characters, keys short and printable, nesting at most MAX_NESTING
+    deep.  One iterative pass, so that no depth or size of input can exhaust the stack."""
+    stack: list[tuple[Any, tuple[str | int, ...]]] = [(raw, ())]
+    while stack:
+        value, parts = stack.pop()
+        if len(parts) > MAX_NESTING:
+            raise GshadeError(
+                f"{file}: {_location(parts[:3], raw)}: expected arrays and tables nested at most "
+                f"{MAX_NESTING} deep, got deeper ones"
+            )
+        if isinstance(value, dict):
+            for key, item in value.items():
+                if len(key) > 64 or not key.isprintable():
+                    where = _location(parts, raw) if parts else "a key"
+                    raise GshadeError(
+                        f"{file}: {where}: expected keys of at most 64 printable characters, "
+                        f"got {json.dumps(key[:40])}" + ("…" if len(key) > 40 else "")
+                    )
+                stack.append((item, (*parts, key)))
+        elif isinstance(value, list):
+            stack.extend((item, (*parts, k)) for k, item in enumerate(value))
+        elif isinstance(value, bool):
+            continue
+        elif isinstance(value, (int, float)):
+            if not abs(value) <= MAX_MAGNITUDE:  # NaN fails as well
+                shown = _show(value) if isinstance(value, float) else _big(value)
+                raise GshadeError(
+                    f"{file}: {_location(parts, raw)}: expected a finite number within "
+                    f"±{MAX_MAGNITUDE:g}, got {shown}"
+                )
+        elif isinstance(value, str) and len(value) > MAX_STRING:
+            raise GshadeError(
+                f"{file}: {_location(parts, raw)}: expected a string of at most {MAX_STRING} "
+                f"characters, got {len(value)}"
+            )
+
+
+def _big(x: int) -> str:
+    digits = str(abs(x))
+    sign = "-" if x < 0 else ""
+    return f"{sign}{digits[:3]}…({len(digits)} digits)" if len(digits) > 20 else f"{x}"
 
 
 @contextmanager
@@ -507,10 +599,54 @@ _WEIGHTS = ("(m+1) rows of n+1 positive numbers", "a row of positive numbers")
 _CURVE = ("a list of Bézier control points [x, y, z]", "a point [x, y, z]")
 
 
-def _data_file(t: _Table, base: Path, name: str) -> Path:
-    """The data file a surface's ``file`` key names (relative to the scene file)."""
+def _bezier_net(t: _Table, key: str, levels: Sequence[str] = _NET) -> np.ndarray:
+    """A Bézier control net (or, with ``_CURVE`` levels, polygon) of degree at most
+    ``MAX_DEGREE`` in each direction."""
+    points = t.array(key, levels, 3)
+    degree = max(points.shape[:-1]) - 1
+    if degree > MAX_DEGREE:
+        raise t.error(
+            key,
+            f"expected at most {MAX_DEGREE + 1} points per row and column (degree "
+            f"{MAX_DEGREE}), got degree {degree}",
+        )
+    return points
+
+
+def _data_roots(base: Path, data_path: Sequence[str | os.PathLike] | None) -> list[Path]:
+    """The folders data files may lie in: the scene's own and ``data_path`` (default: the
+    environment's ``GSHADE_DATA_PATH``)."""
+    if data_path is None:
+        data_path = [p for p in os.environ.get(DATA_PATH_VARIABLE, "").split(os.pathsep) if p]
+    roots = []
+    for folder in [base, *data_path]:
+        try:
+            roots.append(Path(folder).resolve())
+        except (OSError, ValueError, RuntimeError):
+            continue
+    return roots
+
+
+def _data_file(t: _Table, base: Path, name: str, roots: Sequence[Path]) -> Path:
+    """The data file a surface's ``file`` key names (relative to the scene file), checked to
+    lie within one of ``roots`` once symbolic links are resolved."""
     data_file = base / name
-    if not data_file.is_file():
+    try:
+        resolved = data_file.resolve()
+        exists = resolved.is_file()
+    except (OSError, ValueError, RuntimeError) as exc:
+        raise t.error(
+            "file",
+            f"expected a path to an existing file, got {_show(name)} "
+            f"({getattr(exc, 'strerror', None) or 'not a usable path'})",
+        ) from None
+    if not any(resolved.is_relative_to(root) for root in roots):
+        raise t.error(
+            "file",
+            f"expected a file within the scene's folder {roots[0]} (or a folder in "
+            f"{DATA_PATH_VARIABLE}), got {_show(name)}",
+        )
+    if not exists:
         raise t.error(
             "file",
             f"expected an existing file (relative to the scene file), got {_show(name)} "
@@ -519,7 +655,9 @@ def _data_file(t: _Table, base: Path, name: str) -> Path:
     return data_file
 
 
-def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path | None]:
+def _surface(
+    file: str, index: int, raw: Any, base: Path, roots: Sequence[Path]
+) -> tuple[Surface, Path | None]:
     head = f"[[surface]] {index}"
     if not isinstance(raw, dict):
         raise GshadeError(f"{file}: {head}: expected a table, got {_show(raw)}")
@@ -542,7 +680,7 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
     if kind == "newell":
         name = t.string("file", expected="a path to a file in Newell's format")
         up = t.choice("up", NEWELL_UP, "z")
-        data_file = _data_file(t, base, name)
+        data_file = _data_file(t, base, name, roots)
         with reported:
             patches = read_newell(data_file, up=up)
     elif kind == "subdivision":
@@ -554,9 +692,16 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
                 f"expected an integer from 0 to {MAX_SUBDIVISION_LEVELS} (each level multiplies "
                 f"the patches by 4), got {_show(raw['levels'])}",
             )
-        data_file = _data_file(t, base, name)
+        data_file = _data_file(t, base, name, roots)
         with reported:
             mesh = read_obj_mesh(data_file)
+        if len(mesh.faces) * 4**levels > MAX_PATCHES:
+            raise t.error(
+                "levels",
+                f"expected at most {MAX_PATCHES} patches, got {len(mesh.faces)} faces x "
+                f"4^{levels} levels = {len(mesh.faces) * 4**levels}",
+            )
+        with _reported(f"{file}: {where}"):
             patches = subdivision_patches(
                 mesh.vertices,
                 mesh.faces,
@@ -565,14 +710,21 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
                 face_lines=mesh.face_lines,
             )
     elif kind == "bezier":
-        points = t.array("points", _NET, 3)
+        points = _bezier_net(t, "points")
         weights = t.array("weights", _WEIGHTS) if "weights" in raw else None
         with reported:
             patches = [BezierPatch(points, weights)]
     elif kind == "bspline":
         degree = t.raw("degree", expected="[p, q], two integers >= 1")
-        if not (isinstance(degree, list) and len(degree) == 2 and all(_is_int(d) for d in degree)):
-            raise t.error("degree", f"expected [p, q], two integers >= 1, got {_show(degree)}")
+        if not (
+            isinstance(degree, list)
+            and len(degree) == 2
+            and all(_is_int(d) and 1 <= d <= MAX_DEGREE for d in degree)
+        ):
+            raise t.error(
+                "degree",
+                f"expected [p, q], two integers from 1 to {MAX_DEGREE}, got {_show(degree)}",
+            )
         knots = [
             t.array(k, (f"a list of knots ({d}: number of points + degree + 1 numbers)",))
             for k, d in (("knots_u", "u"), ("knots_v", "v"))
@@ -585,13 +737,13 @@ def _surface(file: str, index: int, raw: Any, base: Path) -> tuple[Surface, Path
         curves = {}
         for key in _SURFACE_KEYS["coons"]:
             if key in ("v0", "v1", "u0", "u1") or key in raw:
-                points = t.array(key, _CURVE, 3)
+                points = _bezier_net(t, key, _CURVE)
                 with _reported(f"{file}: {where}{key}: "):
                     curves[key] = BezierCurve(points)
         with reported:
             patches = [CoonsPatch(**curves)]
     elif kind == "junction":
-        points = t.array("points", _NET, 3)
+        points = _bezier_net(t, "points")
         continuity = t.choice("continuity", ("G0", "G1", "G2", "G3"))
         connection = {
             key: t.number(key, default)
@@ -764,7 +916,7 @@ def _camera(file: str, raw: dict[str, Any]) -> Camera:
     origin = t.vector("origin", None)
     target = t.vector("target", None)
     up = t.vector("up", (0.0, 0.0, 1.0), nonzero=True)
-    fov = t.number("fov", 30.0, lo=0, hi=180)
+    fov = t.number("fov", 30.0, lo=1e-3, hi=180)
     width = t.number("width", None, lo=0)
     if origin is not None and target is not None:
         view = np.subtract(target, origin)
@@ -785,15 +937,19 @@ def _render(file: str, raw: dict[str, Any]) -> RenderSettings:
     t = _Table(file, "[render] ", raw)
     t.reject_unknown(_RENDER_KEYS)
     return RenderSettings(
-        width=t.integer("width", 1024),
-        height=t.integer("height", 768),
-        spp=t.integer("spp", 16),
+        width=t.integer("width", 1024, maximum=MAX_IMAGE_SIDE),
+        height=t.integer("height", 768, maximum=MAX_IMAGE_SIDE),
+        spp=t.integer("spp", 16, maximum=MAX_SPP),
         lighting=t.choice("lighting", LIGHTINGS, "lit"),
         variant=t.choice("variant", VARIANTS, "auto"),
-        seed=t.integer("seed", 0, minimum=0),
-        tessellation=t.integer("tessellation", None, minimum=2),
-        chord_tolerance=t.number("chord_tolerance", 1e-3, lo=0),
-        texture_resolution=t.integer("texture_resolution", None, minimum=1),
+        seed=t.integer("seed", 0, minimum=0, maximum=MAX_SEED),
+        tessellation=t.integer("tessellation", None, minimum=2, maximum=MAX_TESSELLATION),
+        chord_tolerance=t.number(
+            "chord_tolerance", 1e-3, lo=MIN_CHORD_TOLERANCE, hi=1, closed=True
+        ),
+        texture_resolution=t.integer(
+            "texture_resolution", None, minimum=1, maximum=MAX_TEXTURE_RESOLUTION
+        ),
         junctions=t.boolean("junctions", False),
     )
 
@@ -803,8 +959,12 @@ def _check(file: str, raw: dict[str, Any]) -> dict[str, Any]:
     t.reject_unknown(_CHECK_KEYS)
     out: dict[str, Any] = {}
     for key in raw:
-        if key in ("width", "height", "spp", "runs"):
-            out[key] = t.integer(key)
+        if key in ("width", "height"):
+            out[key] = t.integer(key, maximum=MAX_IMAGE_SIDE)
+        elif key == "spp":
+            out[key] = t.integer(key, maximum=MAX_SPP)
+        elif key == "runs":
+            out[key] = t.integer(key, maximum=64)
         elif key == "statistical":
             out[key] = t.boolean(key)
         elif key == "channels":
@@ -847,7 +1007,7 @@ def _sweep(file: str, raw: dict[str, Any], prefix: str = "") -> dict[str, tuple[
 def _parse_value(text: str) -> Any:
     try:
         parsed = tomllib.loads(f"x = {text}")
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, ValueError, RecursionError):
         return text
     return parsed["x"] if list(parsed) == ["x"] else text
 
@@ -987,17 +1147,29 @@ def _build(
     path: Path | None,
     base: Path,
     overrides: dict[str, Any] | None,
+    data_path: Sequence[str | os.PathLike] | None = None,
 ) -> Scene:
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise GshadeError(f"{file}: invalid TOML: {exc}") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise GshadeError(f"{file}: invalid TOML: {str(exc).split(';')[0]}") from None
+    except RecursionError:
+        raise GshadeError(
+            f"{file}: invalid TOML: arrays or tables nested too deeply (at most {MAX_NESTING})"
+        ) from None
+    _check_values(file, raw)
     if overrides:
         raw = _apply_overrides(file, raw, dict(overrides))
+        _check_values(file, raw)
     top = _Table(file, "", raw)
     top.reject_unknown(_TOP_KEYS)
-    default_name = path.stem if path is not None else "scene"
-    name = top.string("name", default_name, expected="a non-empty string")
+    if "name" in raw:
+        name = output_name(top.string("name", expected="a non-empty string"), f"{file}: name")
+    else:
+        default = path.stem if path is not None else "scene"
+        name = output_name(default, f"{file}: name (the file's stem; set name = ...)")
     if "surface" not in raw:
         raise GshadeError(f"{file}: [[surface]]: missing; expected at least one [[surface]] table")
     tables = raw["surface"]
@@ -1013,11 +1185,23 @@ def _build(
     check = _check(file, _table(file, raw, "check"))
     sweep = _sweep(file, _table(file, raw, "sweep"))
     surfaces, data_files = [], []
+    roots = _data_roots(base, data_path)
+    count = 0
     for index, table in enumerate(tables, start=1):
-        surface, data_file = _surface(file, index, table, base)
+        surface, data_file = _surface(file, index, table, base, roots)
         surfaces.append(surface)
         if data_file is not None and data_file.resolve() not in data_files:
             data_files.append(data_file.resolve())
+        count += len(surface.patches)
+        if count > MAX_PATCHES:
+            raise GshadeError(
+                f"{surface.source}: expected at most {MAX_PATCHES} patches in a scene, got "
+                f"{count} by this surface"
+            )
+        bad = degenerate_patch(surface.patches)
+        if bad is not None:
+            which = f" patch {bad[0]}" if len(surface.patches) > 1 else ""
+            raise GshadeError(f"{surface.source}:{which} degenerate: {bad[1]}")
     return Scene(
         name=name,
         path=path,
@@ -1032,18 +1216,27 @@ def _build(
     )
 
 
-def load_scene(path: str | os.PathLike, overrides: dict[str, object] | None = None) -> Scene:
+def load_scene(
+    path: str | os.PathLike,
+    overrides: dict[str, object] | None = None,
+    *,
+    data_path: Sequence[str | os.PathLike] | None = None,
+) -> Scene:
     """Read and validate a scene file.
 
     Parameters
     ----------
     path : path-like
-        The TOML scene file; surface data files are found relative to its directory.
+        The TOML scene file (a regular file of at most 16 MB); surface data files are found
+        relative to its directory, and must lie within it (symbolic links resolved).
     overrides : dict, optional
         Dotted key -> value (see :func:`parse_overrides`), applied to the file's contents
         before validation.  When an override changes ``shape.function`` (or
         ``shape.colour_function``), the file's parameters that only the replaced function
         takes are dropped.
+    data_path : sequence of path-like, optional
+        Further folders data files may lie in; default: those in the environment variable
+        ``GSHADE_DATA_PATH`` (separated by ``os.pathsep``).
 
     Returns
     -------
@@ -1056,7 +1249,7 @@ def load_scene(path: str | os.PathLike, overrides: dict[str, object] | None = No
     """
     path = Path(path)
     file = str(path)
-    data = read_bytes(path, "a scene file (TOML)")
+    data = read_bytes(path, "a scene file (TOML)", limit=MAX_SCENE_FILE_BYTES)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -1064,7 +1257,7 @@ def load_scene(path: str | os.PathLike, overrides: dict[str, object] | None = No
             f"{file}: expected a UTF-8 text file (TOML), got byte {data[exc.start]:#04x} at "
             f"offset {exc.start}"
         ) from None
-    return _build(text, file, path, path.parent, overrides)
+    return _build(text, file, path, path.parent, overrides, data_path)
 
 
 def parse_scene(
@@ -1073,10 +1266,11 @@ def parse_scene(
     source: str = "<string>",
     base: str | os.PathLike = ".",
     overrides: dict[str, object] | None = None,
+    data_path: Sequence[str | os.PathLike] | None = None,
 ) -> Scene:
     """Validate a scene given as TOML text (``Scene.path`` is None, the default name "scene").
 
-    ``source`` names the text in messages; data files are found relative to ``base``.
-    See :func:`load_scene`.
+    ``source`` names the text in messages; data files are found relative to ``base`` (and
+    must lie within it or ``data_path``).  See :func:`load_scene`.
     """
-    return _build(text, source, None, Path(base), overrides)
+    return _build(text, source, None, Path(base), overrides, data_path)

@@ -1,0 +1,113 @@
+"""The stated maxima of gshade's inputs, in one place.
+
+Scene files arrive from pull requests and overnight batches; every size a file can ask for
+is bounded here, so that a hostile or mistaken file is refused with one line before it
+costs minutes of time or gigabytes of memory.  The README lists the same values.
+
+The render's memory is estimated from its sizes (:func:`render_memory`) and refused above
+:func:`memory_limit`: ``GSHADE_MEMORY_LIMIT`` (e.g. ``8G``) or 3/4 of this machine's memory.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+from .errors import GshadeError
+
+__all__ = [
+    "MAX_DATA_FILE_BYTES",
+    "MAX_DEGREE",
+    "MAX_IMAGE_FILE_BYTES",
+    "MAX_IMAGE_SIDE",
+    "MAX_MAGNITUDE",
+    "MAX_NESTING",
+    "MAX_PATCHES",
+    "MAX_SAMPLES",
+    "MAX_SCENE_FILE_BYTES",
+    "MAX_SEED",
+    "MAX_SPP",
+    "MAX_STRING",
+    "MAX_SUBDIVISION_LEVELS",
+    "MAX_TESSELLATION",
+    "MAX_TEXTURE_RESOLUTION",
+    "MIN_CHORD_TOLERANCE",
+    "memory_limit",
+    "render_memory",
+]
+
+#: Largest magnitude of any number in a scene or surface data file.  Positions, lengths,
+#: knots and weights up to 1e15 keep their curvatures (which square and cube them) within
+#: double precision; numbers beyond it are mistakes or attacks.
+MAX_MAGNITUDE = 1e15
+#: Deepest nesting of arrays and tables in a scene file (control nets need 3 inside 2).
+MAX_NESTING = 8
+#: Longest string value in a scene file (characters).
+MAX_STRING = 4096
+
+#: File sizes: a scene file, a surface data file (Newell, OBJ), an image read by compare.
+MAX_SCENE_FILE_BYTES = 16 * 2**20
+MAX_DATA_FILE_BYTES = 256 * 2**20
+MAX_IMAGE_FILE_BYTES = 4 * 2**30
+
+#: Render settings.
+MAX_IMAGE_SIDE = 16384
+MAX_SPP = 4096
+#: Most samples of one render (width x height x spp, after rounding spp up to a power of 4).
+MAX_SAMPLES = 2**30
+MAX_SEED = 2**32 - 1
+MAX_TESSELLATION = 1024
+MAX_TEXTURE_RESOLUTION = 512
+MIN_CHORD_TOLERANCE = 1e-9
+
+#: Surfaces: the highest polynomial degree in u or v, the most patches of a scene, and the
+#: most refinement steps of a subdivision surface (each multiplies the patches by 4).
+MAX_DEGREE = 20
+MAX_PATCHES = 100_000
+MAX_SUBDIVISION_LEVELS = 4
+
+#: Bytes per pixel, per sample, per mesh vertex and per texel of a render (measured peaks;
+#: see benchmarks/RESULTS.md), and the fixed part (Python, Mitsuba, LLVM).
+_BYTES_PER_PIXEL = 400
+_BYTES_PER_SAMPLE = 120
+_BYTES_PER_VERTEX = 200
+_BYTES_PER_TEXEL = 250
+_BYTES_FIXED = 600 * 2**20
+
+
+def render_memory(pixels: int, samples: int, vertices: int, texels: int) -> int:
+    """An upper estimate of a render's peak memory in bytes, from its sizes."""
+    return (
+        _BYTES_FIXED
+        + _BYTES_PER_PIXEL * pixels
+        + _BYTES_PER_SAMPLE * samples
+        + _BYTES_PER_VERTEX * vertices
+        + _BYTES_PER_TEXEL * texels
+    )
+
+
+def _physical_memory() -> int:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # not POSIX: assume a small machine
+        return 8 * 2**30
+
+
+def memory_limit() -> int:
+    """Bytes a render may use: ``GSHADE_MEMORY_LIMIT`` (bytes, or with a suffix K, M, G, T),
+    else three quarters of the machine's physical memory."""
+    text = os.environ.get("GSHADE_MEMORY_LIMIT", "").strip()
+    if not text:
+        return _physical_memory() * 3 // 4
+    match = re.fullmatch(r"(\d+(?:\.\d+)?)\s*([KMGT]?)i?B?", text, re.IGNORECASE)
+    if match is None:
+        raise GshadeError(
+            f"GSHADE_MEMORY_LIMIT: expected a size such as 8G or 512M, got {text[:40]!r}"
+        )
+    scale = 1024 ** " KMGT".index(match.group(2).upper() or " ")
+    return int(float(match.group(1)) * scale)
+
+
+def gigabytes(n: int) -> str:
+    """A byte count for messages: ``12.3 GB``."""
+    return f"{n / 2**30:.1f} GB"
