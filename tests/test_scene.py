@@ -403,7 +403,7 @@ BAD = {
     ),
     "camera width negative": (
         SPHERE + "[camera]\nwidth = -2\n",
-        r"\[camera\] width: expected a positive number, got -2",
+        r"\[camera\] width: expected a number > 1e-12, got -2",
     ),
     "name a number": ("name = 3\n" + SPHERE, r": name: expected a non-empty string, got 3"),
     "shape a string": (

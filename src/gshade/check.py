@@ -30,6 +30,7 @@ from .comparison import (
     z_test,
 )
 from .errors import GshadeError
+from .io.outputs import output_file, remove_stale_temporaries
 
 __all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
 
@@ -171,7 +172,7 @@ def check_scene(
             seconds=time.perf_counter() - start,
             log="" if isinstance(exc, GshadeError) else traceback.format_exc(),
         )
-    reference = references / f"{name}.exr"
+    reference = output_file(references, name, ".exr")  # the name was checked at loading
     result = CheckResult(name, path, "FAILURE", "", reference, image=image)
     if not reference.exists():
         result.message = f"no reference {reference}; run with --update to create it"
@@ -191,12 +192,17 @@ def check_scene(
         except (ChannelMismatch, UnreadableImage) as exc:
             result.message = f"cannot compare: {exc}"
     if update_all or (update and result.status not in ("PASS", "WARNING")):
-        if reference.exists():
-            result.written = "updated"
+        existed = reference.exists()
+        try:
+            _write_reference(image, reference)
+        except GshadeError as exc:  # this scene's reference only: the others go on
+            result.status, result.message = "ERROR", f"cannot write the reference: {exc}"
         else:
-            result.written, result.status = "created", "NEW"
-            result.message = f"new scene: {reference} written"
-        _write_reference(image, reference)
+            if existed:
+                result.written = "updated"
+            else:
+                result.written, result.status = "created", "NEW"
+                result.message = f"new scene: {reference} written"
     result.seconds = time.perf_counter() - start
     return result
 
@@ -225,6 +231,7 @@ def check(
                 f"{references}: the reference folder does not exist "
                 "(use --update to create it with the current renders)"
             )
+    remove_stale_temporaries(references)
     results = []
     for path in scenes:
         result = check_scene(
@@ -277,7 +284,10 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
     from .io.image import atomic_write, read_exr
 
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise GshadeError(f"{folder}: cannot create the report folder ({exc.strerror})") from None
     ordered = sorted(
         results, key=lambda r: (_ORDER.get(r.status, 0) if not r.written else 4, r.name)
     )

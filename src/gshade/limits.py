@@ -32,6 +32,7 @@ __all__ = [
     "MAX_TESSELLATION",
     "MAX_TEXTURE_RESOLUTION",
     "MIN_CHORD_TOLERANCE",
+    "gigabytes",
     "memory_limit",
     "render_memory",
 ]
@@ -66,21 +67,21 @@ MAX_DEGREE = 20
 MAX_PATCHES = 100_000
 MAX_SUBDIVISION_LEVELS = 4
 
-#: Bytes per pixel, per sample, per mesh vertex and per texel of a render (measured peaks;
-#: see benchmarks/RESULTS.md), and the fixed part (Python, Mitsuba, LLVM).
-_BYTES_PER_PIXEL = 400
-_BYTES_PER_SAMPLE = 120
-_BYTES_PER_VERTEX = 200
-_BYTES_PER_TEXEL = 250
-_BYTES_FIXED = 600 * 2**20
+#: Peak bytes per pixel, per mesh vertex and per texel of a render, and its fixed part
+#: (Python, Mitsuba, LLVM), measured with a margin on the 2-core machine (2026-11-29:
+#: 2048² pixels 2.4 GB, 5.1 M vertices 2.3 GB, 8.4 M texels of mean curvature 2.8 GB).
+#: Samples per pixel cost time, not memory: Mitsuba renders them in passes.
+_BYTES_PER_PIXEL = 600
+_BYTES_PER_VERTEX = 450
+_BYTES_PER_TEXEL = 350
+_BYTES_FIXED = 300 * 2**20
 
 
-def render_memory(pixels: int, samples: int, vertices: int, texels: int) -> int:
+def render_memory(pixels: int, vertices: int, texels: int) -> int:
     """An upper estimate of a render's peak memory in bytes, from its sizes."""
     return (
         _BYTES_FIXED
         + _BYTES_PER_PIXEL * pixels
-        + _BYTES_PER_SAMPLE * samples
         + _BYTES_PER_VERTEX * vertices
         + _BYTES_PER_TEXEL * texels
     )

@@ -114,6 +114,7 @@ __all__ = [
     "Scene",
     "Shape",
     "Surface",
+    "check_render_settings",
     "load_scene",
     "parse_overrides",
     "parse_scene",
@@ -382,6 +383,8 @@ class _Table:
                 expected = f"a number in {a}{lo:g}, {hi:g}{b}"
             elif lo == 0:
                 expected = "a number >= 0" if closed else "a positive number"
+            elif lo is not None:
+                expected = f"a number {'>=' if closed else '>'} {lo:g}"
             else:
                 expected = "a number"
         x = self.raw(key, default, expected)
@@ -532,8 +535,9 @@ def _check_values(file: str, raw: dict[str, Any]) -> None:
                         f"got {json.dumps(key[:40])}" + ("…" if len(key) > 40 else "")
                     )
                 stack.append((item, (*parts, key)))
-        elif isinstance(value, list):
-            stack.extend((item, (*parts, k)) for k, item in enumerate(value))
+            stack[len(stack) - len(value) :] = reversed(stack[len(stack) - len(value) :])
+        elif isinstance(value, list):  # pushed last to first: the first offender is reported
+            stack.extend((value[k], (*parts, k)) for k in range(len(value) - 1, -1, -1))
         elif isinstance(value, bool):
             continue
         elif isinstance(value, (int, float)):
@@ -917,7 +921,7 @@ def _camera(file: str, raw: dict[str, Any]) -> Camera:
     target = t.vector("target", None)
     up = t.vector("up", (0.0, 0.0, 1.0), nonzero=True)
     fov = t.number("fov", 30.0, lo=1e-3, hi=180)
-    width = t.number("width", None, lo=0)
+    width = t.number("width", None, lo=1e-12)
     if origin is not None and target is not None:
         view = np.subtract(target, origin)
         if not np.any(view):
@@ -952,6 +956,14 @@ def _render(file: str, raw: dict[str, Any]) -> RenderSettings:
         ),
         junctions=t.boolean("junctions", False),
     )
+
+
+def check_render_settings(settings: RenderSettings, source: str = "render") -> RenderSettings:
+    """Render settings built in Python (``gshade.render(scene, width=...)``) checked as the
+    ``[render]`` table is; ``source`` names them in messages."""
+    from dataclasses import asdict
+
+    return _render(source, {k: v for k, v in asdict(settings).items() if v is not None})
 
 
 def _check(file: str, raw: dict[str, Any]) -> dict[str, Any]:

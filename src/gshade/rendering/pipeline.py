@@ -24,6 +24,13 @@ from ..errors import GshadeError
 from ..geometry import patch_normals, unit_normal
 from ..geometry.patch_groups import grid_derivatives
 from ..image import RenderedImage
+from ..limits import (
+    MAX_SAMPLES,
+    MIN_CHORD_TOLERANCE,
+    gigabytes,
+    memory_limit,
+    render_memory,
+)
 from ..shape import SHAPE_FUNCTIONS, Legend, auto_range, get_shape_function
 from .camera import frame_view
 from .integrator import IntegratorSettings, make_integrator
@@ -34,6 +41,9 @@ from .variant import select_variant
 
 __all__ = ["render"]
 
+#: Smallest bounding-box diagonal rendered: the curvatures of smaller surfaces (1/length²)
+#: and their gradients leave single precision.
+MIN_EXTENT = 1e-9
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
 #: Units of each function's values, for legends.
@@ -78,6 +88,36 @@ def _tile_size(scene, view, patches, lo, hi) -> int:
     return max(2, min(tile, cap))
 
 
+def _check_scale(where: str, lo: np.ndarray, hi: np.ndarray) -> float:
+    """The bounding box's diagonal, checked to be renderable in single precision: Mitsuba
+    stores positions, and gshade's textures the shape function's values, as float32."""
+    diag = float(np.linalg.norm(hi - lo))
+    size = float(np.abs(np.concatenate([lo, hi])).max())
+    if not np.isfinite(diag) or diag < MIN_EXTENT:
+        raise GshadeError(
+            f"{where}: the surfaces span {diag:.3g} (bounding-box diagonal): expected at least "
+            f"{MIN_EXTENT:g}, so that curvatures stay within single precision"
+        )
+    if diag < 1e-6 * size:
+        raise GshadeError(
+            f"{where}: the surfaces span {diag:.3g} at a distance {size:.3g} from the origin: "
+            "expected a span of at least 1e-6 of that distance (single-precision positions)"
+        )
+    return diag
+
+
+def _check_memory(where: str, settings, vertices: int, texels: int) -> None:
+    """Refuse a render whose estimated peak memory exceeds :func:`gshade.limits.memory_limit`."""
+    pixels = settings.width * settings.height
+    need, limit = render_memory(pixels, vertices, texels), memory_limit()
+    if need > limit:
+        raise GshadeError(
+            f"{where}: the render would need about {gigabytes(need)} ({settings.width} x "
+            f"{settings.height} pixels, {vertices} mesh vertices, {texels} texels); the limit is "
+            f"{gigabytes(limit)} (GSHADE_MEMORY_LIMIT, default 3/4 of this machine's memory)"
+        )
+
+
 def render(scene, **overrides) -> RenderedImage:
     """Render a scene (a :class:`gshade.io.scene.Scene` or a path) to an image.
 
@@ -93,10 +133,13 @@ def render(scene, **overrides) -> RenderedImage:
     elif dotted:
         raise GshadeError("set: dotted overrides need a scene path, not a loaded Scene")
     if overrides:
+        from ..io.scene import check_render_settings
+
         try:
-            scene = replace(scene, render=replace(scene.render, **overrides))
+            settings = replace(scene.render, **overrides)
         except TypeError as exc:
             raise GshadeError(f"render: unknown setting ({exc})") from None
+        scene = replace(scene, render=check_render_settings(settings, "render()"))
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
@@ -111,6 +154,13 @@ def render(scene, **overrides) -> RenderedImage:
     spp = 4 ** int(np.ceil(np.log(max(settings.spp, 1)) / np.log(4) - 1e-9))
     if spp != settings.spp:
         settings = replace(settings, spp=spp)
+    where = str(scene.path) if scene.path is not None else scene.name
+    if settings.width * settings.height * spp > MAX_SAMPLES:
+        raise GshadeError(
+            f"{where}: [render] width x height x spp: expected at most {MAX_SAMPLES} samples "
+            f"(spp rounded up to a power of 4), got {settings.width} x {settings.height} x "
+            f"{spp} = {settings.width * settings.height * spp}"
+        )
     patches = scene.patches
     variant = select_variant(settings.variant)
     import drjit as dr
@@ -119,23 +169,31 @@ def render(scene, **overrides) -> RenderedImage:
     lap("setup")
     box = grid_derivatives(patches, np.linspace(0.0, 1.0, 17))[:, 0, 0].reshape(-1, 3)
     lo, hi = box.min(axis=0), box.max(axis=0)
+    diag = _check_scale(where, lo, hi)
     view = frame_view(scene.camera, box, settings.width, settings.height)
-    diag = float(np.linalg.norm(hi - lo)) or 1.0
     if settings.tessellation:
         resolution = int(settings.tessellation)
     else:
         tol = settings.chord_tolerance * diag
         if scene.camera.type == "perspective" or view.width is not None:
             tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
-        resolution = max_chord_resolution(patches, tol)
+        # no finer than single precision resolves (a tiny view must not ask for more)
+        resolution = max_chord_resolution(patches, max(tol, MIN_CHORD_TOLERANCE * diag))
         # keep the mesh within a few million vertices
         resolution = min(resolution, max(2, int(np.sqrt(4_000_000 / len(patches)))))
+    shape = scene.shape
+    tile = _tile_size(scene, view, patches, lo, hi)
+    _check_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
     mesh = tessellate(patches, resolution)
+    if len(mesh.faces) == 0:
+        raise GshadeError(
+            f"{where}: [render] tessellation: {resolution} vertices per patch side leave no "
+            "triangle (the patches collapse at that resolution); expected a larger value"
+        )
     lap("tessellate")
 
-    shape = scene.shape
     function = get_shape_function(shape.function)
-    atlas = Atlas.for_patches(len(patches), _tile_size(scene, view, patches, lo, hi))
+    atlas = Atlas.for_patches(len(patches), tile)
     functions = [(function, shape.params_for(shape.function))]
     mapped = shape.function
     if shape.display == "both":
@@ -224,6 +282,14 @@ def render(scene, **overrides) -> RenderedImage:
 
     channels = _channels(image, data, atlas, patches, view)
     lap("exact_channels")
+    broken = {c: int((~np.isfinite(a)).sum()) for c, a in channels.items()}
+    broken = {c: n for c, n in broken.items() if n}
+    if broken:  # a truthful picture or none: never an image with NaN in it
+        raise GshadeError(
+            f"{where}: the render gave non-finite values ("
+            + ", ".join(f"{n} pixels of {c}" for c, n in broken.items())
+            + "): the surface data or shape parameters lie outside what gshade evaluates"
+        )
     junctions = None
     if settings.junctions:
         from ..continuity import continuity_report
