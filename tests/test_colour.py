@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from gshade import GshadeError
@@ -15,6 +15,7 @@ from gshade.shape import (
     stripe_period,
     stripes,
 )
+from gshade.shape.colour import DARK
 
 
 def indicator(s, duty):
@@ -38,6 +39,9 @@ WIDTHS = st.floats(-3.0, 3.0).filter(lambda x: x == 0 or abs(x) > 1e-9)
 
 @settings(max_examples=300, deadline=None)
 @given(s=st.floats(-100, 100), a=WIDTHS, b=WIDTHS, duty=st.floats(0.1, 0.9))
+@example(s=-1.25, a=1e-8, b=1e-8, duty=0.5)  # found with --hypothesis-seed=12 and 24
+@example(s=0.3, a=1.5e-9, b=1.5e-9, duty=0.5)
+@example(s=0.75, a=3e-6, b=3e-7, duty=0.5)  # two-D filter, far from an edge
 def test_pixel_box_filter_is_the_mean_over_the_pixel(s, a, b, duty):
     """s linear over a square pixel: the coverage is the exact mean of the stripe indicator."""
     x = (np.arange(512) + 0.5) / 512 - 0.5
@@ -56,6 +60,36 @@ def test_tiny_pixel_footprints_at_a_stripe_edge(s, a, b):
     X, Y = np.meshgrid(x, x)
     fine = indicator(s + a * X + b * Y, 0.5).mean()
     assert abs(stripe_coverage(s, a, b, duty=0.5) - fine) < 1e-2
+
+
+def test_tiny_footprints_away_from_the_edges_are_the_point_sample():
+    """A footprint that reaches no stripe edge lies on one stripe: exactly 0 or 1 (the
+    trapezoid CDF lost everything to cancellation there for footprints below 1e-7)."""
+    s = np.linspace(-100, 100, 200_001)
+    fract = s - np.floor(s)
+    away = np.minimum(np.minimum(fract, np.abs(fract - 0.5)), 1 - fract) > 1e-6
+    for width in (1e-7, 1e-8, 3e-9, 1.5e-9, 2e-6):
+        for a, b in ((width, width), (width, 0.4 * width), (width, 0.0)):
+            cov = stripe_coverage(s[away], a, b, duty=0.5)
+            np.testing.assert_array_equal(cov, indicator(s[away], 0.5))
+
+
+def test_the_renderer_draws_a_tiny_footprint_stripe_as_it_is(tmp_path):
+    """Planar sections of a sphere with period 1e8 and phase 0.4: s = 0.4 +- 1e-8 on the
+    whole sphere, one dark stripe (the integrator uses the same formula in Dr.Jit)."""
+    import gshade
+    from gshade.io import parse_scene
+
+    scene = parse_scene(
+        '[[surface]]\ntype = "sphere"\n[shape]\nfunction = "planar_sections"\n'
+        "direction = [0, 0, 1]\nperiod = 1e8\nphase = 0.4\n"
+        '[render]\nwidth = 80\nheight = 60\nspp = 4\nlighting = "flat"\n'
+    )
+    image = gshade.render(scene)
+    covered = image.channels["A"] > 0.999
+    dark = image.channels["R"][covered] / image.channels["A"][covered]
+    assert covered.sum() > 1000
+    np.testing.assert_allclose(dark, DARK[0], atol=1e-3)
 
 
 def test_pixel_box_filter_against_256_samples_on_average():

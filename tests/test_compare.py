@@ -87,8 +87,12 @@ def test_raw_shape_function_channel_and_bad_thresholds():
         compare(b, a, channels=["f"], thresholds=Thresholds(fail=2e-3, warn=2e-3)).verdict == "PASS"
     )
     assert compare(b, a, channels=["f"]).ssim is None
-    with pytest.raises(ValueError, match="fail: expected a number >= 0"):
+    with pytest.raises(ValueError, match="fail: expected a finite number >= 0"):
         Thresholds(fail=-1)
+    for bad in ({"warn": float("nan")}, {"fail": float("inf")}, {"failpercent": 101}):
+        with pytest.raises(ValueError, match=f"{next(iter(bad))}: expected"):
+            Thresholds(**bad)
+    assert Thresholds(hardfail=float("inf"), fail=0).hardfail == float("inf")
 
 
 def test_cli_exit_statuses_and_outputs(tmp_path):
@@ -133,6 +137,74 @@ def test_cli_mismatch_and_unreadable(tmp_path):
     truncated = tmp_path / "cut.exr"
     truncated.write_bytes(ref.read_bytes()[:200])
     assert cli(truncated, ref)[0] == 4
+
+
+def test_cli_json_with_nonfinite_pixels_is_valid_json(tmp_path):
+    a = image()
+    b = {k: v.copy() for k, v in a.items()}
+    b["R"][3, 4] = np.nan
+    ref, test = tmp_path / "ref.exr", tmp_path / "test.exr"
+    write_exr(ref, a)
+    write_exr(test, b)
+    code, out, err = cli(test, ref, "--json")
+    assert code == 2 and err == ""
+    data = json.loads(out)
+    assert data["verdict"] == "FAILURE" and data["failing_pixels"] == 1
+    assert data["per_channel"]["R"]["psnr"] is None  # -inf: not a JSON number
+    assert data["per_channel"]["R"]["max_at"] == [4, 3] and data["overall"]["rmse"] is None
+    assert data["per_channel"]["G"]["psnr"] is None  # +inf: G is equal
+    assert data["thresholds"]["hardfail"] is None
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--fail", "-1"], "gshade: error: --fail: expected a finite number >= 0, got -1.0"),
+        (["--warn", "nan"], "gshade: error: --warn: expected a finite number >= 0, got nan"),
+        (["--failpercent", "inf"], "gshade: error: --failpercent: expected a finite number"),
+        (["--warnpercent", "101"], "gshade: error: --warnpercent: expected a percentage"),
+        (["--hardfail", "-0.5"], "gshade: error: --hardfail: expected a number >= 0 or inf"),
+        (["--channels", ","], "gshade: error: --channels: expected channel names"),
+        (["--fail", "abc"], "gshade compare: error: argument --fail: invalid float value"),
+        (["--bogus"], "gshade compare: error: unrecognized arguments: --bogus"),
+        (["--diff", "{tmp}/no/d.exr"], "gshade: error: {tmp}/no/d.exr: cannot write the file"),
+        (["--diff-png", "{tmp}"], "gshade: error: {tmp}: cannot write the file: it is a dir"),
+        (["--diff", "{tmp}/d", "--diff-png", "{tmp}/d"], "gshade: error: --diff and --diff-png"),
+    ],
+)
+def test_cli_usage_errors_exit_5_with_one_line(tmp_path, args, message):
+    ref = tmp_path / "ref.exr"
+    write_exr(ref, image())
+    tmp = str(tmp_path)
+    code, out, err = cli(ref, ref, *[a.format(tmp=tmp) for a in args])
+    assert (code, out) == (5, "")
+    assert err.startswith(message.format(tmp=tmp)) and err.count("\n") == 1
+    # found before the images are read: a missing image does not change the status
+    code, _, _ = cli(tmp_path / "missing.exr", ref, *[a.format(tmp=tmp) for a in args])
+    assert code == 5
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ref.exr"]  # nothing written
+
+
+def test_cli_missing_argument_exits_5_and_hardfail_may_be_inf(tmp_path):
+    ref = tmp_path / "ref.exr"
+    write_exr(ref, image())
+    code, _, err = cli(ref)
+    assert code == 5 and err.startswith("gshade compare: error: the following arguments")
+    assert cli(ref, ref, "--hardfail", "inf", "--fail", "0")[0] == 0
+
+
+def test_cli_writes_both_difference_images_or_neither(tmp_path):
+    a = image()
+    ref, moved = tmp_path / "ref.exr", tmp_path / "moved.exr"
+    write_exr(ref, a)
+    write_exr(moved, {k: v + np.float32(0.01) for k, v in a.items()})
+    d_exr = tmp_path / "d.exr"
+    code, _, err = cli(moved, ref, "--diff", d_exr, "--diff-png", tmp_path / "no" / "d.png")
+    assert code == 5 and "no/d.png: cannot write the file" in err
+    assert not d_exr.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["moved.exr", "ref.exr"]
+    code, _, _ = cli(moved, ref, "--diff", d_exr, "--diff-png", tmp_path / "d.png")
+    assert code == 2 and d_exr.exists() and (tmp_path / "d.png").exists()
 
 
 def noisy(rng, mean, sd, runs=8):

@@ -150,3 +150,107 @@ def test_cli_pair_errors_exit_2_with_one_line():
         text=True,
     )
     assert result.returncode == 0 and "1 junctions: 1 G1" in result.stdout
+
+
+def brute_force_junctions(patches, tolerance, probes=5):
+    """The former O(S^2) search, kept as the oracle for the k-d tree search."""
+    from gshade.continuity import SIDES, _side_points
+
+    t = np.linspace(0.0, 1.0, probes)
+    sides = []
+    for i, patch in enumerate(patches):
+        for side in SIDES:
+            pts = _side_points(patch, side, t)
+            if np.ptp(pts, axis=0).max() > tolerance:
+                sides.append((i, side, pts))
+    found = []
+    for a, (i, si, pa) in enumerate(sides):
+        for j, sj, pb in sides[a + 1 :]:
+            if i == j:
+                continue
+            if np.abs(pa - pb).max() <= tolerance:
+                found.append((i, si, j, sj, False))
+            elif np.abs(pa - pb[::-1]).max() <= tolerance:
+                found.append((i, si, j, sj, True))
+    return found
+
+
+def scene_patch_sets():
+    from gshade.io import load_scene
+
+    seen = {}
+    for path in sorted((ROOT / "scenes").glob("*.toml")):
+        scene = load_scene(path)
+        patches = list(scene.patches)
+        key = tuple(s.source for s in scene.surfaces)
+        seen.setdefault(key, (path.stem, patches))
+    return list(seen.values())
+
+
+def test_the_kd_tree_search_finds_what_the_brute_force_search_finds():
+    from gshade.continuity import find_junctions
+
+    cases = [("teapot", read_newell(TEAPOT)), *scene_patch_sets()]
+    a, b = pairs()["G2"]
+    cases.append(("pair", [a, BezierPatch(b.points[::-1, ::-1], domain=b.domain)]))
+    for name, patches in cases:
+        pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+        for tol in (1e-7 * np.linalg.norm(np.ptp(pts, axis=0)), 1e-3):
+            assert find_junctions(patches, tol) == brute_force_junctions(patches, tol), name
+    assert len(find_junctions(read_newell(TEAPOT), 1e-9)) == 52
+
+
+def fan(count: int) -> list[BezierPatch]:
+    """Bilinear patches whose u0 sides all cross at their middle (the origin) but do not
+    coincide: more boundaries meet at a middle point than the k-d tree query returns."""
+    out, up = [], np.array([0.0, 0.0, 1.0])
+    for angle in np.linspace(0.0, np.pi, count, endpoint=False):
+        d = np.array([np.cos(angle), np.sin(angle), 0.0])
+        out.append(BezierPatch(np.array([[-d, d], [up - d, up + d]])))
+    return out
+
+
+def test_boundaries_crossing_at_their_middle_are_not_junctions():
+    from gshade.continuity import find_junctions
+
+    patches = fan(12)
+    u0 = patches[3].points[0]
+    patches.append(BezierPatch(np.stack([u0, u0 - [0, 0, 1]])))  # shares patch 3's u0 side
+    expected = brute_force_junctions(patches, 1e-9)
+    assert expected == [(3, "u0", 12, "u0", False)]
+    assert find_junctions(patches, 1e-9) == expected
+    assert find_junctions(fan(40), 1e-9) == []
+
+
+def test_duplicated_surfaces_are_refused_with_one_line(tmp_path):
+    from gshade import GshadeError
+    from gshade.continuity import find_junctions
+
+    a, _ = pairs()["G2"]
+    assert len(find_junctions([a] * 9, 1e-9)) == 4 * 36  # each side: 8 partners
+    with pytest.raises(GshadeError, match=r"^patch 0 side u0: .* with 9 other boundaries"):
+        find_junctions([a] * 10, 1e-9)
+    scene = tmp_path / "spheres.toml"
+    scene.write_text('[[surface]]\ntype = "sphere"\n' * 300)
+    result = subprocess.run(
+        [sys.executable, "-m", "gshade.cli", "continuity", str(scene)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert result.stderr.startswith(
+        "gshade: error: patch 0 side v0: its boundary coincides with 598 other boundaries"
+    )
+
+
+def test_samples_and_pairs_are_bounded():
+    from gshade import GshadeError
+
+    a, b = pairs()["G2"]
+    (junction,) = continuity_report([a, b], samples=4096)
+    assert junction.samples == 4096
+    with pytest.raises(GshadeError, match="--samples: expected 1 to 4096, got 4097"):
+        continuity_report([a, b], samples=4097)
+    with pytest.raises(GshadeError, match="--pair: expected at most 10000 pairs, got 10001"):
+        continuity_report([a, b], pairs=[(0, "u1", 1, "u0")] * 10001)

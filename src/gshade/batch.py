@@ -1,50 +1,68 @@
 """``gshade batch``: render many scenes (and sweeps over their keys) into one folder.
 
 Scenes (files, folders, globs) and sweeps (``--sweep shape.function=isophotes,gaussian``:
-one render per value; several sweeps multiply) become jobs.  Each job renders to
-``DIR/<name>.exr`` and ``DIR/<name>.png``; a sweep's outputs are named after their values
-(``teapot--function=gaussian``).  Jobs run in worker processes that import gshade and
-Mitsuba once and keep their compiled kernels warm between scenes.  A job whose output is up
-to date (the same scene text and data files, overrides and gshade version, recorded as
-``batch_hash`` in the EXR header) is skipped unless forced.  A failing job is reported with
-a one-line reason and a log file, and the others go on; ``DIR/manifest.json`` lists every
-job.  Outputs are written atomically, so an interrupted batch leaves no partial files.
+one render per value; several sweeps multiply) become jobs, each rendering
+``DIR/<name>.exr`` and ``DIR/<name>.png`` (a sweep's are named after its values:
+``teapot--function=gaussian``).  Jobs run in worker processes (:mod:`gshade.worker_pool`,
+also with ``-j 1``) that keep Mitsuba and the compiled kernels warm between scenes.  A job
+fails alone, with a one-line reason and a log in ``DIR/logs/``, whatever the cause: a scene
+that does not load (even a ``RecursionError``), a name that cannot name a file, a worker that
+dies (a crash, the OOM killer) or runs past the time limit.  Up-to-date outputs (the EXR
+header's ``batch_hash``: scene text, data files, overrides, gshade version; ``batch_png``:
+the PNG's sha256) are skipped unless forced.  ``DIR/manifest.json`` lists every job and is
+rewritten as they end.  Outputs are staged (:func:`gshade.io.outputs.staged`): nothing
+partial is left, and a re-run removes the temporaries a killed run left.
 """
 
 from __future__ import annotations
 
-import glob
 import hashlib
-import itertools
 import json
 import os
-import re
 import time
-import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import __version__
 from .errors import GshadeError
+from .jobs import (
+    Job,
+    expand_scenes,
+    failure_reason,
+    failure_trace,
+    log_stem,
+    parse_sweeps,
+    plan_jobs,
+)
 
-__all__ = ["Job", "JobResult", "expand_scenes", "parse_sweeps", "plan_jobs", "run_batch"]
+if TYPE_CHECKING:
+    from .worker_pool import DaskPool, Outcome, WorkerPool
 
+__all__ = [
+    "DEFAULT_TIMEOUT",
+    "Job",
+    "JobResult",
+    "check_job",
+    "check_options",
+    "expand_scenes",
+    "parse_sweeps",
+    "plan_jobs",
+    "render_job",
+    "run_batch",
+]
 
-@dataclass(frozen=True)
-class Job:
-    """One render: a scene file, its overrides and the output name."""
-
-    scene: str
-    overrides: tuple[tuple[str, object], ...]
-    name: str
+#: Default time limit of one job, in seconds (``--timeout``).
+DEFAULT_TIMEOUT = 3600.0
 
 
 @dataclass
 class JobResult:
+    """What became of a job: ``status`` is "rendered", "up to date" or "failed"."""
+
     name: str
     scene: str
-    status: str  # "rendered", "up to date", "failed"
+    status: str
     message: str = ""
     seconds: float = 0.0
     hash: str = ""
@@ -52,169 +70,210 @@ class JobResult:
     log: str | None = None
 
 
-def expand_scenes(items: list[str]) -> list[Path]:
-    """Scene files from files, folders (their *.toml) and glob patterns, in order, once."""
-    found: list[Path] = []
-    for item in items:
-        if any(ch in item for ch in "*?["):
-            matches = [Path(p) for p in sorted(glob.glob(item, recursive=True))]
-            if not matches:
-                raise GshadeError(f"{item}: the pattern matches no scene file")
-        elif Path(item).is_dir():
-            matches = sorted(Path(item).glob("*.toml"))
-            if not matches:
-                raise GshadeError(f"{item}: the folder has no scene files (*.toml)")
-        elif Path(item).is_file():
-            matches = [Path(item)]
-        else:
-            raise GshadeError(f"{item}: no such scene file or folder")
-        for m in matches:
-            if m.resolve() not in {f.resolve() for f in found}:
-                found.append(m)
-    return found
+def check_options(workers: int, timeout: float, scheduler: str | None = None) -> None:
+    """Refuse fewer than 1 worker, a time limit not above 0 and a scheduler address that is
+    empty or not ``tcp://`` / ``tls://`` (a :class:`GshadeError`, one line)."""
+    from .worker_pool import check_address
+
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise GshadeError(f"-j: expected at least 1 worker, got {workers}")
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
+        raise GshadeError(f"--timeout: expected a number of seconds above 0, got {timeout}")
+    if scheduler is not None:
+        check_address(scheduler)
 
 
-def _split_values(text: str) -> list[str]:
-    """Split 'a,b,[1,2,3]' at the commas outside brackets and quotes."""
-    parts, depth, quote, current = [], 0, None, ""
-    for ch in text:
-        if quote:
-            quote = None if ch == quote else quote
-        elif ch in "\"'":
-            quote = ch
-        elif ch in "[{":
-            depth += 1
-        elif ch in "]}":
-            depth -= 1
-        elif ch == "," and depth == 0:
-            parts.append(current)
-            current = ""
-            continue
-        current += ch
-    parts.append(current)
-    return [p.strip() for p in parts if p.strip()]
-
-
-def parse_sweeps(items: list[str]) -> list[tuple[str, list[object]]]:
-    """``key=v1,v2,…`` items into (dotted key, values); values are TOML (bare words are
-    strings)."""
-    from .io.scene import parse_overrides
-
-    sweeps = []
-    for item in items:
-        key, sep, values = item.partition("=")
-        if not sep or not key.strip() or not values.strip():
-            raise GshadeError(f"--sweep {item!r}: expected key=value1,value2,…")
-        parsed = [
-            parse_overrides([f"{key.strip()}={v}"])[key.strip()] for v in _split_values(values)
-        ]
-        sweeps.append((key.strip(), parsed))
-    return sweeps
-
-
-def _label(key: str, value: object) -> str:
-    text = value if isinstance(value, str) else json.dumps(value, separators=(",", ""))
-    return re.sub(r"[^A-Za-z0-9._=+,\[\]-]+", "_", f"{key.rsplit('.', 1)[-1]}={text}")
-
-
-def plan_jobs(scenes: list[Path], sweeps: list[tuple[str, list[object]]]) -> list[Job]:
-    """Every scene with every combination of its ``[sweep]`` values and the command line's
-    (names checked unique)."""
-    from .io.scene import load_scene
-
-    jobs = []
-    for path in scenes:
-        try:
-            loaded = load_scene(path)
-            base, own = loaded.name, dict(loaded.sweep)
-        except GshadeError:
-            base, own = None, {}  # a broken scene fails on its own when run; the others go on
-        # the scene's [sweep] table, with the command line's sweeps added (and winning)
-        combined = {**own, **dict(sweeps)}
-        keys = list(combined)
-        for combo in itertools.product(*combined.values()) if combined else [()]:
-            overrides = tuple(zip(keys, combo, strict=True))
-            if base is not None and overrides:
-                load_scene(path, dict(overrides))  # a sweep over a bad key stops the batch
-            name = "--".join([base or path.stem, *(_label(k, v) for k, v in overrides)])
-            jobs.append(Job(str(path), overrides, name))
-    names = [j.name for j in jobs]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    if duplicates:
-        raise GshadeError(
-            f"batch: two jobs would write {duplicates[0]}.exr (scenes with the same name); "
-            "rename one of them"
-        )
-    return jobs
+# ----------------------------------------------------------------- one job
 
 
 def _job_hash(scene_hash: str) -> str:
     return hashlib.sha256(f"{scene_hash}\0gshade {__version__}".encode()).hexdigest()
 
 
+def _sha256(path: str | os.PathLike) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
 def _up_to_date(exr: Path, png: Path, digest: str) -> bool:
-    if not (exr.exists() and png.exists()):
-        return False
+    """Whether the EXR records ``digest`` and the sha256 of the PNG beside it."""
+    from .io.image import read_exr_header
+
     try:
-        from .io.image import read_exr_header
-
-        return read_exr_header(exr).get("batch_hash") == digest
-    except GshadeError:
+        if not (exr.is_file() and png.is_file()):
+            return False
+        header = read_exr_header(exr)
+        return header.get("batch_hash") == digest and header.get("batch_png") == _sha256(png)
+    except (GshadeError, OSError):
         return False
 
 
-def _failed(result: JobResult, job: Job, out: Path, exc: BaseException) -> JobResult:
+def _identity(path: Path) -> tuple[int, int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+def _outputs(folder: Path, name: str) -> tuple[Path, Path]:
+    from .io.outputs import output_file
+
+    return output_file(folder, name, ".exr"), output_file(folder, name, ".png")
+
+
+def _write_log(out: Path, job: Job, text: str) -> str | None:
+    """Write ``DIR/logs/<name>.log`` (replacing, never following, what is there); its path,
+    or None if it cannot be written."""
+    from .io.outputs import atomic_write, output_file
+
+    name = job.log or job.name
+    try:
+        path = output_file(out / "logs", name, ".log")
+    except GshadeError:  # a Job made by hand, with a name that cannot name a file
+        path = out / "logs" / f"{log_stem(name)}.log"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, ".log", lambda tmp: Path(tmp).write_text(text, errors="replace"))
+    except (GshadeError, OSError):
+        return None
+    return str(path)
+
+
+def _fail(result: JobResult, out: Path, job: Job, message: str, detail: str = "") -> JobResult:
     result.status = "failed"
-    result.message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    log = out / "logs" / f"{job.name}.log"
-    log.parent.mkdir(parents=True, exist_ok=True)
-    log.write_text(f"{job.scene} {dict(job.overrides)}\n{traceback.format_exc()}")
-    result.log = str(log)
+    result.message = message
+    result.log = _write_log(out, job, f"{job.scene} {dict(job.overrides)}\n{message}\n\n{detail}")
     return result
 
 
 def check_job(job: Job, folder: str, force: bool) -> JobResult:
     """Whether a job's outputs are up to date (status "up to date") or not ("todo");
-    "failed" if its scene does not load.  Cheap: nothing is rendered."""
+    "failed" if it cannot run (see :class:`Job`) or its scene does not load.  Cheap:
+    nothing is rendered."""
     out = Path(folder)
-    exr, png = out / f"{job.name}.exr", out / f"{job.name}.png"
-    result = JobResult(job.name, job.scene, "todo", outputs=[str(exr), str(png)])
+    result = JobResult(job.name, job.scene, "todo")
+    if job.error:
+        return _fail(result, out, job, job.error, job.detail)
     try:
         from .io.scene import load_scene
 
+        exr, png = _outputs(out, job.name)
+        result.outputs = [str(exr), str(png)]
         result.hash = _job_hash(load_scene(job.scene, dict(job.overrides)).text_hash)
     except Exception as exc:
-        return _failed(result, job, out, exc)
+        return _fail(result, out, job, failure_reason(exc, job.scene), failure_trace(exc))
     if not force and _up_to_date(exr, png, result.hash):
         result.status = "up to date"
     return result
 
 
 def render_job(job: Job, folder: str) -> JobResult:
-    """Render one job (in a worker process); never raises."""
+    """Render one job (in a worker process): the EXR and the PNG staged together (renamed
+    only when both are written), the PNG's sha256 in the EXR header.  Never raises an
+    :class:`Exception`; a failure is the result's status "failed" and a log."""
     start = time.perf_counter()
     out = Path(folder)
-    exr, png = out / f"{job.name}.exr", out / f"{job.name}.png"
-    result = JobResult(job.name, job.scene, "failed", outputs=[str(exr), str(png)])
+    result = JobResult(job.name, job.scene, "failed")
+    if job.error:
+        return _fail(result, out, job, job.error, job.detail)
     try:
+        from .io.outputs import staged, write_to
         from .io.scene import load_scene
         from .rendering import render
 
+        exr, png = _outputs(out, job.name)
+        result.outputs = [str(exr), str(png)]
         scene = load_scene(job.scene, dict(job.overrides))
         result.hash = _job_hash(scene.text_hash)
-        image = render(scene)
-        image.metadata = {**image.metadata, "batch_hash": result.hash}
-        image.write_exr(exr)
-        image.write_png(png)
+        with staged([exr, png]) as (exr_temporary, png_temporary):
+            image = render(scene)
+            write_to(png_temporary, image.png_writer(png), png)
+            image.metadata = {
+                **image.metadata,
+                "batch_hash": result.hash,
+                "batch_png": _sha256(png_temporary),
+            }
+            write_to(exr_temporary, image.exr_writer(exr), exr)
         result.status = "rendered"
     except Exception as exc:
-        _failed(result, job, out, exc)
+        _fail(result, out, job, failure_reason(exc, job.scene), failure_trace(exc))
     result.seconds = time.perf_counter() - start
     return result
 
 
 def _warm_worker() -> None:
     import gshade.rendering.pipeline  # noqa: F401  (imports Mitsuba's side once)
+
+
+# ----------------------------------------------------------------- the batch
+
+
+class _Progress:
+    """The results so far, the progress bar, and manifest.json rewritten as jobs end (at
+    most 5 % of the time goes into rewriting it; :meth:`flush` catches up)."""
+
+    def __init__(self, out: Path, jobs: list[Job], show: bool) -> None:
+        from tqdm import tqdm
+
+        self.out, self.jobs = out, jobs
+        self.results: list[JobResult | None] = [None] * len(jobs)
+        #: job index -> (hash, the EXR's identity before the run) for the jobs to render
+        self.expected: dict[int, tuple[str, tuple | None]] = {}
+        self.bar = tqdm(total=len(jobs), unit="scene", disable=not show, dynamic_ncols=True)
+        self._dirty, self._written, self._cost = False, 0.0, 0.0
+
+    def finish(self, k: int, result: JobResult) -> None:
+        self.results[k] = result
+        self.bar.update()
+        self._dirty = True
+        self.flush()
+
+    def flush(self, now: bool = False) -> None:
+        if now or (self._dirty and time.monotonic() - self._written >= 20 * self._cost):
+            start = time.monotonic()
+            _write_manifest(self.out, self.jobs, self.results)
+            self._written = time.monotonic()
+            self._cost, self._dirty = self._written - start, False
+
+    def expect(self, k: int, result: JobResult) -> None:
+        self.expected[k] = (result.hash, _identity(Path(result.outputs[0])))
+
+    def found_on_disk(self, k: int) -> JobResult | None:
+        """A job's result decided from its outputs: complete and of this job's hash (status
+        "rendered" if this run wrote them, else "up to date"), or None."""
+        digest, before = self.expected[k]
+        job = self.jobs[k]
+        exr, png = _outputs(self.out, job.name)
+        if not _up_to_date(exr, png, digest):
+            return None
+        status = "up to date" if _identity(exr) == before else "rendered"
+        return JobResult(job.name, job.scene, status, hash=digest, outputs=[str(exr), str(png)])
+
+    def close(self) -> None:
+        """Record the jobs without a result whose outputs are complete; write the manifest."""
+        for k in self.expected:
+            if self.results[k] is None:
+                found = self.found_on_disk(k)
+                if found is not None:
+                    self.finish(k, found)
+        self.bar.close()
+        self.flush(now=True)
+
+
+def _output_folder(folder: str | os.PathLike) -> Path:
+    out = Path(folder)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".gshade-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise GshadeError(f"{out}: cannot write to the output folder ({exc.strerror})") from None
+    return out
 
 
 def run_batch(
@@ -225,99 +284,86 @@ def run_batch(
     force: bool = False,
     progress: bool | None = None,
     scheduler: str | None = None,
+    timeout: float = DEFAULT_TIMEOUT,
 ) -> list[JobResult]:
-    """Run the jobs in ``workers`` processes (1: in this process), or on the Dask cluster at
-    ``scheduler`` (``tcp://host:port``; needs ``gshade[dask]``), writing manifest.json.
+    """Run the jobs in ``workers`` worker processes, or on the Dask cluster at ``scheduler``
+    (``tcp://host:port`` or ``tls://host:port``; needs ``gshade[dask]``), writing
+    ``manifest.json`` as they end.
 
-    The output folder must be reachable under the same path from every worker."""
-    from tqdm import tqdm
+    A job running longer than ``timeout`` seconds is stopped and fails (on Dask, the
+    cluster's own limits apply instead).  On an interruption (``KeyboardInterrupt``,
+    ``SystemExit`` from a signal) the workers are stopped, their temporaries removed and the
+    manifest written, with the jobs whose outputs are complete recorded as done; then the
+    exception goes on.  The output folder must be reachable under the same path from every
+    worker.  Workers are started from this thread, which must outlive them (on Linux they
+    are sent SIGTERM when it ends).
+    """
+    from .io.outputs import remove_stale_temporaries
+    from .worker_pool import DaskPool, WorkerPool
 
-    out = Path(folder)
+    check_options(workers, timeout, scheduler)
+    out = _output_folder(folder)
+    remove_stale_temporaries(out)  # those a killed run left
+    state = _Progress(out, jobs, progress if progress is not None else os.isatty(2))
+    todo: list[int] = []
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".gshade-write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        raise GshadeError(f"{out}: cannot write to the output folder ({exc.strerror})") from None
-    if workers < 1:
-        raise GshadeError(f"-j: expected at least 1 worker, got {workers}")
-    show = progress if progress is not None else os.isatty(2)
-    bar = tqdm(total=len(jobs), unit="scene", disable=not show, dynamic_ncols=True)
-    results: list[JobResult] = []
-    todo = []
-    for job in jobs:  # up-to-date outputs are found here, without starting any worker
-        state = check_job(job, str(out), force)
-        if state.status == "todo":
-            todo.append(job)
-        else:
-            results.append(state)
-            bar.update()
-    client = _dask_client(scheduler) if scheduler else None
-    try:
-        if client is not None:
-            try:
-                futures = client.map(render_job, todo, folder=str(out), pure=False)
-                for _, result in _dask_as_completed(futures):
-                    results.append(result)
-                    bar.update()
-            finally:
-                client.close()
-        elif workers == 1 or len(todo) <= 1:
-            for job in todo:
-                results.append(render_job(job, str(out)))
-                bar.update()
-        else:
-            import multiprocessing
-
-            context = multiprocessing.get_context("spawn")
-            n = min(workers, len(todo))
-            with ProcessPoolExecutor(n, mp_context=context, initializer=_warm_worker) as pool:
-                futures = [pool.submit(render_job, job, str(out)) for job in todo]
-                try:
-                    for future in as_completed(futures):
-                        results.append(future.result())
-                        bar.update()
-                except BaseException:
-                    pool.shutdown(cancel_futures=True)
-                    raise
+        for k, job in enumerate(jobs):  # up-to-date outputs are found without any worker
+            result = check_job(job, str(out), force)
+            if result.status == "todo":
+                state.expect(k, result)
+                todo.append(k)
+            else:
+                state.finish(k, result)
+        state.flush(now=True)  # every job listed before the first render
+        if todo and scheduler is not None:
+            with DaskPool(render_job, scheduler) as pool:
+                _collect(state, todo, pool)
+        elif todo:
+            size = min(workers, len(todo))
+            with WorkerPool(render_job, size, timeout=timeout, initializer=_warm_worker) as pool:
+                _collect(state, todo, pool)
     finally:
-        bar.close()
-        order = {job.name: k for k, job in enumerate(jobs)}
-        results.sort(key=lambda r: order.get(r.name, 0))
-        _write_manifest(out, jobs, results)
-    return results
+        state.close()
+        if scheduler is None:
+            remove_stale_temporaries(out)
+    return [r for r in state.results if r is not None]
 
 
-def _dask_client(address: str):
-    """A Dask client for the scheduler at ``address``; a clear error if Dask is missing or
-    the scheduler cannot be reached."""
-    try:
-        from distributed import Client
-    except ImportError:
-        raise GshadeError(
-            '--scheduler: Dask\'s distributed package is not installed (pip install "gshade[dask]")'
-        ) from None
-    try:
-        return Client(address, timeout="10s", set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise GshadeError(
-            f"--scheduler: cannot reach the Dask scheduler at {address} ({exc})"
-        ) from None
+def _collect(state: _Progress, todo: list[int], pool: WorkerPool | DaskPool) -> None:
+    """Run the jobs ``todo`` on ``pool``, recording each result as it comes."""
+    from .io.outputs import remove_stale_temporaries
+    from .worker_pool import WorkerPool
+
+    local = isinstance(pool, WorkerPool)
+    for outcome in pool.run([(state.jobs[k], str(state.out)) for k in todo]):
+        if outcome is None:  # nothing ended for a while
+            state.flush()
+            continue
+        k = todo[outcome.index]
+        if not outcome.error:
+            state.finish(k, outcome.value)
+            continue
+        # the worker died or ran out of time: its temporaries go, its outputs may be whole
+        if local:  # (the pids in the temporaries' names of a cluster's workers are not ours)
+            remove_stale_temporaries(state.out)
+        state.finish(k, state.found_on_disk(k) or _worker_failure(state, k, outcome))
 
 
-def _dask_as_completed(futures):
-    """The futures' results, in submission order (the client need not be the default)."""
-    for future in futures:
-        yield future, future.result()
+def _worker_failure(state: _Progress, k: int, outcome: Outcome) -> JobResult:
+    job = state.jobs[k]
+    exr, png = _outputs(state.out, job.name)
+    result = JobResult(job.name, job.scene, "failed", seconds=outcome.seconds)
+    result.hash, result.outputs = state.expected[k][0], [str(exr), str(png)]
+    detail = outcome.detail or f"worker process {outcome.pid}, after {outcome.seconds:.1f} s\n"
+    return _fail(result, state.out, job, outcome.error, detail)
 
 
-def _write_manifest(out: Path, jobs: list[Job], results: list[JobResult]) -> None:
-    from .io.image import atomic_write
+def _write_manifest(out: Path, jobs: list[Job], results: list[JobResult | None]) -> None:
+    from .io.outputs import atomic_write
 
-    done = {r.name for r in results}
-    entries = [asdict(r) for r in results] + [
-        {"name": j.name, "scene": j.scene, "status": "not run"} for j in jobs if j.name not in done
+    entries = [
+        asdict(r) if r is not None else {"name": j.name, "scene": j.scene, "status": "not run"}
+        for j, r in zip(jobs, results, strict=True)
     ]
     manifest = {"gshade_version": __version__, "jobs": entries}
     atomic_write(

@@ -10,6 +10,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 from . import __version__
 from .errors import GshadeError
@@ -54,8 +55,13 @@ def build_parser() -> argparse.ArgumentParser:
     cmp = sub.add_parser(
         "compare",
         help="compare an EXR with a reference (exit 0 pass, 1 warning, 2 failure, "
-        "3 size or channel mismatch, 4 unreadable file)",
+        "3 size or channel mismatch, 4 unreadable file, 5 usage error)",
+        description="Compare an EXR with a reference, as OpenImageIO's idiff does. Exit "
+        "status: 0 pass, 1 warning, 2 failure (the images differ), 3 size or channel "
+        "mismatch, 4 unreadable file (idiff's), 5 usage error (a bad argument, a "
+        "difference image that cannot be written).",
     )
+    _usage_errors_exit_5(cmp)
     cmp.add_argument("test", help="the new image (EXR)")
     cmp.add_argument("reference", help="the reference image (EXR)")
     cmp.add_argument("--channels", default="R,G,B", help="channels to compare (default R,G,B)")
@@ -104,6 +110,13 @@ def build_parser() -> argparse.ArgumentParser:
     bat.add_argument("-j", "--jobs", type=int, default=1, help="worker processes (default 1)")
     bat.add_argument("--force", action="store_true", help="render even up-to-date outputs")
     bat.add_argument(
+        "--timeout",
+        type=float,
+        default=3600.0,
+        metavar="SECONDS",
+        help="time limit of one job; a job over it is stopped and fails (default 3600)",
+    )
+    bat.add_argument(
         "--sweep",
         action="append",
         default=[],
@@ -126,7 +139,9 @@ def build_parser() -> argparse.ArgumentParser:
     cont = sub.add_parser("continuity", help="measure and classify the patch junctions")
     cont.add_argument("scene", help="scene file (TOML)")
     cont.add_argument("--json", action="store_true", help="print JSON")
-    cont.add_argument("--samples", type=int, default=32, help="samples per junction")
+    cont.add_argument(
+        "--samples", type=int, default=32, help="samples per junction (1 to 4096, default 32)"
+    )
     for order, unit in (
         ("g0", "length"),
         ("g1", "degrees"),
@@ -139,7 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="I:SIDE,J:SIDE",
         help="measure just this junction, e.g. 0:u1,1:u0 (sides u0 u1 v0 v1; repeatable); "
-        "an error if the two boundaries do not coincide",
+        "an error if the two boundaries do not coincide; at most 10000 pairs",
     )
     cont.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     cont.set_defaults(run=_continuity)
@@ -184,34 +199,66 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _usage_errors_exit_5(parser: argparse.ArgumentParser) -> None:
+    """Make the compare subcommand's argument errors (``--fail abc``, a missing or an
+    unrecognised argument) one line ``gshade compare: error: ...`` and exit status 5, apart
+    from idiff's 0-4."""
+
+    def error(message: str) -> NoReturn:
+        print(f"gshade compare: error: {message}", file=sys.stderr)
+        sys.exit(5)
+
+    parse_known_args = parser.parse_known_args
+
+    def parse_all(args=None, namespace=None):  # extras would reach the main parser: exit 2
+        namespace, extras = parse_known_args(args, namespace)
+        if extras:
+            error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
+
+    parser.error = error
+    parser.parse_known_args = parse_all
+
+
 def _compare(args: argparse.Namespace) -> int:
+    """``gshade compare``: 0 pass, 1 warning, 2 failure (the images differ), 3 size or
+    channel mismatch, 4 unreadable file (idiff's statuses), 5 usage error (bad thresholds or
+    channels, a difference image that cannot be written: found before comparing)."""
     import json
 
-    from .comparison import (
-        EXIT_STATUS,
-        ChannelMismatch,
-        Thresholds,
-        UnreadableImage,
-        compare,
-        write_diff_exr,
-        write_diff_png,
-    )
+    from .comparison import EXIT_STATUS, ChannelMismatch, Thresholds, UnreadableImage
+    from .diff_images import compare_and_write_diffs
 
-    thresholds = Thresholds(args.fail, args.failpercent, args.hardfail, args.warn, args.warnpercent)
-    channels = [c.strip() for c in args.channels.split(",") if c.strip()]
     try:
-        result = compare(args.test, args.reference, channels=channels, thresholds=thresholds)
+        try:
+            thresholds = Thresholds(
+                args.fail, args.failpercent, args.hardfail, args.warn, args.warnpercent
+            )
+        except GshadeError as exc:  # "fail: expected ..." names the option
+            raise GshadeError(f"--{exc}") from None
+        channels = [c.strip() for c in args.channels.split(",") if c.strip()]
+        if not channels:
+            raise GshadeError(
+                f"--channels: expected channel names such as R,G,B, got {args.channels!r}"
+            )
+        result = compare_and_write_diffs(
+            args.test,
+            args.reference,
+            channels=channels,
+            thresholds=thresholds,
+            diff=args.diff,
+            diff_png=args.diff_png,
+            only_if_not_pass=args.diff_on_fail,
+        )
     except UnreadableImage as exc:
         print(f"gshade: error: {exc}", file=sys.stderr)
         return EXIT_STATUS["UNREADABLE"]
     except ChannelMismatch as exc:
         print(f"gshade: error: {exc}", file=sys.stderr)
         return EXIT_STATUS["MISMATCH"]
-    if not args.diff_on_fail or result.verdict != "PASS":
-        if args.diff:
-            write_diff_exr(result, args.diff)
-        if args.diff_png:
-            write_diff_png(result, args.diff_png)
+    except GshadeError as exc:  # a bad argument, an output that cannot be written
+        print(f"gshade: error: {exc}", file=sys.stderr)
+        return EXIT_STATUS["USAGE"]
     if args.json:
         print(json.dumps(result.as_dict(), indent=2))
     else:
@@ -229,6 +276,13 @@ def _check(args: argparse.Namespace) -> int:
     from .check import check, find_scenes, write_report
 
     scenes = find_scenes(args.scenes)
+    if args.report:  # an unusable report folder fails before any scene renders
+        try:
+            Path(args.report).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise GshadeError(
+                f"--report {args.report}: cannot create the folder ({exc.strerror})"
+            ) from None
     results = check(
         scenes,
         Path(args.references),
@@ -250,15 +304,22 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def _batch(args: argparse.Namespace) -> int:
-    from .batch import expand_scenes, parse_sweeps, plan_jobs, run_batch
+    from .batch import check_options, expand_scenes, parse_sweeps, plan_jobs, run_batch
 
+    check_options(args.jobs, args.timeout, args.scheduler)  # before anything is read or made
     jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
     results = run_batch(
-        jobs, args.output, workers=args.jobs, force=args.force, scheduler=args.scheduler
+        jobs,
+        args.output,
+        workers=args.jobs,
+        force=args.force,
+        scheduler=args.scheduler,
+        timeout=args.timeout,
     )
     failed = [r for r in results if r.status == "failed"]
     for r in failed:
-        print(f"failed: {r.name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
+        name = r.name if len(r.name) <= 80 else r.name[:79] + "…"
+        print(f"failed: {name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
     counts = {s: sum(r.status == s for r in results) for s in ("rendered", "up to date")}
     print(
         f"{counts['rendered']} rendered, {counts['up to date']} up to date, "
@@ -400,10 +461,35 @@ def _shapes(args: argparse.Namespace) -> int:
     return 0
 
 
+_signalled: list[int] = []
+#: Commands that stop on a signal through their own cleanup (``batch``: stop the workers,
+#: write the manifest); the others end at once, their temporaries removed.
+_GRACEFUL = ("batch",)
+
+
 def _terminated(signum: int, frame: object) -> None:
-    """SIGTERM (and SIGHUP) end a command as Ctrl-C does: through the ``finally`` clauses
-    that remove temporaries and stop workers, then with status 128 + the signal number."""
+    """SIGTERM and SIGHUP: remove this process's temporaries, then end with status
+    128 + the signal number.
+
+    Most commands end right here: an exception raised from a signal handler may land inside
+    a native call (Mitsuba, Dr.Jit), where it can crash the process.  ``batch`` waits in
+    Python for its workers, so it is given a SystemExit and stops them through its
+    ``finally`` clauses; :func:`main` recognises that exit by the recorded signal even if a
+    native call changed its type.  Further signals are ignored while the cleanup runs."""
+    import signal
+
+    from .io.outputs import discard_temporaries
+
+    signal.signal(signum, signal.SIG_IGN)
+    _signalled.append(signum)
+    discard_temporaries()
+    if _command[0] not in _GRACEFUL:
+        print(f"gshade: terminated by signal {signum}", file=sys.stderr, flush=True)
+        os._exit(128 + signum)
     raise SystemExit(128 + signum)
+
+
+_command = [""]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -414,16 +500,28 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
+    _command[0] = args.command
     for sig in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _terminated)
+    import numpy as np
+
+    # floating-point trouble is found by explicit checks (finite inputs, finite images) and
+    # reported in one line: numpy's own warnings would only add lines before it
+    np.seterr(all="ignore")
     try:
         return args.run(args)
     except GshadeError as exc:
-        print(f"gshade: error: {exc}", file=sys.stderr)
+        message = str(exc).replace("\r", "\\r").replace("\n", "\\n")  # one line, always
+        print(f"gshade: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # outputs are written atomically: nothing partial is left
         print("gshade: interrupted", file=sys.stderr)
         return 130
+    except BaseException:
+        if _signalled:  # the signal's SystemExit, perhaps changed by the native call it hit
+            print(f"gshade: terminated by signal {_signalled[0]}", file=sys.stderr)
+            return 128 + _signalled[0]
+        raise
 
 
 def console() -> None:

@@ -10,14 +10,17 @@ difference over the compared channels (NaN or infinity in either image never mat
 difference is then infinite).  FAILURE if more than ``failpercent`` % of the pixels differ
 by more than ``fail``, or any by more than ``hardfail``; else WARNING if more than
 ``warnpercent`` % differ by more than ``warn``; else PASS.
+
+Exit statuses of ``gshade compare`` (:data:`EXIT_STATUS`): idiff's 0 PASS, 1 WARNING,
+2 FAILURE, 3 size or channel mismatch, 4 unreadable file; and 5 for a usage error (a bad
+argument, an output that cannot be written), so that 2 always means "the images differ".
 """
 
 from __future__ import annotations
 
-import json
+import math
 import os
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,17 +32,20 @@ __all__ = [
     "ChannelMismatch",
     "Comparison",
     "Thresholds",
+    "UsageError",
     "channel_groups",
     "compare",
     "heat_map",
     "load_channels",
-    "write_diff_exr",
-    "write_diff_png",
     "z_test",
 ]
 
-#: Exit statuses of ``gshade compare`` (idiff's).
-EXIT_STATUS = {"PASS": 0, "WARNING": 1, "FAILURE": 2, "MISMATCH": 3, "UNREADABLE": 4}
+#: Exit statuses of ``gshade compare``: idiff's 0-4, and 5 for usage errors.
+EXIT_STATUS = {"PASS": 0, "WARNING": 1, "FAILURE": 2, "MISMATCH": 3, "UNREADABLE": 4, "USAGE": 5}
+
+
+class UsageError(GshadeError):
+    """A bad argument of a comparison (thresholds, channels, difference-image targets)."""
 
 
 class ChannelMismatch(GshadeError):
@@ -52,7 +58,12 @@ class UnreadableImage(GshadeError):
 
 @dataclass(frozen=True)
 class Thresholds:
-    """idiff's thresholds: ``fail``/``warn`` per pixel, ``*percent`` of the pixels."""
+    """idiff's thresholds: ``fail``/``warn`` per pixel, ``*percent`` of the pixels.
+
+    ``fail`` and ``warn`` are finite numbers >= 0, the percentages lie in [0, 100], and
+    ``hardfail`` is a number >= 0 or infinity (the default: no hard limit); anything else
+    raises a :class:`UsageError` naming the threshold.
+    """
 
     fail: float = 1e-6
     failpercent: float = 0.0
@@ -62,8 +73,12 @@ class Thresholds:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            if not (isinstance(value, (int, float)) and value >= 0) or value != value:
-                raise GshadeError(f"{name}: expected a number >= 0, got {value!r}")
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not number or not value >= 0 or (name != "hardfail" and math.isinf(value)):
+                expected = "a number >= 0 or inf" if name == "hardfail" else "a finite number >= 0"
+                raise UsageError(f"{name}: expected {expected}, got {value!r}")
+            if name.endswith("percent") and value > 100:
+                raise UsageError(f"{name}: expected a percentage from 0 to 100, got {value!r}")
 
 
 @dataclass
@@ -121,6 +136,8 @@ class Comparison:
         return 100.0 * self.warning / self.pixels
 
     def as_dict(self) -> dict:
+        """The metrics as plain JSON values; non-finite numbers (the infinite PSNR of equal
+        images, the errors where a pixel is NaN or infinite) are ``None`` (JSON null)."""
         out = {
             "verdict": self.verdict,
             "channels": self.channels,
@@ -136,7 +153,7 @@ class Comparison:
             "per_channel": {k: asdict(v) for k, v in self.per_channel.items()},
             "per_group": {k: asdict(v) for k, v in self.per_group.items()},
         }
-        return json.loads(json.dumps(out, default=_json_number).replace("Infinity", "null"))
+        return _plain(out)
 
     def summary(self) -> str:
         """One line, e.g. 'FAILURE: 1.2% of 786432 pixels over 0.01, max 0.31 at (410, 96) in G'."""
@@ -165,10 +182,17 @@ def _order(x: float) -> float:
     return float("inf") if x != x else x
 
 
-def _json_number(x):
+def _plain(x):
+    """``x`` with numpy scalars as Python numbers and non-finite floats as None."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
     if isinstance(x, np.generic):
-        return x.item()
-    raise TypeError(type(x).__name__)
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
 
 
 def channel_groups(channels: list[str]) -> dict[str, list[str]]:
@@ -252,13 +276,15 @@ def compare(
         Different sizes, or a requested channel missing from either image.
     UnreadableImage
         A file that cannot be read as EXR.
+    UsageError
+        No channel names.
     """
     thresholds = thresholds or Thresholds()
+    channels = list(channels)
+    if not channels or not all(isinstance(c, str) and c for c in channels):
+        raise UsageError(f"channels: expected one or more channel names, got {channels!r}")
     a, name_a = load_channels(test)
     b, name_b = load_channels(reference)
-    channels = list(channels)
-    if not channels:
-        raise GshadeError("channels: expected at least one channel name")
     for name, image in ((name_a, a), (name_b, b)):
         missing = [c for c in channels if c not in image]
         if missing:
@@ -410,53 +436,3 @@ def z_test(
         pixel_difference=pixel,
         test="z-test",
     )
-
-
-def write_diff_exr(comparison: Comparison, path: str | os.PathLike) -> Path:
-    """The absolute differences, one channel per compared channel (non-finite as NaN)."""
-    from .io.image import write_exr
-
-    channels = {
-        c: np.abs(comparison.difference[..., k]).astype(np.float32)
-        for k, c in enumerate(comparison.channels)
-    }
-    return write_exr(path, channels, header={"gshade:diff_of": ",".join(comparison.channels)})
-
-
-def write_diff_png(comparison: Comparison, path: str | os.PathLike) -> Path:
-    """A heat map of the per-pixel difference (worst channel) with a scale bar, as PNG.
-
-    Non-finite differences are drawn in the map's 'over' colour (magenta)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    from .io.image import atomic_write
-
-    pixel = comparison.pixel_difference
-    top = comparison.heat_scale
-    cmap = matplotlib.colormaps["inferno"].with_extremes(over="magenta")
-    h, w = pixel.shape
-    dpi = 100
-    fig = plt.figure(figsize=(w / dpi + 1.6, h / dpi + 0.4), dpi=dpi)
-    ax = fig.add_axes((0.0, 0.0, w / (w + 160.0), 1.0))
-    im = ax.imshow(
-        np.where(np.isinf(pixel), top * 2, pixel),
-        cmap=cmap,
-        vmin=0,
-        vmax=top,
-        interpolation="nearest",
-    )
-    ax.set_axis_off()
-    cax = fig.add_axes((w / (w + 160.0) + 0.02, 0.1, 0.03, 0.8))
-    bar = fig.colorbar(im, cax=cax, extend="max" if np.isinf(pixel).any() else "neither")
-    bar.set_label(f"|difference| ({', '.join(comparison.channels)})")
-
-    def save(tmp: str) -> None:
-        fig.savefig(tmp, format="png", dpi=dpi)
-
-    try:
-        return atomic_write(path, ".png", save)
-    finally:
-        plt.close(fig)

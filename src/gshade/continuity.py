@@ -30,6 +30,9 @@ __all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions", "jun
 
 SIDES = ("u0", "u1", "v0", "v1")
 CLASSES = ("none", "G0", "G1", "G2", "G3")
+MAX_PARTNERS = 8  # boundaries one boundary may coincide with (a manifold edge: one)
+MAX_SAMPLES = 4096  # samples per junction
+MAX_PAIRS = 10_000  # explicitly given pairs
 
 
 @dataclass(frozen=True)
@@ -87,27 +90,90 @@ def _side_points(patch: Patch, side: str, t: NDArray) -> NDArray:
     return patch(*_side_params(patch, side, t))
 
 
-def find_junctions(patches, tolerance: float, probes: int = 5):
-    """(i, side_i, j, side_j, reversed) for every pair of coinciding patch boundaries."""
+def _probe_sides(patches, tolerance: float, probes: int) -> tuple[list, NDArray]:
+    """Every boundary that is not collapsed: its (patch, side) and its probe points."""
     t = np.linspace(0.0, 1.0, probes)
-    sides = []
+    names, points = [], []
     for i, patch in enumerate(patches):
-        for side in SIDES:
-            pts = _side_points(patch, side, t)
-            if np.ptp(pts, axis=0).max() > tolerance:  # collapsed edges join nothing
-                sides.append((i, side, pts))
-    found = []
-    for a in range(len(sides)):
-        i, si, pa = sides[a]
-        for b in range(a + 1, len(sides)):
-            j, sj, pb = sides[b]
-            if i == j:
-                continue
-            if np.abs(pa - pb).max() <= tolerance:
-                found.append((i, si, j, sj, False))
-            elif np.abs(pa - pb[::-1]).max() <= tolerance:
-                found.append((i, si, j, sj, True))
-    return found
+        params = [_side_params(patch, side, t) for side in SIDES]
+        u = np.concatenate([p[0] for p in params])
+        v = np.concatenate([p[1] for p in params])
+        pts = np.asarray(patch(u, v), dtype=float).reshape(len(SIDES), probes, 3)
+        for side, side_pts in zip(SIDES, pts, strict=True):
+            if np.ptp(side_pts, axis=0).max() > tolerance:  # collapsed edges join nothing
+                names.append((i, side))
+                points.append(side_pts)
+    return names, np.array(points).reshape(-1, probes, 3)
+
+
+def _verified(points: NDArray, a: NDArray, b: NDArray, tolerance: float):
+    """Which candidate pairs (a, b) of sides coincide, and which of those reversed."""
+    same = np.empty(len(a), dtype=bool)
+    flipped = np.empty(len(a), dtype=bool)
+    for k in range(0, len(a), 65536):  # bounded temporaries
+        pa, pb = points[a[k : k + 65536]], points[b[k : k + 65536]]
+        same[k : k + 65536] = np.abs(pa - pb).max(axis=(1, 2)) <= tolerance
+        flipped[k : k + 65536] = np.abs(pa - pb[:, ::-1]).max(axis=(1, 2)) <= tolerance
+    return same | flipped, flipped & ~same
+
+
+def find_junctions(
+    patches, tolerance: float, probes: int = 5, max_partners: int = MAX_PARTNERS
+) -> list[tuple[int, str, int, str, bool]]:
+    """(i, side_i, j, side_j, reversed) for every pair of coinciding patch boundaries.
+
+    Two boundaries coincide when their ``probes`` points (an odd number, evenly spaced)
+    agree within ``tolerance`` in every coordinate, in the same or the reversed order.
+    Candidates come from a k-d tree of the boundaries' middle points (the middle point is
+    the same in both orders): each boundary's ``max_partners + 1`` nearest, all of those
+    within reach only where that many middle points meet (then refused, unless the
+    boundaries just cross there).  The search takes O(S log S) for S boundaries; the result
+    is ordered as the boundaries are (patch, then side u0 u1 v0 v1).
+
+    Raises
+    ------
+    GshadeError
+        If a boundary coincides with more than ``max_partners`` others (a manifold edge
+        joins one): overlapping or duplicated surfaces, named by the first such boundary.
+    """
+    from scipy.spatial import cKDTree
+
+    if probes < 3 or probes % 2 == 0:
+        raise ValueError(f"probes: expected an odd number >= 3, got {probes}")
+    names, points = _probe_sides(patches, tolerance, probes)
+    count = len(names)
+    if count < 2:
+        return []
+    mids = points[:, probes // 2]
+    tree = cKDTree(mids)
+    radius = np.nextafter(tolerance * (1 + 1e-9), np.inf)  # a superset; verified below
+    # the max_partners + 1 nearest others of each boundary: all a manifold needs
+    k = min(count, max_partners + 2)
+    _, near = tree.query(mids, k=k, p=np.inf, distance_upper_bound=radius)
+    a = np.repeat(np.arange(count), k)
+    b = near.reshape(-1)
+    keep = (b < count) & (a != b)
+    a, b = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+    patch_of = np.array([i for i, _ in names])
+    pairs = np.unique(np.stack([a, b], axis=1), axis=0).reshape(-1, 2)
+    pairs = pairs[patch_of[pairs[:, 0]] != patch_of[pairs[:, 1]]]
+    ok, rev = _verified(points, pairs[:, 0], pairs[:, 1], tolerance)
+    found = dict(zip(map(tuple, pairs[ok].tolist()), rev[ok].tolist(), strict=True))
+    # a boundary whose k nearest are all within reach may have more partners: look at all
+    for s in np.flatnonzero(near[:, -1] < count):
+        others = np.array(sorted(tree.query_ball_point(mids[s], radius, p=np.inf)), dtype=int)
+        others = others[patch_of[others] != patch_of[s]]
+        ok, rev = _verified(points, np.full(len(others), s), others, tolerance)
+        if ok.sum() > max_partners:
+            i, side = names[s]
+            raise GshadeError(
+                f"patch {i} side {side}: its boundary coincides with {int(ok.sum())} other "
+                f"boundaries (a junction joins one, at most {max_partners} are accepted): "
+                f"overlapping or duplicated surfaces"
+            )
+        for o, r in zip(others[ok].tolist(), rev[ok].tolist(), strict=True):
+            found[(min(s, o), max(s, o))] = r
+    return [(*names[a], *names[b], rev) for (a, b), rev in sorted(found.items())]
 
 
 def junction_between(
@@ -220,9 +286,16 @@ def continuity_report(
     pairs: list[tuple[int, str, int, str]] | None = None,
 ) -> list[Junction]:
     """Every junction of the patches, measured and classified; with ``pairs`` ((i, side_i,
-    j, side_j), ...), just those, each checked to be a junction (:func:`junction_between`)."""
-    if samples < 1:
-        raise GshadeError(f"--samples: expected at least 1, got {samples}")
+    j, side_j), ...), just those, each checked to be a junction (:func:`junction_between`).
+
+    Bounded: ``samples`` from 1 to ``MAX_SAMPLES`` (4096), at most ``MAX_PAIRS`` (10,000)
+    pairs, and :func:`find_junctions` refuses a boundary shared by more than
+    ``MAX_PARTNERS`` (8) others (so at most 4 x 8 junctions per patch are measured).
+    """
+    if not 1 <= samples <= MAX_SAMPLES:
+        raise GshadeError(f"--samples: expected 1 to {MAX_SAMPLES}, got {samples}")
+    if pairs is not None and len(pairs) > MAX_PAIRS:
+        raise GshadeError(f"--pair: expected at most {MAX_PAIRS} pairs, got {len(pairs)}")
     pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
     tol = tolerances or Tolerances.for_size(diag)

@@ -21,6 +21,7 @@ import OpenEXR
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from ..native import NativeOutput, captured_output
 from .files import read_bytes
 from .outputs import atomic_write
 
@@ -248,14 +249,17 @@ def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], d
             f"{path}: expected an OpenEXR file (starting with bytes 76 2f 31 01), "
             f"got {magic.hex(' ') or 'an empty file'}"
         )
+    _use_all_cores()
     try:
-        _use_all_cores()
-        exr = OpenEXR.File(str(path), separate_channels=True)
-        raw_header = exr.header()
-        raw_channels = exr.channels()
+        # libOpenEXR prints its own diagnostics of a corrupt file: gshade shows one line
+        with captured_output() as native:
+            exr = OpenEXR.File(str(path), separate_channels=True)
+            raw_header = exr.header()
+            raw_channels = exr.channels()
     except (RuntimeError, ValueError, OSError, TypeError) as exc:
+        said = _library_said(native, path) or str(exc)
         raise GshadeError(
-            f"{path}: cannot read the OpenEXR file (truncated or corrupt?): {exc}"
+            f"{path}: cannot read the OpenEXR file (truncated or corrupt?): {said}"
         ) from None
     channels: dict[str, NDArray[np.float32]] = {}
     for name, channel in raw_channels.items():
@@ -274,16 +278,22 @@ def read_exr_header(path: str | os.PathLike) -> dict[str, object]:
     """The header attributes of an OpenEXR file (as :func:`read_exr` returns them), without
     reading the pixels."""
     path = Path(path)
+    if read_bytes(path, "an OpenEXR file", size=4) != _EXR_MAGIC:  # refuses FIFOs, devices
+        raise GshadeError(f"{path}: expected an OpenEXR file")
     try:
-        with open(path, "rb") as f:
-            if f.read(4) != _EXR_MAGIC:
-                raise GshadeError(f"{path}: expected an OpenEXR file")
-        raw = OpenEXR.File(str(path), header_only=True).header()
-    except OSError as exc:
-        raise GshadeError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    except (RuntimeError, ValueError, TypeError) as exc:
-        raise GshadeError(f"{path}: cannot read the OpenEXR header: {exc}") from None
+        with captured_output() as native:
+            raw = OpenEXR.File(str(path), header_only=True).header()
+    except (RuntimeError, ValueError, OSError, TypeError) as exc:
+        said = _library_said(native, path) or str(exc)
+        raise GshadeError(f"{path}: cannot read the OpenEXR header: {said}") from None
     return {k: _plain(v) for k, v in raw.items() if k not in _STRUCTURAL}
+
+
+def _library_said(native: NativeOutput, path: Path) -> str:
+    """libOpenEXR's own first error line ("(EXR_ERR_...) ..."), without the path it starts
+    with; "" if it printed nothing."""
+    line = native.line(marker="EXR_ERR")
+    return line.removeprefix(f"{path}: ").removeprefix(f"{path}:")
 
 
 # --------------------------------------------------------------------------- PNG

@@ -33,6 +33,7 @@ from ..errors import GshadeError
 __all__ = [
     "MAX_NAME_BYTES",
     "atomic_write",
+    "discard_temporaries",
     "output_file",
     "output_name",
     "remove_stale_temporaries",
@@ -122,6 +123,7 @@ def _temporary(target: Path) -> str:
                 suffix=f".gshade-tmp{''.join(target.suffixes[-1:])}",
             )
             os.close(fd)
+            _live.add(name)
             return name
         except (OSError, ValueError) as exc:
             problem = getattr(exc, "strerror", None) or str(exc)
@@ -130,12 +132,25 @@ def _temporary(target: Path) -> str:
     raise GshadeError(f"{target}: cannot write the file: {problem}")
 
 
+#: This process's temporaries not yet renamed onto their targets (for signal handlers).
+_live: set[str] = set()
+#: Folders already rid of stale temporaries by this process.
+_cleaned: set[Path] = set()
+
+
 def _discard(names: Sequence[str]) -> None:
     for name in names:
+        _live.discard(name)
         try:
             os.unlink(name)
         except OSError:
             pass
+
+
+def discard_temporaries() -> None:
+    """Remove every temporary this process has open (from a signal handler that is about to
+    end the process: nothing it was writing may survive it)."""
+    _discard(list(_live))
 
 
 @contextmanager
@@ -153,6 +168,9 @@ def staged(targets: Sequence[str | os.PathLike]) -> Iterator[list[str]]:
         directory or a device, its name is too long), naming the target.
     """
     paths = [Path(t) for t in targets]
+    for folder in {p.parent for p in paths} - _cleaned:  # what killed runs left, once
+        remove_stale_temporaries(folder)
+        _cleaned.add(folder)
     temporaries: list[str] = []
     try:
         for path in paths:
@@ -162,6 +180,7 @@ def staged(targets: Sequence[str | os.PathLike]) -> Iterator[list[str]]:
             try:
                 os.chmod(name, 0o666 & ~_umask())
                 os.replace(name, path)
+                _live.discard(name)
             except OSError as exc:
                 raise GshadeError(f"{path}: cannot write the file: {exc.strerror or exc}") from exc
     except BaseException:

@@ -88,22 +88,29 @@ def coverage_formula(s, a, b, duty, ops=_Ops):
         - _second_primitive(s - lo, duty, ops)
         + _second_primitive(s - hi, duty, ops)
     ) / (aa * bb)
-    # a tiny footprint meets at most the nearest edge: there, the coverage is the trapezoid
-    # distribution's CDF G(x) = (R(x + hi) - R(x + lo) - R(x - lo) + R(x - hi)) / (a b),
-    # R(y) = max(y, 0)^2 / 2, with arguments as small as the footprint (no cancellation)
+    # the nearest stripe edge, at x = edge - s from the pixel centre
     to_dark_light = ops.abs(s - duty)
     nearest_rise = ops.select(s < 0.5 * (1.0 + duty), 0.0, 1.0)  # light -> dark edge at 0 or 1
     at_fall = to_dark_light < ops.abs(s - nearest_rise)
     edge = ops.select(at_fall, duty, nearest_rise)
+    x = edge - s
+    # a footprint (s +- (a + b) / 2) that reaches no edge lies on one stripe: the point
+    # sample is exact there (the filters would only add rounding, e.g. O(x^2 eps / (a b))
+    # in the trapezoid CDF below when x is of order 1)
+    clear = ops.abs(x) >= (a + b) / 2
+    # a tiny footprint that reaches the nearest edge meets no other: there, the coverage is
+    # the trapezoid distribution's CDF G(x) = (R(x + hi) - R(x + lo) - R(x - lo) +
+    # R(x - hi)) / (a b), R(y) = max(y, 0)^2 / 2, with |x| < hi: arguments as small as the
+    # footprint (no cancellation)
 
     def ramp(y):
         y = ops.maximum(y, 0.0)
         return 0.5 * y * y
 
-    x = edge - s
     cdf = (ramp(x + hi) - ramp(x + lo) - ramp(x - lo) + ramp(x - hi)) / (aa * bb)
     local = ops.select(at_fall, cdf, 1.0 - cdf)
     cov = ops.select(two_d, q, ops.select(tiny_2d, local, ops.select(one_d, soft, hard)))
+    cov = ops.select(clear, hard, cov)
     return ops.minimum(ops.maximum(cov, 0.0), 1.0)
 
 
