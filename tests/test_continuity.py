@@ -134,7 +134,7 @@ def test_explicit_pairs_are_measured_and_mismatched_ones_named():
 def test_cli_pair_errors_exit_2_with_one_line():
     scene = str(ROOT / "scenes" / "junctions-mean.toml")
     for pair, message in [
-        ("0:u1,2:u0", "gshade: error: pair 0:u1,2:u0: the boundaries do not match"),
+        ("0:u1,2:u0", f"gshade: error: {scene}: pair 0:u1,2:u0: the boundaries do not match"),
         ("0-u1", "gshade: error: --pair: expected I:SIDE,J:SIDE"),
     ]:
         result = subprocess.run(
@@ -240,7 +240,7 @@ def test_duplicated_surfaces_are_refused_with_one_line(tmp_path):
     )
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert result.stderr.startswith(
-        "gshade: error: patch 0 side v0: its boundary coincides with 598 other boundaries"
+        f"gshade: error: {scene}: patch 0 side v0: its boundary coincides with 598 other"
     )
 
 

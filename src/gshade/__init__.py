@@ -8,7 +8,7 @@ Building blocks live in ``gshade.geometry`` (patches and their differential geom
 images), ``gshade.rendering``, ``gshade.comparison`` and ``gshade.check``.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 from .errors import GshadeError
 from .llvm import prepare_llvm

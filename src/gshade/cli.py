@@ -1,7 +1,9 @@
 """The ``gshade`` command line.
 
 Exit statuses: 0 success, 2 bad input (one line on stderr naming the file, the key or line,
-what was expected and what was found; never a traceback).
+what was expected and what was found; never a traceback), 130 after Ctrl-C, 128 + the signal
+after SIGTERM or SIGHUP.  ``compare`` keeps idiff's statuses (0 pass, 1 warning, 2 failure,
+3 size or channel mismatch, 4 unreadable file) and gives usage errors 5.
 """
 
 from __future__ import annotations
@@ -367,7 +369,10 @@ def _continuity(args: argparse.Namespace) -> int:
         g3=args.tol_g3,
     )
     pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
-    report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
+    try:
+        report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
+    except GshadeError as exc:
+        raise GshadeError(f"{args.scene}: {exc}") from None
     if args.json:
         print(
             json.dumps(

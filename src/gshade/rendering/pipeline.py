@@ -181,6 +181,15 @@ def render(scene, **overrides) -> RenderedImage:
         resolution = max_chord_resolution(patches, max(tol, MIN_CHORD_TOLERANCE * diag))
         # keep the mesh within a few million vertices
         resolution = min(resolution, max(2, int(np.sqrt(4_000_000 / len(patches)))))
+    junctions = None
+    if settings.junctions:  # measured first: overlapping surfaces fail before rendering
+        from ..continuity import continuity_report
+
+        try:
+            junctions = continuity_report(list(patches))
+        except GshadeError as exc:
+            raise GshadeError(f"{where}: {exc}") from None
+        lap("junctions")
     shape = scene.shape
     tile = _tile_size(scene, view, patches, lo, hi)
     _check_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
@@ -290,12 +299,9 @@ def render(scene, **overrides) -> RenderedImage:
             + ", ".join(f"{n} pixels of {c}" for c, n in broken.items())
             + "): the surface data or shape parameters lie outside what gshade evaluates"
         )
-    junctions = None
-    if settings.junctions:
-        from ..continuity import continuity_report
+    if junctions is not None:
         from ..junction_lines import draw_junctions
 
-        junctions = continuity_report(list(patches))
         channels = draw_junctions(channels, junctions, [p.domain for p in patches])
         lap("junctions")
     legend = Legend(
