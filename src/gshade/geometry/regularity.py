@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .differential import irregular_mask, unit_normal
+from .differential import IRREGULAR_TOL, irregular_mask, unit_normal
 from .patch import Patch
 
 __all__ = [
@@ -102,17 +102,22 @@ def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 8)
     for start in range(0, len(patches), chunk):
         group = list(patches[start : start + chunk])
         with np.errstate(all="ignore"):
-            d = grid_derivatives(group, s, 1)
-        for k in range(len(group)):
-            dk = d[k]
-            # beyond 1e100 the curvatures' products of derivatives overflow
-            if not (np.abs(dk) <= 1e100).all():
-                return start + k, "its points or derivatives overflow (numbers too large)"
-            with np.errstate(all="ignore"):
-                irregular = irregular_mask(dk)
-            if irregular.all():
-                return start + k, (
-                    "it has no regular point (p_u x p_v = 0 everywhere: all control points "
-                    "equal or collinear, or a size below double precision)"
-                )
+            d = grid_derivatives(group, s, 1)  # (patches, 2, 2, n, n, 3)
+        flat = d.reshape(len(group), -1)
+        # beyond 1e100 the curvatures' products of derivatives overflow
+        overflow = ~(np.abs(flat) <= 1e100).all(axis=1)
+        with np.errstate(all="ignore"):
+            pu, pv = d[:, 1, 0], d[:, 0, 1]
+            cross = np.linalg.norm(np.cross(pu, pv), axis=-1).reshape(len(group), -1)
+            # the scale of irregular_mask, per patch: the largest first-derivative component
+            scale = np.abs(np.concatenate([pu, pv], axis=1)).reshape(len(group), -1).max(axis=1)
+            scale = np.where(scale > 0, scale, 1.0)
+            flat_patch = (cross <= IRREGULAR_TOL * scale[:, None] ** 2).all(axis=1)
+        for k in np.flatnonzero(overflow | flat_patch):
+            if overflow[k]:
+                return start + int(k), "its points or derivatives overflow (numbers too large)"
+            return start + int(k), (
+                "it has no regular point (p_u x p_v = 0 everywhere: all control points "
+                "equal or collinear, or a size below double precision)"
+            )
     return None
