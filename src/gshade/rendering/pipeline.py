@@ -44,6 +44,10 @@ __all__ = ["render"]
 #: Smallest bounding-box diagonal rendered: the curvatures of smaller surfaces (1/length²)
 #: and their gradients leave single precision.
 MIN_EXTENT = 1e-9
+#: Nearest depth, as a fraction of the bounding-box diagonal, that sets the tessellation's
+#: and the textures' resolution: a camera inside the surfaces (or touching them) must not
+#: ask for the finest mesh and atlas everywhere.
+NEAREST_FRACTION = 1e-2
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
 #: Units of each function's values, for legends.
@@ -68,7 +72,7 @@ def _nearest_distance(view, lo, hi) -> float:
         [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
     )
     depth = (corners - view.origin) @ view.forward
-    return float(max(depth.min(), 1e-6 * np.linalg.norm(hi - lo)))
+    return float(max(depth.min(), NEAREST_FRACTION * np.linalg.norm(hi - lo)))
 
 
 def _tile_size(scene, view, patches, lo, hi) -> int:
@@ -79,7 +83,8 @@ def _tile_size(scene, view, patches, lo, hi) -> int:
         pts = p.points.reshape(-1, 3) if hasattr(p, "points") else p(*p.parameter_grid(5, 5))
         pts = pts.reshape(-1, 3)
         extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
-        depth = max(float((pts.mean(axis=0) - view.origin) @ view.forward), 1e-9)
+        depth = float((pts.mean(axis=0) - view.origin) @ view.forward)
+        depth = max(depth, NEAREST_FRACTION * float(np.linalg.norm(hi - lo)))
         size = max(size, extent / view.pixel_size(depth))
     # f is smooth and interpolated bicubically from exact values and derivatives: a texel
     # every three pixels leaves errors far below what a picture (or a 1e-3 diff) shows
