@@ -338,3 +338,21 @@ def _write(tmp_path, text):
     path = tmp_path / "scene.toml"
     path.write_text(text)
     return path
+
+
+def test_a_fifo_or_device_among_the_scenes_fails_alone(tmp_path, capsys):
+    """A FIFO named *.toml (and a symbolic link to /dev/zero) in a folder given to batch or
+    check: that scene fails at once with one line, the others render."""
+    folder = tmp_path / "s"
+    folder.mkdir()
+    (folder / "a-good.toml").write_text(SPHERE + SMALL)
+    os.mkfifo(folder / "b-fifo.toml")
+    (folder / "c-zero.toml").symlink_to("/dev/zero")
+    start = time.monotonic()
+    status, err = run(capsys, "batch", folder, "-o", tmp_path / "out")
+    assert status == 2 and time.monotonic() - start < 60
+    assert "b-fifo.toml: expected a scene file (TOML) (a regular file), got a FIFO" in err
+    assert "c-zero.toml: expected a scene file (TOML) (a regular file), got a character" in err
+    assert (tmp_path / "out" / "a-good.exr").exists()
+    status, _ = run(capsys, "check", folder, "--references", tmp_path / "refs", "--update")
+    assert status == 2 and os.listdir(tmp_path / "refs") == ["a-good.exr"]
