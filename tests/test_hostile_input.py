@@ -4,7 +4,9 @@ files outside the scene's folder, outputs of a failing command, SIGTERM.
 
 Each case is one line on stderr, exit status 2, and no file written or overwritten."""
 
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -18,6 +20,8 @@ from gshade.cli import main
 from gshade.io import load_scene
 from gshade.io.outputs import MAX_NAME_BYTES, output_name, remove_stale_temporaries, staged
 from gshade.rendering import render
+
+from .conftest import TEAPOT
 
 SMALL = '[render]\nwidth = 16\nheight = 12\nspp = 1\nlighting = "flat"\n'
 SPHERE = '[[surface]]\ntype = "sphere"\n'
@@ -356,3 +360,26 @@ def test_a_fifo_or_device_among_the_scenes_fails_alone(tmp_path, capsys):
     assert (tmp_path / "out" / "a-good.exr").exists()
     status, _ = run(capsys, "check", folder, "--references", tmp_path / "refs", "--update")
     assert status == 2 and os.listdir(tmp_path / "refs") == ["a-good.exr"]
+
+
+def test_the_memory_limit_follows_ulimit_v():
+    """Under ``ulimit -v`` (or a container's limit) the default limit is what is left, not
+    3/4 of the machine: a render estimated beyond it is refused instead of crashing."""
+    code = (
+        "import resource; resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30)); "
+        "from gshade.limits import memory_limit; print(memory_limit())"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout) == 3 * 2**30 - 512 * 2**20
+
+
+def test_a_camera_inside_the_surfaces_keeps_a_small_image_small(tmp_path):
+    """A camera inside the teapot saw the nearest surface at depth ~0 and asked for the
+    finest mesh and atlas: gigabytes and tens of seconds for a small image."""
+    shutil.copy(TEAPOT, tmp_path / "teapot.txt")
+    text = '[[surface]]\ntype = "newell"\nfile = "teapot.txt"\n[camera]\norigin = [0.3, 0, 1]\n'
+    image = render(load_scene(_write(tmp_path, text + SMALL)), width=160, height=120)
+    settings = json.loads(image.metadata["settings"])
+    assert 32 * settings["tessellation"] ** 2 <= 16 * 160 * 120
+    assert 32 * settings["texture_tile"] ** 2 <= 16 * 160 * 120

@@ -50,6 +50,15 @@ MIN_EXTENT = 1e-9
 NEAREST_FRACTION = 1e-2
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
+#: The most mesh vertices of an automatic tessellation.
+MAX_VERTICES = 4_000_000
+
+
+def _budget(pixels: int, most: int) -> int:
+    """Automatic mesh vertices or atlas texels for an image: 16 per pixel (at least 2^18,
+    at most ``most``); a camera close to or inside the surfaces asks for more than a small
+    image can show."""
+    return int(np.clip(16 * pixels, 2**18, most))
 #: Units of each function's values, for legends.
 UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
 
@@ -89,7 +98,8 @@ def _tile_size(scene, view, patches, lo, hi) -> int:
     # f is smooth and interpolated bicubically from exact values and derivatives: a texel
     # every three pixels leaves errors far below what a picture (or a 1e-3 diff) shows
     tile = int(np.clip(np.ceil(size / 3) + 1, MIN_TILE, MAX_TILE))
-    cap = int(np.sqrt(MAX_ATLAS_TEXELS / len(patches)))
+    pixels = scene.render.width * scene.render.height
+    cap = int(np.sqrt(_budget(pixels, MAX_ATLAS_TEXELS) / len(patches)))
     return max(2, min(tile, cap))
 
 
@@ -184,8 +194,9 @@ def render(scene, **overrides) -> RenderedImage:
             tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
         # no finer than single precision resolves (a tiny view must not ask for more)
         resolution = max_chord_resolution(patches, max(tol, MIN_CHORD_TOLERANCE * diag))
-        # keep the mesh within a few million vertices
-        resolution = min(resolution, max(2, int(np.sqrt(4_000_000 / len(patches)))))
+        # keep the mesh within what the image can show (a few million vertices at most)
+        budget = _budget(settings.width * settings.height, MAX_VERTICES)
+        resolution = min(resolution, max(2, int(np.sqrt(budget / len(patches)))))
     junctions = None
     if settings.junctions:  # measured first: overlapping surfaces fail before rendering
         from ..continuity import continuity_report
