@@ -59,6 +59,8 @@ def _budget(pixels: int, most: int) -> int:
     at most ``most``); a camera close to or inside the surfaces asks for more than a small
     image can show."""
     return int(np.clip(16 * pixels, 2**18, most))
+
+
 #: Units of each function's values, for legends.
 UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
 
