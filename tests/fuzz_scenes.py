@@ -19,6 +19,7 @@ from __future__ import annotations
 import copy
 import datetime
 import math
+import os
 import random
 import re
 import shutil
@@ -40,8 +41,10 @@ __all__ = [
     "Raw",
     "cases",
     "dumps",
+    "listing",
     "mutations",
     "probes",
+    "rss_of",
     "write_variant",
 ]
 
@@ -896,3 +899,22 @@ if __name__ == "__main__":  # print the labels (and, with --text N, one variant'
     else:
         for c in all_cases:
             print(("S " if c.size else "  ") + c.label)
+
+
+def listing(folder: Path) -> dict[str, tuple[int, int]]:
+    """Every file below ``folder`` with its size and modification time (to tell what a run
+    wrote)."""
+    return {
+        str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns)
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
+
+
+def rss_of(pid: int) -> int:
+    """A process's resident memory in bytes (0 once it is gone)."""
+    try:
+        with open(f"/proc/{pid}/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0

@@ -36,6 +36,16 @@ def scenes(tmp_path):
     return folder
 
 
+def start_batch(folder, out):
+    """``gshade batch FOLDER -o OUT`` in the background, its output piped."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "gshade.cli", "batch", str(folder), "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
 def cli(*args):
     return subprocess.run(
         [sys.executable, "-m", "gshade.cli", "batch", *map(str, args)],
@@ -187,12 +197,7 @@ def test_an_interrupted_batch_leaves_no_partial_files(scenes, tmp_path):
             + SMALL.replace("width = 48", "width = 400").replace("height = 36", "height = 300")
         )
     out = tmp_path / "out"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "gshade.cli", "batch", str(scenes), "-o", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    process = start_batch(scenes, out)
     deadline = time.time() + 60
     while time.time() < deadline and not list(out.glob("*.exr")):
         time.sleep(0.05)
@@ -361,12 +366,7 @@ def test_sigterm_stops_the_workers_and_the_manifest_shows_progress(scenes, tmp_p
     tiny(folder, "a")
     (folder / "z.toml").write_text(SLOW)
     out = tmp_path / "out"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "gshade.cli", "batch", str(folder), "-o", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    process = start_batch(folder, out)
     worker = writer_pid(out, ".z.")
     deadline = time.monotonic() + 30  # the manifest says "a" is done while "z" renders
     while time.monotonic() < deadline and manifest_status(out).get("a") != "rendered":

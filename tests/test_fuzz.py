@@ -53,7 +53,7 @@ import pytest
 import gshade
 from gshade import GshadeError
 
-from .fuzz_scenes import ROOT, Case, cases, dumps, probes, write_variant
+from .fuzz_scenes import ROOT, Case, cases, dumps, listing, probes, rss_of, write_variant
 
 COUNT = int(os.environ.get("GSHADE_FUZZ_COUNT", "300"))
 SEED = int(os.environ.get("GSHADE_FUZZ_SEED", "1"))
@@ -116,14 +116,6 @@ def _first_line(text: str, limit: int = 160) -> str:
     lines = text.strip().splitlines() or [""]
     line = lines[0]
     return line if len(line) <= limit else line[: limit - 1] + "…"
-
-
-def _listing(folder: Path) -> dict[str, tuple[int, int]]:
-    return {
-        str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns)
-        for p in folder.rglob("*")
-        if p.is_file()
-    }
 
 
 def _spp_rounded(spp: int) -> int:
@@ -205,7 +197,7 @@ class Outcome:
             bad.append("does not name the scene file")
         if need_limit and not LIMIT_WORDS.search(message):
             bad.append("does not name a limit")
-        after = _listing(path.parent)
+        after = listing(path.parent)
         if after != before:
             changed = sorted(k for k in after if after[k] != before.get(k))
             bad.append(f"files written on error: {', '.join(changed) or 'files removed'}")
@@ -239,7 +231,7 @@ def run_case(case: Case, folder: Path) -> Outcome:
     went wrong, if anything."""
     out = Outcome(case, folder)
     path = write_variant(folder, case)
-    before = _listing(folder)
+    before = listing(folder)
     start = time.perf_counter()
     stage, absurd = "load", False
     # warnings are not failures here (tests/hostile_run.py counts the command line's extra
@@ -269,7 +261,7 @@ def run_case(case: Case, folder: Path) -> Outcome:
             if not out.problems:
                 stage = "write"
                 _stage(stage)
-                before = _listing(folder)
+                before = listing(folder)
                 image.write_exr(folder / "out.exr")
             out.stage = stage if out.problems else "ok"
         except GshadeError as exc:
@@ -307,14 +299,6 @@ def _worker_main() -> None:
         outcome = run_case(Case(**request["case"]), Path(request["folder"]))
         sys.stdout.write("\nFUZZ-RESULT " + json.dumps(vars(outcome)) + "\n")
         sys.stdout.flush()
-
-
-def _rss(pid: int) -> int:
-    try:
-        with open(f"/proc/{pid}/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError, IndexError):
-        return 0
 
 
 _FRAME = re.compile(r'File "([^"]+)", line (\d+) in (\S+)')
@@ -380,7 +364,7 @@ class Worker:
                     out.stage = line.split(" ", 1)[1]
                 if line.startswith("FUZZ-RESULT "):
                     return "RESULT", json.loads(line.split(" ", 1)[1])
-            rss = _rss(self.proc.pid)
+            rss = rss_of(self.proc.pid)
             if rss > MEMORY_GB * 2**30:
                 return "memory", rss
             if time.monotonic() > deadline:
