@@ -163,7 +163,8 @@ def check_job(job: Job, folder: str, force: bool) -> JobResult:
 
         exr, png = _outputs(out, job.name)
         result.outputs = [str(exr), str(png)]
-        result.hash = _job_hash(load_scene(job.scene, dict(job.overrides)).text_hash)
+        scene_hash = job.scene_hash or load_scene(job.scene, dict(job.overrides)).text_hash
+        result.hash = _job_hash(scene_hash)
     except Exception as exc:
         return _fail(result, out, job, failure_reason(exc, job.scene), failure_trace(exc))
     if not force and _up_to_date(exr, png, result.hash):

@@ -32,7 +32,8 @@ class Job:
 
     ``error`` (one line) and ``detail`` (for the log) are set when the job cannot run: its
     scene does not load, its name cannot name a file, an earlier job has the same name.
-    ``log`` is its log's name when ``name`` cannot be (empty: ``name``).
+    ``log`` is its log's name when ``name`` cannot be (empty: ``name``).  ``scene_hash`` is
+    the scene's ``text_hash`` with the overrides, as planning found it (empty: not known).
     """
 
     scene: str
@@ -41,6 +42,7 @@ class Job:
     error: str = ""
     detail: str = ""
     log: str = ""
+    scene_hash: str = ""
 
 
 def expand_scenes(items: list[str]) -> list[Path]:
@@ -154,13 +156,13 @@ def _scene_jobs(path: Path, sweeps: list[tuple[str, list[object]]]) -> list[Job]
         name = loaded.name
         try:
             name = "--".join([name, *(_label(k, v) for k, v in overrides)])
-            if overrides:
-                load_scene(path, dict(overrides))  # e.g. a sweep over a key it does not have
+            # e.g. a sweep over a key the scene does not have
+            scene = load_scene(path, dict(overrides)) if overrides else loaded
             output_name(name, f"{path}: output name")
         except Exception as exc:
             jobs.append(_broken(path, overrides, name, exc))
         else:
-            jobs.append(Job(str(path), overrides, name))
+            jobs.append(Job(str(path), overrides, name, scene_hash=scene.text_hash))
     return jobs
 
 

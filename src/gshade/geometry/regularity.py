@@ -81,7 +81,7 @@ def regularised_derivatives(
     return RegularisedDerivatives(d, regular)
 
 
-def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 8):
+def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 3):
     """The first patch that is no surface, and why; None if every patch is one.
 
     A patch is degenerate when its derivatives are not finite anywhere on an interior
