@@ -103,7 +103,7 @@ STAGE_CHILD = textwrap.dedent(
     import json, resource, sys, time
     begin = time.time()
     t0 = time.perf_counter()
-    from gshade.io.scene import load_scene, parse_overrides
+    from gshade.scene import load_scene, parse_overrides
     from gshade.rendering import render
     t1 = time.perf_counter()
     scene = load_scene(sys.argv[1], parse_overrides(sys.argv[4:]))

@@ -25,7 +25,7 @@ from report import machine_info, markdown_table, text_table, write_section
 import gshade
 from gshade.check import CHECK_DEFAULTS, find_scenes
 from gshade.comparison import Thresholds, compare
-from gshade.io.scene import load_scene
+from gshade.scene import load_scene
 
 COLUMNS = [
     "Scene",

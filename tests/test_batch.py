@@ -340,16 +340,16 @@ def test_scenes_that_break_python_fail_alone(tmp_path):
 
 
 def test_any_exception_of_the_scene_reader_fails_that_scene_alone(tmp_path, monkeypatch):
-    import gshade.io.scene
+    import gshade.scene
 
-    read = gshade.io.scene.load_scene
+    read = gshade.scene.load_scene
 
     def load_scene(path, overrides=None):  # as a reader's bug would, on one file
         if Path(path).stem == "a":
             raise RecursionError("maximum recursion depth exceeded")
         return read(path, overrides)
 
-    monkeypatch.setattr(gshade.io.scene, "load_scene", load_scene)
+    monkeypatch.setattr(gshade.scene, "load_scene", load_scene)
     a, b = tiny(tmp_path, "a"), tiny(tmp_path, "b")
     jobs = plan_jobs([a, b], [])
     assert jobs[0].error == f"{a}: RecursionError: maximum recursion depth exceeded"

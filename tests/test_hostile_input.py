@@ -383,3 +383,10 @@ def test_a_camera_inside_the_surfaces_keeps_a_small_image_small(tmp_path):
     settings = json.loads(image.metadata["settings"])
     assert 32 * settings["tessellation"] ** 2 <= 16 * 160 * 120
     assert 32 * settings["texture_tile"] ** 2 <= 16 * 160 * 120
+
+
+def test_an_override_on_a_surface_whose_type_is_not_a_name(tmp_path):
+    """``--set surface.1.radius=2`` where ``type = [1]``: was a TypeError (unhashable list)."""
+    path = _write(tmp_path, "[[surface]]\ntype = [1]\n")
+    with pytest.raises(GshadeError, match=r"\[\[surface\]\] 1: type: expected one of"):
+        load_scene(path, {"surface.1.radius": 2})

@@ -29,7 +29,7 @@ def __getattr__(name: str):
 
         return compare
     if name == "load_scene":
-        from .io.scene import load_scene
+        from .scene import load_scene
 
         return load_scene
     raise AttributeError(f"module 'gshade' has no attribute {name!r}")

@@ -159,7 +159,7 @@ def check_job(job: Job, folder: str, force: bool) -> JobResult:
     if job.error:
         return _fail(result, out, job, job.error, job.detail)
     try:
-        from .io.scene import load_scene
+        from .scene import load_scene
 
         exr, png = _outputs(out, job.name)
         result.outputs = [str(exr), str(png)]
@@ -183,8 +183,8 @@ def render_job(job: Job, folder: str) -> JobResult:
         return _fail(result, out, job, job.error, job.detail)
     try:
         from .io.outputs import staged, write_to
-        from .io.scene import load_scene
         from .rendering import render
+        from .scene import load_scene
 
         exr, png = _outputs(out, job.name)
         result.outputs = [str(exr), str(png)]

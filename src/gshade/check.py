@@ -143,8 +143,8 @@ def check_scene(
     statistical: bool = False,
 ) -> CheckResult:
     """Render one scene at its check settings and compare it with its reference."""
-    from .io.scene import load_scene
     from .rendering import render
+    from .scene import load_scene
 
     start = time.perf_counter()
     name = path.stem

@@ -29,6 +29,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     shapes = sub.add_parser("shapes", help="list the shape functions, their order and parameters")
     shapes.set_defaults(run=_shapes)
+    keys = sub.add_parser(
+        "keys", help="list the scene files' keys: types, ranges, defaults, meanings"
+    )
+    keys.set_defaults(run=_keys)
 
     render = sub.add_parser("render", help="render a scene file to EXR (and PNG)")
     render.add_argument("scene", help="scene file (TOML)")
@@ -169,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _scene_overrides(args: argparse.Namespace) -> dict:
-    from .io.scene import parse_overrides
+    from .scene import parse_overrides
 
     overrides = parse_overrides(args.set)
     for key in ("width", "height", "spp", "variant", "junctions"):
@@ -181,8 +185,8 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
 
 def _render(args: argparse.Namespace) -> int:
     from .io.outputs import output_file, staged, write_to
-    from .io.scene import load_scene
     from .rendering import render
+    from .scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
@@ -356,7 +360,7 @@ def _continuity(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .continuity import Tolerances, continuity_report
-    from .io.scene import load_scene
+    from .scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
     patches = list(scene.patches)
@@ -400,7 +404,7 @@ def _info(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .geometry import irregular_mask
-    from .io.scene import load_scene
+    from .scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
     print(f"scene {scene.name} ({scene.path})")
@@ -450,6 +454,13 @@ def _info(args: argparse.Namespace) -> int:
     print("  irregular points:" + ("" if irregular else " none"))
     for line in irregular:
         print(f"    {line}")
+    return 0
+
+
+def _keys(args: argparse.Namespace) -> int:
+    from .scene.keys import scene_keys
+
+    print(scene_keys())
     return 0
 
 

@@ -129,8 +129,8 @@ def _flatten(table: dict, prefix: str = "") -> dict:
 
 
 def _panel(scene_path: Path, overrides: dict, spec: FigureSpec):
-    from .io.scene import load_scene
     from .rendering import render
+    from .scene import load_scene
 
     all_overrides = {
         "render.width": spec.width,

@@ -91,7 +91,7 @@ def _split_values(text: str) -> list[str]:
 def parse_sweeps(items: list[str]) -> list[tuple[str, list[object]]]:
     """``key=v1,v2,…`` items into (dotted key, values); values are TOML (bare words are
     strings)."""
-    from .io.scene import parse_overrides
+    from .scene import parse_overrides
 
     sweeps = []
     for item in items:
@@ -136,7 +136,7 @@ def _broken(path: Path, overrides: tuple, name: str, exc: BaseException) -> Job:
 def _scene_jobs(path: Path, sweeps: list[tuple[str, list[object]]]) -> list[Job]:
     """The jobs of one scene: one per combination of its sweeps' values."""
     from .io.outputs import output_name
-    from .io.scene import load_scene
+    from .scene import load_scene
 
     try:
         loaded = load_scene(path)

@@ -144,13 +144,13 @@ def render(scene, **overrides) -> RenderedImage:
     """
     dotted = overrides.pop("set", None) or {}
     if isinstance(scene, (str, os.PathLike)):
-        from ..io.scene import load_scene
+        from ..scene import load_scene
 
         scene = load_scene(scene, dotted)
     elif dotted:
         raise GshadeError("set: dotted overrides need a scene path, not a loaded Scene")
     if overrides:
-        from ..io.scene import check_render_settings
+        from ..scene import check_render_settings
 
         try:
             settings = replace(scene.render, **overrides)

@@ -1,0 +1,268 @@
+"""Reading a scene file: TOML, the bounds every value meets, the overrides, the tables in
+turn (the small ones first, so that their mistakes show before surface data are read), the
+surfaces, and the scene's hash."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+from ..errors import GshadeError
+from ..geometry.regularity import degenerate_patch
+from ..limits import MAX_MAGNITUDE, MAX_NESTING, MAX_PATCHES, MAX_SCENE_FILE_BYTES, MAX_STRING
+from .data_files import data_roots
+from .model import Scene
+from .overrides import apply_overrides
+from .sections import parse_camera, parse_check, parse_render, parse_shape, parse_sweep
+from .surfaces import SURFACE_TYPES, build_surface
+from .tables import REQUIRED, Key, Table, declare_keys, show
+
+__all__ = ["TOP_KEYS", "load_scene", "parse_scene"]
+
+_TABLE = "its keys' defaults"
+TOP_KEYS = declare_keys(
+    Key("name", "string", None, "the output name: <name>.exr, <name>.png", "the file's stem"),
+    Key("surface", "one or more [[surface]] tables", REQUIRED, "the surfaces"),
+    Key("shape", "table", None, "the shape function and how it is shown", _TABLE),
+    Key("camera", "table", None, "the view", _TABLE),
+    Key("render", "table", None, "the image and its sampling", _TABLE),
+    Key("check", "table", None, "gshade check's render size and thresholds", _TABLE),
+    Key("sweep", "table", None, "values gshade batch renders the scene with", _TABLE),
+)
+
+
+# --------------------------------------------------------------------------- value bounds
+
+
+def _location(parts: Sequence[str | int], raw: dict[str, Any]) -> str:
+    """Where a value sits, as messages name it: ``[[surface]] 2 (bezier): points[0][3]``,
+    ``[camera] fov``, ``name``."""
+    rest = list(parts)
+    head = ""
+    if len(rest) >= 2 and rest[0] == "surface" and isinstance(rest[1], int):
+        table = raw["surface"][rest[1]]
+        kind = table.get("type") if isinstance(table, dict) else None
+        shown = f" ({kind})" if isinstance(kind, str) and kind in SURFACE_TYPES else ""
+        head, rest = f"[[surface]] {rest[1] + 1}{shown}: ", rest[2:]
+    elif len(rest) >= 2 and isinstance(rest[0], str) and isinstance(rest[1], str):
+        head, rest = f"[{rest[0]}] ", rest[1:]
+    text = ""
+    for p in rest:
+        text += f"[{p}]" if isinstance(p, int) else (f".{p}" if text else p)
+    return (head + text).strip().rstrip(":") or "(top level)"
+
+
+def _check_values(file: str, raw: dict[str, Any]) -> None:
+    """Bounds every scene value must meet whatever its key: numbers finite and within
+    ±MAX_MAGNITUDE (integers too: no overflow when they become floats), strings of at
+    most MAX_STRING characters, keys short and printable, nesting at most MAX_NESTING
+    deep.  One iterative pass, so that no depth or size of input can exhaust the stack."""
+    stack: list[tuple[Any, tuple[str | int, ...]]] = [(raw, ())]
+    while stack:
+        value, parts = stack.pop()
+        if len(parts) > MAX_NESTING:
+            raise GshadeError(
+                f"{file}: {_location(parts[:3], raw)}: expected arrays and tables nested at most "
+                f"{MAX_NESTING} deep, got deeper ones"
+            )
+        if isinstance(value, dict):
+            for key, item in value.items():
+                if len(key) > 64 or not key.isprintable():
+                    where = _location(parts, raw) if parts else "a key"
+                    raise GshadeError(
+                        f"{file}: {where}: expected keys of at most 64 printable characters, "
+                        f"got {json.dumps(key[:40])}" + ("…" if len(key) > 40 else "")
+                    )
+                stack.append((item, (*parts, key)))
+            stack[len(stack) - len(value) :] = reversed(stack[len(stack) - len(value) :])
+        elif isinstance(value, list):  # pushed last to first: the first offender is reported
+            stack.extend((value[k], (*parts, k)) for k in range(len(value) - 1, -1, -1))
+        elif isinstance(value, bool):
+            continue
+        elif isinstance(value, (int, float)):
+            if not abs(value) <= MAX_MAGNITUDE:  # NaN fails as well
+                shown = show(value) if isinstance(value, float) else _big(value)
+                raise GshadeError(
+                    f"{file}: {_location(parts, raw)}: expected a finite number within "
+                    f"±{MAX_MAGNITUDE:g}, got {shown}"
+                )
+        elif isinstance(value, str) and len(value) > MAX_STRING:
+            raise GshadeError(
+                f"{file}: {_location(parts, raw)}: expected a string of at most {MAX_STRING} "
+                f"characters, got {len(value)}"
+            )
+
+
+def _big(x: int) -> str:
+    digits = str(abs(x))
+    sign = "-" if x < 0 else ""
+    return f"{sign}{digits[:3]}…({len(digits)} digits)" if len(digits) > 20 else f"{x}"
+
+
+# --------------------------------------------------------------------------- the scene
+
+
+def _table(file: str, raw: dict[str, Any], name: str) -> dict[str, Any]:
+    value = raw.get(name, {})
+    if not isinstance(value, dict):
+        raise GshadeError(f"{file}: {name}: expected a table [{name}], got {show(value)}")
+    return value
+
+
+def _hash(raw: dict[str, Any], data_files: Sequence[Path]) -> str:
+    h = hashlib.sha256(b"gshade-scene-1\0")
+    text = json.dumps(raw, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
+    h.update(text.encode("utf-8"))
+    for f in data_files:
+        data = f.read_bytes()
+        h.update(b"\0" + len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
+
+
+def _build(
+    text: str,
+    file: str,
+    path: Path | None,
+    base: Path,
+    overrides: dict[str, Any] | None,
+    data_path: Sequence[str | os.PathLike] | None = None,
+) -> Scene:
+    from ..io.outputs import output_name
+
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise GshadeError(f"{file}: invalid TOML: {exc}") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise GshadeError(f"{file}: invalid TOML: {str(exc).split(';')[0]}") from None
+    except RecursionError:
+        raise GshadeError(
+            f"{file}: invalid TOML: arrays or tables nested too deeply (at most {MAX_NESTING})"
+        ) from None
+    _check_values(file, raw)
+    if overrides:
+        raw = apply_overrides(file, raw, dict(overrides))
+        _check_values(file, raw)
+    top = Table(file, "", raw, TOP_KEYS)
+    top.reject_unknown()
+    if "name" in raw:
+        name = output_name(top.string("name", expected="a non-empty string"), f"{file}: name")
+    else:
+        default = path.stem if path is not None else "scene"
+        name = output_name(default, f"{file}: name (the file's stem; set name = ...)")
+    if "surface" not in raw:
+        raise GshadeError(f"{file}: [[surface]]: missing; expected at least one [[surface]] table")
+    tables = raw["surface"]
+    if not isinstance(tables, list) or not tables:
+        raise GshadeError(
+            f"{file}: surface: expected one or more [[surface]] tables (an array of tables), "
+            f"got {show(tables)}"
+        )
+    # The small tables first, so that their mistakes show before surface data are read.
+    shape = parse_shape(file, _table(file, raw, "shape"))
+    camera = parse_camera(file, _table(file, raw, "camera"))
+    render = parse_render(file, _table(file, raw, "render"))
+    check = parse_check(file, _table(file, raw, "check"))
+    sweep = parse_sweep(file, _table(file, raw, "sweep"))
+    surfaces, data_files = [], []
+    roots = data_roots(base, data_path)
+    count = 0
+    for index, table in enumerate(tables, start=1):
+        surface, data_file = build_surface(file, index, table, base, roots)
+        surfaces.append(surface)
+        if data_file is not None and data_file.resolve() not in data_files:
+            data_files.append(data_file.resolve())
+        count += len(surface.patches)
+        if count > MAX_PATCHES:
+            raise GshadeError(
+                f"{surface.source}: expected at most {MAX_PATCHES} patches in a scene, got "
+                f"{count} by this surface"
+            )
+        bad = degenerate_patch(surface.patches)
+        if bad is not None:
+            which = f" patch {bad[0]}" if len(surface.patches) > 1 else ""
+            raise GshadeError(f"{surface.source}:{which} degenerate: {bad[1]}")
+    return Scene(
+        name=name,
+        path=path,
+        surfaces=tuple(surfaces),
+        shape=shape,
+        camera=camera,
+        render=render,
+        check=check,
+        data_files=tuple(data_files),
+        text_hash=_hash(raw, data_files),
+        sweep=sweep,
+    )
+
+
+def load_scene(
+    path: str | os.PathLike,
+    overrides: dict[str, object] | None = None,
+    *,
+    data_path: Sequence[str | os.PathLike] | None = None,
+) -> Scene:
+    """Read and validate a scene file.
+
+    Parameters
+    ----------
+    path : path-like
+        The TOML scene file (a regular file of at most 16 MB); surface data files are found
+        relative to its directory, and must lie within it (symbolic links resolved).
+    overrides : dict, optional
+        Dotted key -> value (see :func:`parse_overrides`), applied to the file's contents
+        before validation.  When an override changes ``shape.function`` (or
+        ``shape.colour_function``), the file's parameters that only the replaced function
+        takes are dropped.
+    data_path : sequence of path-like, optional
+        Further folders data files may lie in; default: those in the environment variable
+        ``GSHADE_DATA_PATH`` (separated by ``os.pathsep``).
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    GshadeError
+        One line naming the file, the table and key, what was expected and what was found.
+    """
+    from ..io.files import read_bytes
+
+    path = Path(path)
+    file = str(path)
+    data = read_bytes(path, "a scene file (TOML)", limit=MAX_SCENE_FILE_BYTES)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise GshadeError(
+            f"{file}: expected a UTF-8 text file (TOML), got byte {data[exc.start]:#04x} at "
+            f"offset {exc.start}"
+        ) from None
+    return _build(text, file, path, path.parent, overrides, data_path)
+
+
+def parse_scene(
+    text: str,
+    *,
+    source: str = "<string>",
+    base: str | os.PathLike = ".",
+    overrides: dict[str, object] | None = None,
+    data_path: Sequence[str | os.PathLike] | None = None,
+) -> Scene:
+    """Validate a scene given as TOML text (``Scene.path`` is None, the default name "scene").
+
+    ``source`` names the text in messages; data files are found relative to ``base`` (and
+    must lie within it or ``data_path``).  See :func:`load_scene`.
+    """
+    return _build(text, source, None, Path(base), overrides, data_path)

@@ -1,0 +1,321 @@
+"""The ``[shape]``, ``[camera]``, ``[render]``, ``[check]`` and ``[sweep]`` tables: each
+one's keys, declared once (the parser's allowed keys and defaults, and ``gshade keys``'s
+listing), and its parser."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from typing import Any
+
+import numpy as np
+
+from ..errors import GshadeError
+from ..limits import (
+    MAX_IMAGE_SIDE,
+    MAX_SEED,
+    MAX_SPP,
+    MAX_TESSELLATION,
+    MAX_TEXTURE_RESOLUTION,
+    MIN_CHORD_TOLERANCE,
+)
+from ..shape.functions import SHAPE_FUNCTIONS
+from .model import CAMERA_TYPES, DISPLAYS, LIGHTINGS, VARIANTS, Camera, RenderSettings, Shape
+from .tables import Key, Table, alternatives, declare_keys, is_number, show, suggest
+
+__all__ = [
+    "CAMERA_KEYS",
+    "CHECK_KEYS",
+    "RENDER_KEYS",
+    "SECTION_KEYS",
+    "SHAPE_KEYS",
+    "check_render_settings",
+    "function_names",
+    "parse_camera",
+    "parse_check",
+    "parse_render",
+    "parse_shape",
+    "parse_sweep",
+    "shape_keys",
+]
+
+_FUNCTIONS = "a name in `gshade shapes`"
+SHAPE_KEYS = declare_keys(
+    Key("function", _FUNCTIONS, "isophotes", "the shape function"),
+    Key("display", alternatives(DISPLAYS), "stripes", "how its values are shown"),
+    Key("period", "number > 0", None, "stripes: distance in f from one dark stripe to the next"),
+    Key(
+        "stripes",
+        "number > 0",
+        20.0,
+        "or: the stripe count over the value range",
+        "20 if no period",
+    ),
+    Key("duty", "number in (0, 1)", 0.5, "the dark fraction of each period"),
+    Key("phase", "number", 0.0, "in periods"),
+    Key("range", "[min, max], min < max", None, "the colour-map range", "automatic"),
+    Key("colormap", "a matplotlib colour map", None, "colour map", "viridis, coolwarm if signed"),
+    Key("colour_function", _FUNCTIONS, None, 'display = "both": colour from this function'),
+)
+CAMERA_KEYS = declare_keys(
+    Key("type", alternatives(CAMERA_TYPES), "perspective", "the projection"),
+    Key("origin", "[x, y, z]", None, "the eye point", "automatic (frames the surfaces)"),
+    Key("target", "[x, y, z], not origin", None, "the point looked at", "automatic"),
+    Key("up", "direction [x, y, z]", (0.0, 0.0, 1.0), "the view's up, not along the view"),
+    Key("fov", "number in (0.001, 180)", 30.0, "perspective: horizontal field of view, degrees"),
+    Key("width", "number > 1e-12", None, "orthographic: view width in scene units", "automatic"),
+)
+RENDER_KEYS = declare_keys(
+    Key("width", f"integer 1–{MAX_IMAGE_SIDE}", 1024, "image width in pixels"),
+    Key("height", f"integer 1–{MAX_IMAGE_SIDE}", 768, "image height in pixels"),
+    Key("spp", f"integer 1–{MAX_SPP}", 16, "samples per pixel"),
+    Key("lighting", alternatives(LIGHTINGS), "lit", "lit by a soft light, or flat"),
+    Key("variant", alternatives(VARIANTS), "auto", "the Mitsuba variant"),
+    Key("seed", f"integer 0–{MAX_SEED}", 0, "the sampler's seed"),
+    Key(
+        "tessellation",
+        f"integer 2–{MAX_TESSELLATION}",
+        None,
+        "vertices per patch side",
+        "automatic (from the chord error)",
+    ),
+    Key(
+        "chord_tolerance",
+        f"number in [{MIN_CHORD_TOLERANCE:g}, 1]",
+        1e-3,
+        "relative to the bounding-box diagonal (and ≤ half a pixel)",
+    ),
+    Key(
+        "texture_resolution",
+        f"integer 1–{MAX_TEXTURE_RESOLUTION}",
+        None,
+        "texels per patch side",
+        "automatic (from the screen size)",
+    ),
+    Key("junctions", "true | false", False, "draw the junctions coloured by continuity class"),
+)
+#: gshade check's settings; the defaults are those of gshade.check (CHECK_DEFAULTS and
+#: DEFAULT_THRESHOLDS), which the parser leaves out: [check] keeps the keys given.
+_THRESHOLD = "number ≥ 0"
+_PERCENT = "number in [0, 100]"
+CHECK_KEYS = declare_keys(
+    Key("width", f"integer 1–{MAX_IMAGE_SIDE}", 160, "image width of the check render"),
+    Key("height", f"integer 1–{MAX_IMAGE_SIDE}", 120, "image height of the check render"),
+    Key("spp", f"integer 1–{MAX_SPP}", 4, "samples per pixel of the check render"),
+    Key(
+        "channels",
+        "a list of channel names",
+        ("R", "G", "B", "A", "f"),
+        "the channels compared",
+        '["R", "G", "B", "A", "f"]; statistical: ["R", "G", "B"]',
+    ),
+    Key("fail", _THRESHOLD, 0.02, "per-pixel failure threshold"),
+    Key("failpercent", _PERCENT, 0.05, "% of the pixels allowed over fail"),
+    Key("hardfail", _THRESHOLD, math.inf, "any pixel over this fails"),
+    Key("warn", _THRESHOLD, 1e-3, "per-pixel warning threshold"),
+    Key("warnpercent", _PERCENT, 0.0, "% of the pixels allowed over warn"),
+    Key("statistical", "true | false", False, "compare by a z-test over several renders"),
+    Key("runs", "integer 1–64", 4, "statistical: renders of the scene (at least 2)"),
+)
+#: The tables of one-level keys, in the order messages list them.
+SECTION_KEYS = {
+    "shape": SHAPE_KEYS,
+    "camera": CAMERA_KEYS,
+    "render": RENDER_KEYS,
+    "check": CHECK_KEYS,
+}
+
+
+# --------------------------------------------------------------------------- [shape]
+
+
+def function_names(shape: dict[str, Any]) -> list[str]:
+    """The known shape functions a [shape] table selects (function, colour_function)."""
+    names = [shape.get("function", SHAPE_KEYS["function"].default), shape.get("colour_function")]
+    return [n for n in names if isinstance(n, str) and n in SHAPE_FUNCTIONS]
+
+
+def shape_keys(shape: dict[str, Any]) -> tuple[str, ...]:
+    """The keys a [shape] table may have: the declared ones and its functions' parameters."""
+    params = [p for n in function_names(shape) for p in SHAPE_FUNCTIONS[n].parameters]
+    return (*SHAPE_KEYS, *dict.fromkeys(params))
+
+
+def _parameter(t: Table, fn: str, name: str) -> Any:
+    spec = SHAPE_FUNCTIONS[fn].parameters[name]
+    what = f" (parameter of {fn}: {spec.help})"
+    if spec.kind == "choice":
+        return t.choice(name, spec.choices)
+    if spec.kind in ("direction", "vector"):
+        return t.vector(name, nonzero=True, what=what)
+    if spec.kind == "point":
+        return t.vector(name, what=what)
+    return t.number(name, expected=f"a number{what}")
+
+
+def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
+    t = Table(file, "[shape] ", raw, SHAPE_KEYS)
+    function = t.choice("function", tuple(SHAPE_FUNCTIONS))
+    colour_function = t.choice("colour_function", tuple(SHAPE_FUNCTIONS))
+    functions = [function] + ([colour_function] if colour_function else [])
+    t.reject_unknown(
+        shape_keys(raw),
+        f"; parameters of {' and '.join(functions)}: "
+        + (", ".join(p for f in functions for p in SHAPE_FUNCTIONS[f].parameters) or "none"),
+    )
+    params = {}
+    for key in raw:
+        if key not in SHAPE_KEYS:
+            for fn in functions:
+                if key in SHAPE_FUNCTIONS[fn].parameters:
+                    params[key] = _parameter(t, fn, key)
+    display = t.choice("display", DISPLAYS)
+    period = t.number("period", lo=0)
+    stripes = t.number("stripes", None, lo=0)
+    if period is not None and stripes is not None:
+        raise t.error(
+            "stripes",
+            f"expected either period or stripes, not both, got period = {show(raw['period'])} "
+            f"and stripes = {show(raw['stripes'])}",
+        )
+    if period is None and stripes is None:
+        stripes = SHAPE_KEYS["stripes"].default
+    duty = t.number("duty", lo=0, hi=1)
+    phase = t.number("phase")
+    value_range = None
+    if "range" in raw:
+        r = raw["range"]
+        if not (
+            isinstance(r, list)
+            and len(r) == 2
+            and all(is_number(x) and math.isfinite(x) for x in r)
+        ):
+            raise t.error("range", f"expected [min, max], two numbers, got {show(r)}")
+        if not r[0] < r[1]:
+            raise t.error("range", f"expected [min, max] with min < max, got {show(r)}")
+        value_range = (float(r[0]), float(r[1]))
+    colormap = t.string("colormap", expected="the name of a matplotlib colour map")
+    if colormap is not None:
+        import matplotlib
+
+        if colormap not in matplotlib.colormaps:
+            raise t.error(
+                "colormap",
+                f'expected the name of a matplotlib colour map (e.g. "viridis"), got '
+                f"{show(colormap)}{suggest(colormap, list(matplotlib.colormaps))}",
+            )
+    return Shape(
+        function,
+        params,
+        display,
+        period,
+        stripes,
+        duty,
+        phase,
+        value_range,
+        colormap,
+        colour_function,
+    )
+
+
+# --------------------------------------------------------------------------- [camera], [render]
+
+
+def parse_camera(file: str, raw: dict[str, Any]) -> Camera:
+    t = Table(file, "[camera] ", raw, CAMERA_KEYS)
+    t.reject_unknown()
+    kind = t.choice("type", CAMERA_TYPES)
+    origin = t.vector("origin")
+    target = t.vector("target")
+    up = t.vector("up", nonzero=True)
+    fov = t.number("fov", lo=1e-3, hi=180)
+    width = t.number("width", lo=1e-12)
+    if origin is not None and target is not None:
+        view = np.subtract(target, origin)
+        if not np.any(view):
+            raise t.error(
+                "target", f"expected a point other than origin, got {show(raw['target'])}"
+            )
+        if np.linalg.norm(np.cross(view, up)) <= 1e-9 * np.linalg.norm(view) * np.linalg.norm(up):
+            raise t.error(
+                "up",
+                f"expected a direction not parallel to target - origin {view.tolist()}, "
+                f"got {show(raw.get('up', [0, 0, 1]))}",
+            )
+    return Camera(kind, origin, target, up, fov, width)
+
+
+def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
+    t = Table(file, "[render] ", raw, RENDER_KEYS)
+    t.reject_unknown()
+    return RenderSettings(
+        width=t.integer("width", maximum=MAX_IMAGE_SIDE),
+        height=t.integer("height", maximum=MAX_IMAGE_SIDE),
+        spp=t.integer("spp", maximum=MAX_SPP),
+        lighting=t.choice("lighting", LIGHTINGS),
+        variant=t.choice("variant", VARIANTS),
+        seed=t.integer("seed", minimum=0, maximum=MAX_SEED),
+        tessellation=t.integer("tessellation", minimum=2, maximum=MAX_TESSELLATION),
+        chord_tolerance=t.number("chord_tolerance", lo=MIN_CHORD_TOLERANCE, hi=1, closed=True),
+        texture_resolution=t.integer(
+            "texture_resolution", minimum=1, maximum=MAX_TEXTURE_RESOLUTION
+        ),
+        junctions=t.boolean("junctions"),
+    )
+
+
+def check_render_settings(settings: RenderSettings, source: str = "render") -> RenderSettings:
+    """Render settings built in Python (``gshade.render(scene, width=...)``) checked as the
+    ``[render]`` table is; ``source`` names them in messages."""
+    return parse_render(source, {k: v for k, v in asdict(settings).items() if v is not None})
+
+
+# --------------------------------------------------------------------------- [check], [sweep]
+
+
+def parse_check(file: str, raw: dict[str, Any]) -> dict[str, Any]:
+    """The ``[check]`` keys given, checked (``gshade check`` supplies the defaults)."""
+    t = Table(file, "[check] ", raw)
+    t.reject_unknown(tuple(CHECK_KEYS))
+    out: dict[str, Any] = {}
+    for key in raw:
+        if key in ("width", "height"):
+            out[key] = t.integer(key, maximum=MAX_IMAGE_SIDE)
+        elif key == "spp":
+            out[key] = t.integer(key, maximum=MAX_SPP)
+        elif key == "runs":
+            out[key] = t.integer(key, maximum=64)
+        elif key == "statistical":
+            out[key] = t.boolean(key)
+        elif key == "channels":
+            c = raw[key]
+            if not (isinstance(c, list) and c and all(isinstance(s, str) and s for s in c)):
+                raise t.error(key, f"expected a list of channel names (strings), got {show(c)}")
+            out[key] = tuple(c)
+        elif key in ("failpercent", "warnpercent"):
+            out[key] = t.number(key, lo=0, hi=100, closed=True)
+        else:
+            out[key] = t.number(key, lo=0, closed=True)
+    return out
+
+
+def parse_sweep(file: str, raw: dict[str, Any], prefix: str = "") -> dict[str, tuple[Any, ...]]:
+    """``[sweep]``: dotted keys (quoted, ``"shape.function" = [...]``, or nested tables) to
+    non-empty lists of values; the keys are checked when a batch applies them."""
+    out: dict[str, tuple[Any, ...]] = {}
+    for key, value in raw.items():
+        dotted = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(parse_sweep(file, value, f"{dotted}."))
+        elif isinstance(value, list) and value:
+            if "." not in dotted:
+                raise GshadeError(
+                    f"{file}: [sweep] {dotted}: expected a dotted scene key such as "
+                    f'"shape.function", got {dotted!r}'
+                )
+            out[dotted] = tuple(value)
+        else:
+            raise GshadeError(
+                f"{file}: [sweep] {dotted}: expected a non-empty list of values, got {show(value)}"
+            )
+    return out
