@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from PIL import Image
 
@@ -55,14 +56,94 @@ def test_figure_in_every_format_records_its_scenes(spec, tmp_path, fmt):
         assert b"<svg" in data and b"<image" in data and b"scene_hashes" in data
 
 
-def test_same_range_puts_one_colour_range_on_a_row(spec):
-    from gshade.figure import _panel, _same_range
+RANGE_SPEC = """
+rows = ["{r1}", "{r4}"]
+row_labels = ["r1", "r4"]
+width = 64
+height = 48
+spp = 1
+same_range = true
+[[column]]
+label = "isophotes"
+set = {{ "shape.function" = "isophotes", "shape.period" = 0.1 }}
+[[column]]
+label = "mean"
+set = {{ "shape.function" = "mean", "shape.display" = "colormap" }}
+[[column]]
+label = "mean r2"
+set = {{ "shape.function" = "mean", "shape.display" = "colormap", "surface.1.radius" = 2 }}
+[[column]]
+label = "gaussian r2"
+set = {{ "shape.function" = "gaussian", "shape.display" = "colormap", "surface.1.radius" = 2 }}
+[[column]]
+label = "mean fixed"
+set = {{ "shape.function" = "mean", "shape.display" = "colormap", "shape.range" = [-3, 3] }}
+"""
 
-    loaded = load_figure_spec(spec)
-    row = [(*_panel(loaded.rows[0], c.overrides, loaded), c) for c in loaded.columns]
-    row = _same_range(loaded.rows[0], row, loaded)
-    ranges = {image.legend.value_range for _, image, _ in row if image.legend.value_range}
-    assert len(ranges) == 1
+
+def test_same_range_shares_each_rows_range_among_panels_of_one_function(tmp_path, monkeypatch):
+    """Spheres: |H| = 1/r and K = 1/r^2 everywhere, so every panel's own automatic range is
+    known (signed functions: +-max |f|).  With same_range, a row's panels of one function
+    share the range covering all of them (per row, not per figure); another function, a
+    panel with a fixed range and a striped panel keep their own.  Checked on what the
+    figure draws: the colour bars' limits, and the panels' pixels against the colour map."""
+    import matplotlib
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    sphere = (ROOT / "scenes" / "sphere-isophotes.toml").read_text()
+    assert "radius = 1.0" in sphere
+    rows = {}
+    for r in (1.0, 4.0):
+        path = tmp_path / f"sphere-r{r:g}.toml"
+        path.write_text(sphere.replace("radius = 1.0", f"radius = {r!r}"))
+        rows[f"r{r:g}"] = path
+    spec_path = tmp_path / "ranges.toml"
+    spec_path.write_text(RANGE_SPEC.format(r1=rows["r1"], r4=rows["r4"]))
+
+    bars, pictures = {}, {}
+    imshow, colorbar = Axes.imshow, Figure.colorbar
+
+    def record_imshow(ax, data, *args, **kwargs):
+        pictures[ax] = np.array(data)
+        return imshow(ax, data, *args, **kwargs)
+
+    def record_colorbar(fig, mappable, *args, **kwargs):
+        bars[kwargs["ax"]] = (mappable.norm.vmin, mappable.norm.vmax, mappable.cmap.name)
+        return colorbar(fig, mappable, *args, **kwargs)
+
+    monkeypatch.setattr(Axes, "imshow", record_imshow)
+    monkeypatch.setattr(Figure, "colorbar", record_colorbar)
+    make_figure(load_figure_spec(spec_path), tmp_path / "ranges.png")
+
+    titles = {ax.get_title(): ax for ax in pictures}
+    assert len(titles) == 10  # 2 rows x 5 columns
+    # (function, radius) of each colour-mapped panel; the row's radius unless set
+    panels = {"mean": ("mean", None), "mean r2": ("mean", 2.0), "gaussian r2": ("gaussian", 2.0)}
+    for row, r_row in (("r1", 1.0), ("r4", 4.0)):
+        assert titles[f"{row}: isophotes"] not in bars  # stripes: no colour bar
+        assert bars[titles[f"{row}: mean fixed"]][:2] == (-3.0, 3.0)  # its own, fixed
+        # the mean panels of this row: |H| = 1/r_row and 1/2; shared: the larger
+        shared = max(1.0 / r_row, 1.0 / 2.0)
+        expected = {"mean": shared, "mean r2": shared, "gaussian r2": 1.0 / 2.0**2}
+        for column, (function, r) in panels.items():
+            ax = titles[f"{row}: {column}"]
+            lo, hi, cmap = bars[ax]
+            m = expected[column]
+            assert (lo, hi) == (pytest.approx(-m, rel=1e-5), pytest.approx(m, rel=1e-5)), (
+                row,
+                column,
+            )
+            # the picture uses the bar's range: the centre pixel (on the sphere) has the
+            # colour of f = +-1/r (mean) or 1/r^2 (gaussian) on that bar
+            r = r_row if r is None else r
+            f = 1.0 / r if function == "mean" else 1.0 / r**2
+            signs = (-1.0, 1.0) if function == "mean" else (1.0,)
+            centre = pictures[ax][24, 32]
+            colours = [
+                np.array(matplotlib.colormaps[cmap]((s * f - lo) / (hi - lo))[:3]) for s in signs
+            ]
+            assert min(np.abs(centre - c).max() for c in colours) < 0.02, (row, column, centre)
 
 
 def test_bad_specs_name_the_key(tmp_path):
