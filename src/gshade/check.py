@@ -17,6 +17,7 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,6 +32,9 @@ from .comparison import (
 )
 from .errors import GshadeError
 from .io.outputs import output_file, remove_stale_temporaries
+
+if TYPE_CHECKING:
+    from .image import RenderedImage
 
 __all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
 
@@ -58,7 +62,7 @@ class CheckResult:
     comparison: Comparison | None = None
     written: str = ""  # "created" or "updated" when the reference was (re)written
     seconds: float = 0.0
-    image: object = field(default=None, repr=False)
+    image: RenderedImage | None = field(default=None, repr=False)
     log: str = ""
 
     @property

@@ -11,13 +11,39 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from . import __version__
 from .errors import GshadeError
 
 __all__ = ["console", "main"]
+
+
+class _SubcommandParser(argparse.ArgumentParser):
+    """A subcommand's parser; with ``usage_status``, its argument errors (``--fail abc``, a
+    missing or an unrecognised argument) are one line ``PROG: error: ...`` and that exit
+    status (``gshade compare``: 5, apart from idiff's 0-4) instead of usage and status 2."""
+
+    def __init__(self, *args: Any, usage_status: int | None = None, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.usage_status = usage_status
+
+    def error(self, message: str) -> NoReturn:
+        if self.usage_status is None:
+            super().error(message)
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        sys.exit(self.usage_status)
+
+    def parse_known_args(
+        self, args: Iterable[str] | None = None, namespace: Any = None
+    ) -> tuple[Any, list[str]]:
+        given = None if args is None else list(args)  # as argparse itself takes them
+        namespace, extras = super().parse_known_args(given, namespace)
+        if extras and self.usage_status is not None:  # they would reach the main parser: 2
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -26,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Render the shape quality of parametric surfaces (Kiciak's shape functions).",
     )
     parser.add_argument("--version", action="version", version=f"gshade {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_SubcommandParser)
     shapes = sub.add_parser("shapes", help="list the shape functions, their order and parameters")
     shapes.set_defaults(run=_shapes)
     keys = sub.add_parser(
@@ -66,8 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
         "status: 0 pass, 1 warning, 2 failure (the images differ), 3 size or channel "
         "mismatch, 4 unreadable file (idiff's), 5 usage error (a bad argument, a "
         "difference image that cannot be written).",
+        usage_status=5,
     )
-    _usage_errors_exit_5(cmp)
     cmp.add_argument("test", help="the new image (EXR)")
     cmp.add_argument("reference", help="the reference image (EXR)")
     cmp.add_argument("--channels", default="R,G,B", help="channels to compare (default R,G,B)")
@@ -203,27 +229,6 @@ def _render(args: argparse.Namespace) -> int:
         f"{image.metadata['legend']}"
     )
     return 0
-
-
-def _usage_errors_exit_5(parser: argparse.ArgumentParser) -> None:
-    """Make the compare subcommand's argument errors (``--fail abc``, a missing or an
-    unrecognised argument) one line ``gshade compare: error: ...`` and exit status 5, apart
-    from idiff's 0-4."""
-
-    def error(message: str) -> NoReturn:
-        print(f"gshade compare: error: {message}", file=sys.stderr)
-        sys.exit(5)
-
-    parse_known_args = parser.parse_known_args
-
-    def parse_all(args=None, namespace=None):  # extras would reach the main parser: exit 2
-        namespace, extras = parse_known_args(args, namespace)
-        if extras:
-            error(f"unrecognized arguments: {' '.join(extras)}")
-        return namespace, extras
-
-    parser.error = error
-    parser.parse_known_args = parse_all
 
 
 def _compare(args: argparse.Namespace) -> int:

@@ -120,6 +120,7 @@ class Comparison:
     @property
     def heat_scale(self) -> float:
         """The top of the heat maps' scale: the largest finite pixel difference (or 1)."""
+        assert self.pixel_difference is not None, "compare() keeps the pixel differences"
         finite = self.pixel_difference[np.isfinite(self.pixel_difference)]
         return float(finite.max()) if finite.size and finite.max() > 0 else 1.0
 
@@ -363,6 +364,7 @@ def heat_map(comparison: Comparison) -> NDArray[np.uint8]:
     import matplotlib
 
     pixel = comparison.pixel_difference
+    assert pixel is not None, "compare() keeps the pixel differences"
     rgba = matplotlib.colormaps["inferno"](np.clip(pixel / comparison.heat_scale, 0, 1))
     rgba[np.isinf(pixel)] = (1, 0, 1, 1)
     return np.round(rgba[..., :3] * 255).astype(np.uint8)

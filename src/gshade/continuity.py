@@ -149,7 +149,8 @@ def find_junctions(
     radius = np.nextafter(tolerance * (1 + 1e-9), np.inf)  # a superset; verified below
     # the max_partners + 1 nearest others of each boundary: all a manifold needs
     k = min(count, max_partners + 2)
-    _, near = tree.query(mids, k=k, p=np.inf, distance_upper_bound=radius)
+    _, nearest = tree.query(mids, k=k, p=np.inf, distance_upper_bound=radius)
+    near = np.asarray(nearest)  # (count, k) indices; count where fewer were within reach
     a = np.repeat(np.arange(count), k)
     b = near.reshape(-1)
     keep = (b < count) & (a != b)

@@ -31,9 +31,10 @@ def diff_exr_writer(comparison: Comparison, path: str | os.PathLike) -> Callable
     a function writing them as EXR to a file name (``path`` names the target in errors)."""
     from .io.image import exr_writer
 
+    difference = comparison.difference
+    assert difference is not None, "compare() keeps the differences"
     channels = {
-        c: np.abs(comparison.difference[..., k]).astype(np.float32)
-        for k, c in enumerate(comparison.channels)
+        c: np.abs(difference[..., k]).astype(np.float32) for k, c in enumerate(comparison.channels)
     }
     return exr_writer(path, channels, header={"gshade:diff_of": ",".join(comparison.channels)})
 
@@ -50,6 +51,7 @@ def diff_png_writer(comparison: Comparison) -> Callable[[str], None]:
         import matplotlib.pyplot as plt
 
         pixel = comparison.pixel_difference
+        assert pixel is not None, "compare() keeps the pixel differences"
         top = comparison.heat_scale
         cmap = matplotlib.colormaps["inferno"].with_extremes(over="magenta")
         h, w = pixel.shape
@@ -133,4 +135,5 @@ def compare_and_write_diffs(
         if entered:
             raise
         raise UsageError(str(exc)) from None  # a target that cannot be written
+    assert result is not None  # compare() returned, or raised out of this function
     return result

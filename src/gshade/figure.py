@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -61,9 +62,9 @@ class FigureSpec:
 
 def load_figure_spec(path: str | os.PathLike) -> FigureSpec:
     """Read and check a figure spec; errors name the file and the key."""
-    try:
+    if sys.version_info >= (3, 11):
         import tomllib
-    except ModuleNotFoundError:  # Python < 3.11
+    else:  # pragma: no cover
         import tomli as tomllib
 
     path = Path(path)

@@ -42,11 +42,11 @@ def _screen_gradient(x: NDArray, patch: NDArray) -> NDArray:
         lo = [slice(None)] * 2
         hi = [slice(None)] * 2
         lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-        lo, hi = tuple(lo), tuple(hi)
-        same = (patch[lo] == patch[hi]) & (patch[lo] >= 0)
-        step = np.where(same, x[hi] - x[lo], 0.0)
-        fwd[lo], n_fwd[lo] = step, same
-        bwd[hi], n_bwd[hi] = step, same
+        below, above = tuple(lo), tuple(hi)
+        same = (patch[below] == patch[above]) & (patch[below] >= 0)
+        step = np.where(same, x[above] - x[below], 0.0)
+        fwd[below], n_fwd[below] = step, same
+        bwd[above], n_bwd[above] = step, same
         count = n_fwd.astype(float) + n_bwd
         derivative = (fwd + bwd) / np.maximum(count, 1.0)
         norm2 += derivative**2

@@ -76,11 +76,12 @@ def describe_exit(exitcode: int | None) -> str:
         name = signal.Signals(number).name
     except ValueError:
         name = "unknown signal"
-    hint = {
+    hints: dict[int, str] = {
         signal.SIGKILL: ": out of memory?",
         signal.SIGSEGV: ": a crash in compiled code",
         signal.SIGABRT: ": aborted",
-    }.get(number, "")
+    }
+    hint = hints.get(number, "")
     return f"the worker process died (killed by signal {number}, {name}{hint})"
 
 

@@ -105,7 +105,7 @@ class BezierPatch(TensorProductPatch):
 
     def boundary(self, side: str) -> BezierCurve:
         """The boundary curve on side 'u0', 'u1', 'v0' or 'v1' (e.g. 'v0' is p(u, v0))."""
-        sel = {
+        sel: dict[str, tuple[int | slice, int | slice]] = {
             "u0": (0, slice(None)),
             "u1": (-1, slice(None)),
             "v0": (slice(None), 0),

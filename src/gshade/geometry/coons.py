@@ -85,13 +85,13 @@ class CoonsPatch(Patch):
         u0: Curve,
         u1: Curve,
         *,
-        cross_v0=None,
-        cross_v1=None,
-        cross_u0=None,
-        cross_u1=None,
+        cross_v0: Curve | None = None,
+        cross_v1: Curve | None = None,
+        cross_u0: Curve | None = None,
+        cross_u1: Curve | None = None,
         tol: float = 1e-9,
     ):
-        named = {
+        named: dict[str, Curve | None] = {
             "v0": v0,
             "v1": v1,
             "u0": u0,
@@ -116,18 +116,18 @@ class CoonsPatch(Patch):
             if not isinstance(c, Curve) or c.dim != 3:
                 raise GshadeError(f"Coons patch: {key}: expected a 3-D curve, got {c!r}")
         self.bicubic = bool(given)
-        self.curves_u = [v0, v1] + ([cross_v0, cross_v1] if self.bicubic else [])
-        self.curves_v = [u0, u1] + ([cross_u0, cross_u1] if self.bicubic else [])
+        # the cross derivatives: all four (bicubic) or none
+        self.curves_u = [v0, v1] + [c for c in (cross_v0, cross_v1) if c is not None]
+        self.curves_v = [u0, u1] + [c for c in (cross_u0, cross_u1) if c is not None]
         self._coeffs = _HERMITE if self.bicubic else _LINEAR
         self._corners = self._corner_data(named, tol)
 
-    def _corner_data(self, c: dict, tol: float) -> NDArray:
+    def _corner_data(self, c: dict[str, Curve | None], tol: float) -> NDArray:
         """Corner matrix Q (K x K x 3) after checking that all curves agree at the corners."""
         ends = {
-            k: (_curve_on_unit(cv, np.array([0.0, 1.0]), 2) if cv is not None else None)
-            for k, cv in c.items()
+            k: _curve_on_unit(cv, np.array([0.0, 1.0]), 2) for k, cv in c.items() if cv is not None
         }
-        scale = 1.0 + max(float(np.abs(e).max()) for e in ends.values() if e is not None)
+        scale = 1.0 + max(float(np.abs(e).max()) for e in ends.values())
 
         def agree(what: str, corner: str, a: NDArray, b: NDArray, na: str, nb: str) -> None:
             if np.linalg.norm(a - b) > tol * scale:
@@ -184,20 +184,21 @@ class CoonsPatch(Patch):
         Each term a_k(v) C_k(u) is a tensor product of Bernstein polynomials; after degree
         elevation to common degrees the three sums add up control point by control point.
         """
-        curves = self.curves_u + self.curves_v
-        if not all(isinstance(c, BezierCurve) and not c.rational for c in curves):
+        bezier_u = [c for c in self.curves_u if isinstance(c, BezierCurve) and not c.rational]
+        bezier_v = [c for c in self.curves_v if isinstance(c, BezierCurve) and not c.rational]
+        if len(bezier_u) < len(self.curves_u) or len(bezier_v) < len(self.curves_v):
             raise GshadeError(
                 "Coons patch: conversion to a Bézier patch needs polynomial Bézier curves "
                 "(no B-spline or rational curves)"
             )
         blend = _HERMITE_BERNSTEIN if self.bicubic else _LINEAR_BERNSTEIN
         bdeg = blend.shape[1] - 1
-        m = max([bdeg] + [c.degree for c in self.curves_u])
-        n = max([bdeg] + [c.degree for c in self.curves_v])
+        m = max([bdeg] + [c.degree for c in bezier_u])
+        n = max([bdeg] + [c.degree for c in bezier_v])
         blend_u = elevate_degree(blend, m - bdeg, axis=1)  # (K, m+1)
         blend_v = elevate_degree(blend, n - bdeg, axis=1)  # (K, n+1)
-        Cu = np.stack([c.elevated(m).points for c in self.curves_u])  # (K, m+1, 3)
-        Dv = np.stack([c.elevated(n).points for c in self.curves_v])  # (K, n+1, 3)
+        Cu = np.stack([c.elevated(m).points for c in bezier_u])  # (K, m+1, 3)
+        Dv = np.stack([c.elevated(n).points for c in bezier_v])  # (K, n+1, 3)
         net = np.einsum("kj,kic->ijc", blend_v, Cu)
         net += np.einsum("ki,kjc->ijc", blend_u, Dv)
         net -= np.einsum("ki,lj,klc->ijc", blend_u, blend_v, self._corners)

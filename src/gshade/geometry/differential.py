@@ -193,9 +193,8 @@ def second_fundamental_form(
     """L = <p_uu, n>, M = <p_uv, n>, N = <p_vv, n> (n from :func:`unit_normal` if not given)."""
     d = np.asarray(d)
     _order_of(d, 2, "the second fundamental form")
-    if n is None:
-        n = unit_normal(d).n
-    return _dot(d[2, 0], n), _dot(d[1, 1], n), _dot(d[0, 2], n)
+    normal = unit_normal(d).n if n is None else np.asarray(n)
+    return _dot(d[2, 0], normal), _dot(d[1, 1], normal), _dot(d[0, 2], normal)
 
 
 def _curvature_terms(d: NDArray):

@@ -420,6 +420,9 @@ class BetaSplineBasis:
     """
 
     degree = 3
+    #: β1 and β2: one number each, or one per interior junction (``per_junction``)
+    beta1: float | tuple[float, ...]
+    beta2: float | tuple[float, ...]
 
     def __init__(
         self, n_points: int, beta1=1.0, beta2=0.0, names: tuple[str, str] = ("beta1", "beta2")
@@ -597,7 +600,7 @@ class BetaSplinePatch(TensorProductPatch):
                 else:
                     args.append(per[key])
                     names.append(key)
-            bases.append(BetaSplineBasis(P.shape[k], *args, names=tuple(names)))
+            bases.append(BetaSplineBasis(P.shape[k], args[0], args[1], names=(names[0], names[1])))
         bu, bv = bases
         self.domain = (bu.interval, bv.interval)
         self.beta1 = (bu.beta1, bv.beta1)

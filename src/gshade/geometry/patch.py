@@ -43,8 +43,7 @@ def _grid_axes(u: NDArray, v: NDArray) -> tuple[NDArray, NDArray] | None:
     return the 1-D parameter vectors; otherwise None."""
     if u.ndim > 2 or v.ndim > 2 or max(u.ndim, v.ndim) < 2:
         return None
-    u2 = u.reshape((1,) * (2 - u.ndim) + u.shape)
-    v2 = v.reshape((1,) * (2 - v.ndim) + v.shape)
+    u2, v2 = np.atleast_2d(u), np.atleast_2d(v)  # (1, n) from (n,): a leading axis
     if u2.shape[1] == 1 and v2.shape[0] == 1:
         return u2[:, 0], v2[0, :]
     return None

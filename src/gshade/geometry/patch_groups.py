@@ -10,6 +10,8 @@ Both give the same numbers up to round-off (tested).
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -78,7 +80,8 @@ def grid_derivatives(
         Bv = bernstein_basis(mv, s, order)
         for start in range(0, len(members), _CHUNK):
             chunk = members[start : start + _CHUNK]
-            nets = np.stack([patches[k].points for k in chunk])  # (G, m+1, mv+1, 3)
+            bezier = [cast(BezierPatch, patches[k]) for k in chunk]  # bezier_groups' members
+            nets = np.stack([p.points for p in bezier])  # (G, m+1, mv+1, 3)
             span = domain_spans([patches[k] for k in chunk])
             for i in range(order + 1):
                 # rows[g, a, b, c] = sum_i' Bu[i][a, i'] P[g, i', b, c]

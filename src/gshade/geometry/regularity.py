@@ -105,7 +105,7 @@ def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 3)
             d = grid_derivatives(group, s, 1)  # (patches, 2, 2, n, n, 3)
         flat = d.reshape(len(group), -1)
         # beyond 1e100 the curvatures' products of derivatives overflow
-        overflow = ~(np.abs(flat) <= 1e100).all(axis=1)
+        overflow = ~np.asarray((np.abs(flat) <= 1e100).all(axis=1))
         with np.errstate(all="ignore"):
             pu, pv = d[:, 1, 0], d[:, 0, 1]
             cross = np.linalg.norm(np.cross(pu, pv), axis=-1).reshape(len(group), -1)

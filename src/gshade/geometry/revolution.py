@@ -16,6 +16,8 @@ from .bspline import BSplineCurve, BSplinePatch
 __all__ = ["circle", "cylinder", "revolve", "sphere", "torus"]
 
 _S = np.sqrt(0.5)
+#: The unit circle's weights (:func:`circle`).
+_CIRCLE_WEIGHTS = np.array([1, _S, 1, _S, 1, _S, 1, _S, 1])
 
 
 def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
@@ -24,9 +26,8 @@ def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
     c = np.array(
         [[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [1, 0]], dtype=float
     )
-    w = np.array([1, _S, 1, _S, 1, _S, 1, _S, 1])
     knots = [0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1]
-    return BSplineCurve(np.asarray(centre, float) + radius * c, 2, knots, w)
+    return BSplineCurve(np.asarray(centre, float) + radius * c, 2, knots, _CIRCLE_WEIGHTS)
 
 
 def revolve(profile: BSplineCurve) -> BSplinePatch:
@@ -44,7 +45,7 @@ def revolve(profile: BSplineCurve) -> BSplinePatch:
     P[..., 0] = rho[:, None] * ring.points[None, :, 0]
     P[..., 1] = rho[:, None] * ring.points[None, :, 1]
     P[..., 2] = z[:, None]
-    W = wp[:, None] * ring.weights[None, :]
+    W = wp[:, None] * _CIRCLE_WEIGHTS[None, :]
     return BSplinePatch(P, (profile.degree, 2), (profile.knots, ring.knots), W)
 
 

@@ -43,7 +43,7 @@ every patch's normal p_u x p_v points outward.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -169,7 +169,7 @@ class _Names:
 
 def check_mesh(
     vertices: ArrayLike,
-    faces: Sequence[Sequence[int]] | ArrayLike,
+    faces: Iterable[Sequence[int] | NDArray[np.integer]],
     *,
     source: str | None = None,
     face_lines: Sequence[int] | None = None,
@@ -380,7 +380,7 @@ def _refine(P: NDArray, topo: MeshTopology) -> tuple[NDArray, NDArray]:
 
 
 def catmull_clark(
-    vertices: ArrayLike, faces: Sequence[Sequence[int]] | ArrayLike
+    vertices: ArrayLike, faces: Iterable[Sequence[int] | NDArray[np.integer]]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """One Catmull–Clark refinement step of a quad mesh (rules in the module docstring).
 
@@ -868,7 +868,7 @@ class StamPatch(Patch):
 
 def subdivision_patches(
     vertices: ArrayLike,
-    faces: Sequence[Sequence[int]] | ArrayLike,
+    faces: Iterable[Sequence[int] | NDArray[np.integer]],
     *,
     levels: int = 0,
     source: str | None = None,

@@ -60,7 +60,7 @@ def parse_newell(text: str, source: str = "<string>") -> tuple[NDArray, NDArray]
         where = f"{source}, line {line}" if line is not None else source
         return SurfaceDataError(f"{where}: {msg}")
 
-    def count(what: str) -> int:
+    def count(what: str) -> tuple[int, int]:
         try:
             number, fields = next(lines)
         except StopIteration:

@@ -188,7 +188,7 @@ def staged(targets: Sequence[str | os.PathLike]) -> Iterator[list[str]]:
         raise
 
 
-def atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], None]) -> Path:
+def atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], object]) -> Path:
     """Call ``write(temporary_name)``, then move the temporary file onto ``path``.
 
     ``suffix`` is kept for compatibility: the temporary's name ends in ``path``'s own suffix.
@@ -202,7 +202,7 @@ def atomic_write(path: str | os.PathLike, suffix: str, write: Callable[[str], No
     return path
 
 
-def write_to(name: str, write: Callable[[str], None], target: str | os.PathLike) -> None:
+def write_to(name: str, write: Callable[[str], object], target: str | os.PathLike) -> None:
     """``write(name)``, its library's errors (OSError, RuntimeError, ValueError, TypeError)
     turned into a :class:`GshadeError` naming ``target``, the file ``name`` stands for."""
     try:
@@ -213,10 +213,10 @@ def write_to(name: str, write: Callable[[str], None], target: str | os.PathLike)
         raise GshadeError(f"{target}: cannot write the file: {exc}") from exc
 
 
-def remove_stale_temporaries(folder: str | os.PathLike) -> list[Path]:
+def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
     """Remove the temporaries in ``folder`` left by processes that no longer run; return
     them.  Those of running processes (another gshade writing there) are kept."""
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(folder))
     except OSError:

@@ -49,10 +49,18 @@ class View:
     def true_up(self) -> NDArray:
         return np.cross(self.right, self.forward)
 
+    @property
+    def view_width(self) -> float:
+        """The width in scene units that an orthographic view spans (:func:`frame_view`
+        always sets it for one)."""
+        if self.width is None:
+            raise GshadeError("[camera] width: an orthographic view needs one")
+        return self.width
+
     def pixel_size(self, distance: float) -> float:
         """World size of one pixel at the given distance along the view direction."""
         if self.type == "orthographic":
-            return self.width / self.image_width
+            return self.view_width / self.image_width
         return 2.0 * distance * np.tan(np.radians(self.fov) / 2) / self.image_width
 
     def pixel_rays(self, rows: NDArray, cols: NDArray) -> tuple[NDArray, NDArray]:
@@ -62,7 +70,7 @@ class View:
         y = (1.0 - 2.0 * (rows + 0.5) / self.image_height)[:, None]
         aspect = self.image_width / self.image_height
         if self.type == "orthographic":
-            half = self.width / 2
+            half = self.view_width / 2
             origin = self.origin + half * (x * self.right + y / aspect * self.true_up)
             return origin, np.broadcast_to(self.forward, origin.shape)
         tan_h = np.tan(np.radians(self.fov) / 2)
@@ -73,7 +81,8 @@ class View:
     def key_light(self) -> tuple[float, float, float]:
         """A light from above and left of the camera, toward the scene."""
         d = 0.6 * self.true_up - 0.45 * self.right - 0.65 * self.forward
-        return tuple(float(x) for x in d / np.linalg.norm(d))
+        x, y, z = (float(c) for c in d / np.linalg.norm(d))
+        return x, y, z
 
     def sensor(self, mi, spp: int, seed: int, sampler: str = "jittered") -> dict:
         """The Mitsuba sensor dict with a box filter and a stratified sampler: jittered
@@ -104,7 +113,7 @@ class View:
         else:
             sensor["sampler"] = {"type": "stratified", "sample_count": spp, "seed": seed}
         if self.type == "orthographic":
-            half = self.width / 2
+            half = self.view_width / 2
             sensor.update(type="orthographic", to_world=to_world @ T().scale([half, half, 1.0]))
         else:
             sensor.update(type="perspective", to_world=to_world, fov=self.fov, fov_axis="x")

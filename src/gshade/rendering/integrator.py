@@ -87,6 +87,8 @@ def make_integrator(
     import mitsuba as mi
 
     variant = mi.variant()
+    if variant is None:
+        raise RuntimeError("make_integrator: no Mitsuba variant is set (select_variant first)")
     cls = _CLASSES.get(variant)
     if cls is None:
         cls = _define(mi, dr)

@@ -273,7 +273,7 @@ def render(scene, **overrides) -> RenderedImage:
         period=float(period),
         duty=shape.duty,
         phase=shape.phase,
-        value_range=tuple(float(x) for x in value_range),
+        value_range=(float(value_range[0]), float(value_range[1])),
         atlas_scale=atlas.scale,
         atlas_size=(atlas.width, atlas.height, atlas.tile),
         key_light=view.key_light(),

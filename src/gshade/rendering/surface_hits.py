@@ -17,6 +17,7 @@ teapot's 275,000 pixels in 0.07 s instead of 0.24 s; 10,000 patches' exact chann
 from __future__ import annotations
 
 from math import comb
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -180,7 +181,7 @@ def surface_hits(
         sel = np.flatnonzero(lookup[index] >= 0)
         if sel.size:
             result = _newton_bezier_drjit(
-                [patches[k] for k in members],
+                [cast(BezierPatch, patches[k]) for k in members],  # bezier_groups' members
                 lookup[index[sel]],
                 u_out[sel],
                 v_out[sel],

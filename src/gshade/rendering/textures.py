@@ -148,6 +148,7 @@ def shape_textures(
             res = evaluate(
                 fn, d[: fn.order + 2, : fn.order + 2], gradient=False, partials=True, **params
             )
+            assert res.partials is not None  # asked for with partials=True
             f_s = res.partials[..., 0] * spans[:, 0, None, None]
             f_t = res.partials[..., 1] * spans[:, 1, None, None]
             if not regular.all():

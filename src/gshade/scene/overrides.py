@@ -105,7 +105,9 @@ def apply_overrides(file: str, raw: dict[str, Any], overrides: dict[str, Any]) -
                 table.pop(other.split(".")[1], None)  # period replaces stripes, and vice versa
         elif parts[0] == "surface" and len(parts) == 3:
             surfaces = raw.get("surface")
-            count = len(surfaces) if isinstance(surfaces, list) else 0
+            if not isinstance(surfaces, list):
+                surfaces = []
+            count = len(surfaces)
             if not (parts[1].isdigit() and 1 <= int(parts[1]) <= count):
                 raise fail(
                     key,
@@ -113,14 +115,15 @@ def apply_overrides(file: str, raw: dict[str, Any], overrides: dict[str, Any]) -
                 )
             surface = surfaces[int(parts[1]) - 1]
             kind = surface.get("type") if isinstance(surface, dict) else None
-            known = isinstance(kind, str) and kind in SURFACES  # type = [1] is reported later
-            allowed = ("type", *SURFACES[kind].keys) if known else None
-            if allowed is not None and parts[2] not in allowed:
-                raise fail(
-                    key,
-                    f"unknown key {json.dumps(parts[2])} for a {kind} surface"
-                    f"{suggest(parts[2], allowed)} (expected one of: {', '.join(allowed)})",
-                )
+            # type = [1] is reported later
+            if isinstance(kind, str) and kind in SURFACES:
+                keys = ("type", *SURFACES[kind].keys)
+                if parts[2] not in keys:
+                    raise fail(
+                        key,
+                        f"unknown key {json.dumps(parts[2])} for a {kind} surface"
+                        f"{suggest(parts[2], keys)} (expected one of: {', '.join(keys)})",
+                    )
             if isinstance(surface, dict):
                 surface[parts[2]] = value
         else:

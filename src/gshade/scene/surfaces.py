@@ -143,7 +143,7 @@ def _build_newell(t: Table, files: DataFiles) -> list[Patch]:
     up = t.choice("up", NEWELL_UP)
     data_file = files.find(t, name)
     with t.reported():
-        return read_newell(data_file, up=up)
+        return list(read_newell(data_file, up=up))
 
 
 @surface_type(
@@ -206,14 +206,25 @@ _CROSS = "none: bilinear"
     Key("cross_u1", _BOUNDARY, None, "the cross-boundary derivative p_u(1, v)", _CROSS),
 )
 def _build_coons(t: Table, files: DataFiles) -> list[Patch]:
-    curves = {}
+    curves: dict[str, BezierCurve] = {}
     for key, declared in t.keys.items():
         if declared.default is REQUIRED or key in t.data:
             points = _bezier_net(t, key, _CURVE)
             with t.reported(key):
                 curves[key] = BezierCurve(points)
     with t.reported():
-        return [CoonsPatch(**curves)]
+        return [
+            CoonsPatch(
+                curves["v0"],
+                curves["v1"],
+                curves["u0"],
+                curves["u1"],
+                cross_v0=curves.get("cross_v0"),
+                cross_v1=curves.get("cross_v1"),
+                cross_u0=curves.get("cross_u0"),
+                cross_u1=curves.get("cross_u1"),
+            )
+        ]
 
 
 def _solid(make: Callable[..., Patch]) -> Callable[[Table, DataFiles], list[Patch]]:

@@ -155,16 +155,16 @@ def stripe_period(
     period: float | None, count: float | None, value_range: tuple[float, float] | None
 ) -> float:
     """The stripe period: given, or the value range divided by a stripe count."""
-    if (period is None) == (count is None):
-        raise GshadeError("stripes: expected exactly one of period or count (stripes)")
-    if period is not None:
+    if period is not None and count is None:
         if not (np.isfinite(period) and period > 0):
             raise GshadeError(f"period: expected a positive number, got {period!r}")
         return float(period)
-    if not (np.isfinite(count) and count > 0):
-        raise GshadeError(f"stripes: expected a positive stripe count, got {count!r}")
-    lo, hi = _check_range(value_range)
-    return (hi - lo) / float(count)
+    if count is not None and period is None:
+        if not (np.isfinite(count) and count > 0):
+            raise GshadeError(f"stripes: expected a positive stripe count, got {count!r}")
+        lo, hi = _check_range(value_range)
+        return (hi - lo) / float(count)
+    raise GshadeError("stripes: expected exactly one of period or count (stripes)")
 
 
 def stripes(

@@ -56,6 +56,10 @@ class Parameter:
     choices: tuple[str, ...] = ()
 
 
+def _no_parameters(fn: str, kw: dict[str, Any]) -> tuple[int, NDArray]:
+    return 0, np.zeros(24)
+
+
 @dataclass(frozen=True)
 class ShapeFunction:
     """A registered shape function.
@@ -72,7 +76,10 @@ class ShapeFunction:
     summary: str
     parameters: dict[str, Parameter] = field(default_factory=dict)
     code: int = field(default=-1, repr=False)
-    pack: Callable = field(default=None, repr=False)
+    #: (name, checked parameters) -> (the kernel's option, its 24 parameter numbers)
+    pack: Callable[[str, dict[str, Any]], tuple[int, NDArray]] = field(
+        default=_no_parameters, repr=False
+    )
 
     def __call__(self, d: ArrayLike, *, gradient: bool = True, **params) -> ShapeValues:
         return evaluate(self, d, gradient=gradient, **params)
@@ -112,7 +119,7 @@ def _check_params(fn: ShapeFunction, params: dict) -> dict:
     if unknown:
         known = ", ".join(fn.parameters) or "none"
         raise GshadeError(f"{fn.name}: unknown parameter {unknown[0]!r}; expected one of: {known}")
-    out = {}
+    out: dict[str, Any] = {}
     for name, spec in fn.parameters.items():
         x = params.get(name, spec.default)
         if spec.kind == "choice":
@@ -160,10 +167,6 @@ def _register(name, code, order, summary, pack=None, *, eye=False, signed=False,
     SHAPE_FUNCTIONS[name] = ShapeFunction(
         name, order, eye, signed, summary, dict(parameters), code, pack or _no_parameters
     )
-
-
-def _no_parameters(fn: str, kw: dict) -> tuple[int, NDArray]:
-    return 0, np.zeros(24)
 
 
 def _pack(*vectors, at: int = 0) -> NDArray:
@@ -359,6 +362,7 @@ def evaluate(
             f"{fn.name}: eye_point: expected a point off the surface, got "
             f"{kw['eye_point'].tolist()}, which lies on it"
         )
-    gradient_out = np.moveaxis(grad, 0, -1).reshape((*shape, 3)) if gradient else None
-    partials_out = np.moveaxis(fuv, 0, -1).reshape((*shape, 2)) if partials else None
+    # kernels.run returns the gradient and the partials exactly when they were asked for
+    gradient_out = None if grad is None else np.moveaxis(grad, 0, -1).reshape((*shape, 3))
+    partials_out = None if fuv is None else np.moveaxis(fuv, 0, -1).reshape((*shape, 2))
     return ShapeValues(f.reshape(shape), gradient_out, valid.reshape(shape), partials_out)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 from functools import cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -174,6 +175,8 @@ def run(
     """
     name = backend(backend_name)
     n, order = d.shape[2], d.shape[0] - 1
+    params: list[Any]  # Dr.Jit or numpy numbers, as the backend's formulas take them
+    zero: Any
     if name == "drjit":
         import drjit as dr
         from drjit.llvm import Float64
