@@ -7,6 +7,24 @@ grad_S f = [f_u f_v] I^-1 [p_u; p_v], computed exactly by carrying first-order j
 the formula (it needs one more derivative order than the function itself).
 
 Conventions: N = p_u x p_v, n = N / |N|; vectors given as parameters need not be unit.
+
+Each function is declared once, in its own section below: its formula, the
+:class:`~gshade.shape.kernels.Layout` of its packed parameters (per form where the forms
+differ), its ``pack`` and its ``_register`` call.  To add one, add a section here and nothing
+else:
+
+1. ``_MINE = Layout(("light", 3), ("scale", 1))``: the numbers the formula needs, by name and
+   length (every layout ends with ``irregular``, the threshold ``evaluate`` sets);
+2. ``def _mine(vec, p, form, xp)``: the formula on jets (:mod:`gshade.shape.jets`), reading
+   ``p.light``, ``p.scale``, ``p.irregular`` and returning (jet of f, valid or None, eye or
+   None); ``vec(i, j)`` is the jet vector of d^(i+j) p / du^i dv^j;
+3. ``def _pack_mine(fn, kw)``: from the checked parameters ``kw`` to
+   ``(form, _MINE, {"light": ..., "scale": ...})`` (raise :class:`GshadeError` for bad ones);
+4. ``_register("mine", order, summary, _mine, _pack_mine, light=Parameter(...), ...)``.
+
+Nothing is placed by offset: ``Layout.pack`` builds the vector and ``Layout.read`` gives the
+formula each field by name; Dr.Jit still receives each number as an opaque value.  The README's
+list of functions is documentation to update by hand.
 """
 
 from __future__ import annotations
@@ -22,6 +40,8 @@ from ..errors import GshadeError
 from ..geometry.differential import IRREGULAR_TOL
 from ..geometry.differential import derivative_scale as _derivative_scale
 from . import kernels
+from .jets import arccos, arctan2, cross, dot, jabs, sqrt
+from .kernels import Formula, Layout
 
 __all__ = [
     "SHAPE_FUNCTIONS",
@@ -56,8 +76,15 @@ class Parameter:
     choices: tuple[str, ...] = ()
 
 
-def _no_parameters(fn: str, kw: dict[str, Any]) -> tuple[int, NDArray]:
-    return 0, np.zeros(24)
+#: what a shape function's ``pack`` returns: its form (the formula's option, "" if none), the
+#: layout of its parameters and their values by field name
+Packed = tuple[str, Layout, dict[str, Any]]
+
+_NO_PARAMETERS = Layout()
+
+
+def _no_parameters(fn: str, kw: dict[str, Any]) -> Packed:
+    return "", _NO_PARAMETERS, {}
 
 
 @dataclass(frozen=True)
@@ -75,11 +102,10 @@ class ShapeFunction:
     signed: bool
     summary: str
     parameters: dict[str, Parameter] = field(default_factory=dict)
-    code: int = field(default=-1, repr=False)
-    #: (name, checked parameters) -> (the kernel's option, its 24 parameter numbers)
-    pack: Callable[[str, dict[str, Any]], tuple[int, NDArray]] = field(
-        default=_no_parameters, repr=False
-    )
+    #: the formula (see :data:`gshade.shape.kernels.Formula`)
+    formula: Formula | None = field(default=None, repr=False)
+    #: (name, checked parameters) -> (form, layout, the values of its fields)
+    pack: Callable[[str, dict[str, Any]], Packed] = field(default=_no_parameters, repr=False)
 
     def __call__(self, d: ArrayLike, *, gradient: bool = True, **params) -> ShapeValues:
         return evaluate(self, d, gradient=gradient, **params)
@@ -163,32 +189,105 @@ def _perpendicular(a: NDArray) -> NDArray:
 # --------------------------------------------------------------------------- registry
 
 
-def _register(name, code, order, summary, pack=None, *, eye=False, signed=False, **parameters):
+def _register(
+    name: str,
+    order: int,
+    summary: str,
+    formula: Formula,
+    pack: Callable[[str, dict[str, Any]], Packed] | None = None,
+    *,
+    eye: bool = False,
+    signed: bool = False,
+    **parameters: Parameter,
+) -> None:
     SHAPE_FUNCTIONS[name] = ShapeFunction(
-        name, order, eye, signed, summary, dict(parameters), code, pack or _no_parameters
+        name, order, eye, signed, summary, dict(parameters), formula, pack or _no_parameters
     )
 
 
-def _pack(*vectors, at: int = 0) -> NDArray:
-    prm = np.zeros(24)
-    for v in vectors:
-        prm[at : at + len(v)] = v
-        at += len(v)
-    return prm
+# --------------------------------------------------------------------------- planar sections
+
+_PLANAR = Layout(("direction", 3))
+
+
+def _planar_sections(vec, p, form, xp):
+    return dot(vec(0, 0), p.direction), None, None
 
 
 def _pack_planar(fn, kw):
-    return 0, _pack(kw["direction"])
+    return "", _PLANAR, {"direction": kw["direction"]}
+
+
+_register(
+    "planar_sections",
+    0,
+    "f = <p, v>: sections by the planes perpendicular to v (contour lines)",
+    _planar_sections,
+    _pack_planar,
+    direction=Parameter("direction", (0.0, 0.0, 1.0), "normal v of the section planes"),
+)
+
+# --------------------------------------------------------------------------- isophotes
+
+_ISOPHOTES = Layout(("light", 3))
+
+
+def _isophotes(vec, p, form, xp):
+    N = cross(vec(1, 0), vec(0, 1))
+    length = sqrt(dot(N, N), xp)
+    f = dot(N, p.light) / length
+    return (arccos(f, xp) if form == "angle" else f), length.f > p.irregular, None
 
 
 def _pack_isophotes(fn, kw):
-    return int(kw["form"] == "angle"), _pack(kw["light"])
+    return kw["form"], _ISOPHOTES, {"light": kw["light"]}
+
+
+_register(
+    "isophotes",
+    1,
+    "f = <n, l> (form 'cos') or the angle arccos <n, l> (form 'angle', evenly spaced)",
+    _isophotes,
+    _pack_isophotes,
+    light=Parameter("direction", (0.0, 0.0, 1.0), "light direction l"),
+    form=Parameter(
+        "choice", "cos", "cos: f = <n, l>; angle: f = arccos <n, l> (radians)", ("cos", "angle")
+    ),
+)
+
+# --------------------------------------------------------------------------- reflection lines
+
+#: plane: eye e, a point p0 of the light plane, its direction a2, c = a1 x a2
+_REFLECTION_PLANE = Layout(("eye", 3), ("origin", 3), ("a2", 3), ("c", 3))
+#: infinity: eye e, a x w and w (f = 0 along w)
+_REFLECTION_INFINITY = Layout(("eye", 3), ("across", 3), ("reference", 3))
+
+
+def _reflection_lines(vec, p, form, xp):
+    """r = w - 2 <w, N> N / <N, N> with w = p - e; plane: s = <(p - p0) x a2, r> / <c, r>."""
+    pt = vec(0, 0)
+    N = cross(vec(1, 0), vec(0, 1))
+    NN = dot(N, N)
+    w = tuple(pt[i] - p.eye[i] for i in range(3))
+    eye = dot(w, w).f == 0.0
+    valid = NN.f > p.irregular * p.irregular
+    t = 2.0 * (dot(w, N) / NN)
+    r = tuple(w[i] - t * N[i] for i in range(3))
+    if form == "infinity":
+        return arctan2(dot(r, p.across), dot(r, p.reference), xp), valid, eye
+    c = p.c
+    q = tuple(pt[i] - p.origin[i] for i in range(3))
+    cr = dot(r, c)
+    mu_sign = -dot(q, c).f * cr.f  # the sign of the ray parameter at the light plane
+    valid = valid & (cr.f != 0.0) & (mu_sign > 0.0)
+    return dot(cross(q, p.a2), r) / cr, valid, eye
 
 
 def _pack_reflection(fn, kw):
     if kw["form"] == "plane":
         c = _frame(fn, kw["a1"], kw["a2"])
-        return 0, _pack(kw["eye_point"], kw["origin"], kw["a1"], kw["a2"], np.zeros(6), c)
+        values = {"eye": kw["eye_point"], "origin": kw["origin"], "a2": kw["a2"], "c": c}
+        return "plane", _REFLECTION_PLANE, values
     a, w = kw["axis"], kw["reference"]
     if w is None:
         w = _perpendicular(a)
@@ -198,42 +297,17 @@ def _pack_reflection(fn, kw):
             f"{fn}: reference: expected a direction not parallel to axis {a.tolist()}"
         )
     w = w / np.linalg.norm(w)
-    return 1, _pack(kw["eye_point"], np.zeros(9), np.cross(a, w), w)
+    values = {"eye": kw["eye_point"], "across": np.cross(a, w), "reference": w}
+    return "infinity", _REFLECTION_INFINITY, values
 
 
-def _pack_highlight(fn, kw):
-    if kw["form"] == "plane":
-        c = _frame(fn, kw["a1"], kw["a2"])
-        return 0, _pack(kw["origin"], kw["a1"], kw["a2"], c, [np.linalg.norm(c)])
-    return 1, _pack(kw["origin"], np.zeros(3), kw["a2"] / np.linalg.norm(kw["a2"]))
-
-
-_register(
-    "planar_sections",
-    kernels.PLANAR,
-    0,
-    "f = <p, v>: sections by the planes perpendicular to v (contour lines)",
-    _pack_planar,
-    direction=Parameter("direction", (0.0, 0.0, 1.0), "normal v of the section planes"),
-)
-_register(
-    "isophotes",
-    kernels.ISOPHOTES,
-    1,
-    "f = <n, l> (form 'cos') or the angle arccos <n, l> (form 'angle', evenly spaced)",
-    _pack_isophotes,
-    light=Parameter("direction", (0.0, 0.0, 1.0), "light direction l"),
-    form=Parameter(
-        "choice", "cos", "cos: f = <n, l>; angle: f = arccos <n, l> (radians)", ("cos", "angle")
-    ),
-)
 _register(
     "reflection_lines",
-    kernels.REFLECTION,
     1,
     "reflections of light lines seen from the eye: lines in a plane (Kiciak: f = s of the hit "
     "point p0 + s a1 + t a2, undefined where the reflected ray misses the plane) or lines at "
     "infinity parallel to an axis (zebra: f = angle of r about the axis)",
+    _reflection_lines,
     _pack_reflection,
     eye=True,
     eye_point=Parameter("point", (0.0, -10.0, 5.0), "eye point e"),
@@ -246,13 +320,47 @@ _register(
     axis=Parameter("direction", (0.0, 1.0, 0.0), "infinity: direction a of the light lines"),
     reference=Parameter("direction", None, "infinity: direction w ⊥ a where f = 0"),
 )
+
+# --------------------------------------------------------------------------- highlight lines
+
+#: plane: p0, the light lines' direction a2, c = a1 x a2 and |c|
+_HIGHLIGHT_PLANE = Layout(("origin", 3), ("a2", 3), ("c", 3), ("c_norm", 1))
+#: distance: a point A of the light line and its unit direction E
+_HIGHLIGHT_DISTANCE = Layout(("origin", 3), ("direction", 3))
+
+
+def _highlight_lines(vec, p, form, xp):
+    """plane: s = <(p - p0) x a2, N> / <c, N>;  distance: <E x N, p - A> / |E x N|."""
+    pt = vec(0, 0)
+    N = cross(vec(1, 0), vec(0, 1))
+    length = xp.sqrt(xp.maximum(dot(N, N).f, 0.0))
+    valid = length > p.irregular
+    q = tuple(pt[i] - p.origin[i] for i in range(3))
+    if form == "distance":
+        EN = cross(N, p.direction)  # N x E = -(E x N)
+        norm = sqrt(dot(EN, EN), xp)
+        return -(dot(EN, q) / norm), valid & (norm.f > 1e-12 * length), None
+    cn = dot(N, p.c)
+    valid = valid & (xp.abs(cn.f) > 1e-12 * length * p.c_norm)
+    return dot(cross(q, p.a2), N) / cn, valid, None
+
+
+def _pack_highlight(fn, kw):
+    if kw["form"] == "plane":
+        c = _frame(fn, kw["a1"], kw["a2"])
+        values = {"origin": kw["origin"], "a2": kw["a2"], "c": c, "c_norm": np.linalg.norm(c)}
+        return "plane", _HIGHLIGHT_PLANE, values
+    values = {"origin": kw["origin"], "direction": kw["a2"] / np.linalg.norm(kw["a2"])}
+    return "distance", _HIGHLIGHT_DISTANCE, values
+
+
 _register(
     "highlight_lines",
-    kernels.HIGHLIGHT,
     1,
     "light lines hit by the surface normal lines (Beier–Chen; independent of the eye): plane "
     "form (Kiciak: f = s of the hit point p0 + s a1 + t a2) or the signed distance "
     "d = <E x n, p - A> / |E x n| to the light line A + λE",
+    _highlight_lines,
     _pack_highlight,
     form=Parameter(
         "choice", "plane", "plane: Kiciak's form; distance: Beier–Chen's d", ("plane", "distance")
@@ -265,37 +373,88 @@ _register(
         "plane: direction of the light lines; distance: the line's direction E",
     ),
 )
+
+# --------------------------------------------------------------------------- parametrisation
+
+
+def _parametrisation_quality(vec, p, form, xp):
+    pu, pv = vec(1, 0), vec(0, 1)
+    E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
+    s = E + G
+    dEG = E - G
+    return (dEG * dEG + 4.0 * (F * F)) / (s * s), s.f > 0.0, None
+
+
 _register(
     "parametrisation_quality",
-    kernels.PARAMETRISATION,
     1,
     "q = ((E - G)^2 + 4F^2) / (E + G)^2: 0 where the parametrisation is conformal",
+    _parametrisation_quality,
 )
-_register("gaussian", kernels.GAUSSIAN, 2, "Gaussian curvature K = k1 k2", signed=True)
+
+# --------------------------------------------------------------------------- curvatures
+
+
+def _curvature(which: str) -> Formula:
+    def formula(vec, p, form, xp):
+        """K = (L'N' - M'^2)/W^4, H = (E N' - 2F M' + G L')/(2 W^3), W = |N|, L' = <p_uu, N>,
+        ...; ((k1 - k2)/2)^2 = ((G L' - E N')^2 / 4 + (G M' - F N')(E M' - F L')) / W^6."""
+        pu, pv = vec(1, 0), vec(0, 1)
+        N = cross(pu, pv)
+        W2 = dot(N, N)
+        valid = W2.f > p.irregular * p.irregular
+        E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
+        L, M, Nn = dot(vec(2, 0), N), dot(vec(1, 1), N), dot(vec(0, 2), N)
+        inv2 = 1.0 / W2
+        inv4 = inv2 * inv2
+        K = (L * Nn - M * M) * inv4
+        if which == "gaussian":
+            return K, valid, None
+        H = (E * Nn - 2.0 * (F * M) + G * L) / (2.0 * (W2 * sqrt(W2, xp)))
+        if which == "mean":
+            return H, valid, None
+        if which == "rms":
+            return sqrt(2.0 * (H * H) - K, xp), valid, None
+        gap = G * L - E * Nn
+        disc = 0.25 * (gap * gap) + (G * M - F * Nn) * (E * M - F * L)
+        root = sqrt(disc * (inv4 * inv2), xp)
+        if which == "max_principal":
+            return H + root, valid, None
+        if which == "min_principal":
+            return H - root, valid, None
+        return jabs(H + root, xp) + jabs(H - root, xp), valid, None  # absolute
+
+    return formula
+
+
+_register("gaussian", 2, "Gaussian curvature K = k1 k2", _curvature("gaussian"), signed=True)
 _register(
     "mean",
-    kernels.MEAN,
     2,
     "mean curvature H = (k1 + k2) / 2, signed w.r.t. n = p_u x p_v",
+    _curvature("mean"),
     signed=True,
 )
 _register(
     "max_principal",
-    kernels.MAX_PRINCIPAL,
     2,
     "the larger principal curvature k1 = H + sqrt(H^2 - K)",
+    _curvature("max_principal"),
     signed=True,
 )
 _register(
     "min_principal",
-    kernels.MIN_PRINCIPAL,
     2,
     "the smaller principal curvature k2 = H - sqrt(H^2 - K)",
+    _curvature("min_principal"),
     signed=True,
 )
-_register("absolute", kernels.ABSOLUTE, 2, "absolute curvature |k1| + |k2|")
+_register("absolute", 2, "absolute curvature |k1| + |k2|", _curvature("absolute"))
 _register(
-    "rms", kernels.RMS, 2, "root mean square curvature sqrt((k1^2 + k2^2) / 2) = sqrt(2H^2 - K)"
+    "rms",
+    2,
+    "root mean square curvature sqrt((k1^2 + k2^2) / 2) = sqrt(2H^2 - K)",
+    _curvature("rms"),
 )
 
 
@@ -339,7 +498,7 @@ def evaluate(
     """
     fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
     kw = _check_params(fn, params)
-    option, prm = fn.pack(fn.name, kw)
+    form, layout, values = fn.pack(fn.name, kw)
     d = np.asarray(d, dtype=np.float64)
     if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
         raise GshadeError(f"derivatives: expected shape (order+1, order+1, ..., 3), got {d.shape}")
@@ -353,9 +512,18 @@ def evaluate(
     shape = d.shape[2:-1]
     flat = d.reshape(d.shape[0], d.shape[1], -1, 3)
     if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
-        prm[kernels.IRREGULAR] = IRREGULAR_TOL * _derivative_scale(flat) ** 2
+        values = {**values, "irregular": IRREGULAR_TOL * _derivative_scale(flat) ** 2}
+    if fn.formula is None:
+        raise GshadeError(f"{fn.name}: has no formula")
     f, grad, valid, eye, fuv = kernels.run(
-        fn.code, option, prm, flat, gradient, backend, with_partials=partials
+        fn.formula,
+        form,
+        layout,
+        layout.pack(**values),
+        flat,
+        gradient,
+        backend,
+        with_partials=partials,
     )
     if eye.any():
         raise GshadeError(

@@ -1,8 +1,10 @@
-"""The shape functions' formulas on whole arrays of points (see ``functions.py``'s docs).
+"""Running the shape functions' formulas on whole arrays of points.
 
-Each formula reads the jets of the surface derivatives (:mod:`gshade.shape.jets`) and returns
-the jet of f with a mask of the points where f is defined.  :func:`run` evaluates one of them
-on a derivatives array and turns (f, f_u, f_v) into the surface gradient.
+The formulas live with their declarations in :mod:`gshade.shape.functions`.  Each reads the
+jets of the surface derivatives (:mod:`gshade.shape.jets`) and its parameters by name through
+its :class:`Layout`, and returns the jet of f with a mask of the points where f is defined.
+:func:`run` evaluates one on a derivatives array and turns (f, f_u, f_v) into the surface
+gradient.
 
 Two backends run the same formulas: Dr.Jit's LLVM backend, which traces a formula into one
 vectorised, multithreaded kernel (compiled once, then loaded from Dr.Jit's disk cache), and
@@ -13,122 +15,72 @@ Dr.Jit kernels as opaque values, so new parameter values reuse the compiled kern
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from functools import cache
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from ..llvm import drjit_llvm_ready
-from .jets import NUMPY, Backend, Jet, arccos, arctan2, cross, dot, jabs, sqrt
+from .jets import NUMPY, Backend, Jet
 
-__all__ = ["BACKENDS", "backend", "run"]
+__all__ = ["BACKENDS", "Formula", "Layout", "backend", "run"]
 
-PLANAR, ISOPHOTES, REFLECTION, HIGHLIGHT, PARAMETRISATION = 0, 1, 2, 3, 4
-GAUSSIAN, MEAN, MAX_PRINCIPAL, MIN_PRINCIPAL, ABSOLUTE, RMS = 5, 6, 7, 8, 9, 10
-
-#: index in the parameter vector of the |p_u x p_v| at or below which a point is irregular
-IRREGULAR = 23
 #: the backends :func:`run` accepts ("auto": Dr.Jit where its LLVM works, else numpy)
 BACKENDS = ("auto", "drjit", "numpy")
 
-
-def _planar_sections(vec, prm, option, xp):
-    return dot(vec(0, 0), prm[0:3]), None, None
-
-
-def _isophotes(vec, prm, angle, xp):
-    N = cross(vec(1, 0), vec(0, 1))
-    length = sqrt(dot(N, N), xp)
-    f = dot(N, prm[0:3]) / length
-    return (arccos(f, xp) if angle else f), length.f > prm[IRREGULAR], None
+#: a formula: (vec, parameters, form, xp) -> (jet of f, valid or None, eye or None); ``vec(i, j)``
+#: is the jet vector of d^(i+j) p / du^i dv^j, ``parameters`` its :meth:`Layout.read` view
+Formula = Callable[[Callable[[int, int], Any], Any, str, Backend], tuple[Jet, Any, Any]]
 
 
-def _reflection_lines(vec, prm, at_infinity, xp):
-    """r = w - 2 <w, N> N / <N, N> with w = p - e; plane: s = <(p - p0) x a2, r> / <c, r>."""
-    p = vec(0, 0)
-    N = cross(vec(1, 0), vec(0, 1))
-    NN = dot(N, N)
-    w = tuple(p[i] - prm[i] for i in range(3))
-    eye = dot(w, w).f == 0.0
-    valid = NN.f > prm[IRREGULAR] * prm[IRREGULAR]
-    t = 2.0 * (dot(w, N) / NN)
-    r = tuple(w[i] - t * N[i] for i in range(3))
-    if at_infinity:
-        return arctan2(dot(r, prm[12:15]), dot(r, prm[15:18]), xp), valid, eye
-    c = prm[18:21]
-    q = tuple(p[i] - prm[3 + i] for i in range(3))
-    cr = dot(r, c)
-    mu_sign = -dot(q, c).f * cr.f  # the sign of the ray parameter at the light plane
-    valid = valid & (cr.f != 0.0) & (mu_sign > 0.0)
-    return dot(cross(q, prm[9:12]), r) / cr, valid, eye
+class Layout:
+    """A shape function's packed parameters: ordered ``(name, size)`` fields, each a slice of
+    one flat vector of numbers, followed by ``irregular`` (the |p_u x p_v| at or below which a
+    point is irregular; set by ``evaluate``).
 
+    ``pack(**values)`` builds the vector (where the values are computed);
+    ``read(vector)`` gives the formula each field by name (a field of size 1 as its number,
+    others as a list), so no offset is written anywhere else.
+    """
 
-def _highlight_lines(vec, prm, distance, xp):
-    """plane: s = <(p - p0) x a2, N> / <c, N>;  distance: <E x N, p - A> / |E x N|."""
-    p = vec(0, 0)
-    N = cross(vec(1, 0), vec(0, 1))
-    length = xp.sqrt(xp.maximum(dot(N, N).f, 0.0))
-    valid = length > prm[IRREGULAR]
-    q = tuple(p[i] - prm[i] for i in range(3))
-    if distance:
-        EN = cross(N, prm[6:9])  # N x E = -(E x N)
-        norm = sqrt(dot(EN, EN), xp)
-        return -(dot(EN, q) / norm), valid & (norm.f > 1e-12 * length), None
-    cn = dot(N, prm[9:12])
-    valid = valid & (xp.abs(cn.f) > 1e-12 * length * prm[12])
-    return dot(cross(q, prm[6:9]), N) / cn, valid, None
+    def __init__(self, *fields: tuple[str, int]):
+        self.fields: tuple[tuple[str, int], ...] = (*fields, ("irregular", 1))
+        self.slices: dict[str, slice] = {}
+        at = 0
+        for name, size in self.fields:
+            if name in self.slices or size < 1:
+                raise ValueError(f"Layout: duplicate or empty field {name!r}")
+            self.slices[name] = slice(at, at + size)
+            at += size
+        self.size = at
 
+    def pack(self, **values: ArrayLike) -> NDArray:
+        """The parameter vector: every field's value (``irregular`` may be left out: 0)."""
+        missing = set(self.slices) - set(values) - {"irregular"}
+        unknown = set(values) - set(self.slices)
+        if missing or unknown:
+            raise ValueError(f"Layout.pack: missing {sorted(missing)}, unknown {sorted(unknown)}")
+        prm = np.zeros(self.size)
+        for name, value in values.items():
+            s = self.slices[name]
+            v = np.asarray(value, dtype=np.float64).reshape(-1)
+            if v.size != s.stop - s.start:
+                raise ValueError(f"Layout.pack: {name}: expected {s.stop - s.start} numbers")
+            prm[s] = v
+        return prm
 
-def _parametrisation_quality(vec, prm, option, xp):
-    pu, pv = vec(1, 0), vec(0, 1)
-    E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
-    s = E + G
-    dEG = E - G
-    return (dEG * dEG + 4.0 * (F * F)) / (s * s), s.f > 0.0, None
-
-
-def _curvature(which):
-    def formula(vec, prm, option, xp):
-        """K = (L'N' - M'^2)/W^4, H = (E N' - 2F M' + G L')/(2 W^3), W = |N|, L' = <p_uu, N>,
-        ...; ((k1 - k2)/2)^2 = ((G L' - E N')^2 / 4 + (G M' - F N')(E M' - F L')) / W^6."""
-        pu, pv = vec(1, 0), vec(0, 1)
-        N = cross(pu, pv)
-        W2 = dot(N, N)
-        valid = W2.f > prm[IRREGULAR] * prm[IRREGULAR]
-        E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
-        L, M, Nn = dot(vec(2, 0), N), dot(vec(1, 1), N), dot(vec(0, 2), N)
-        inv2 = 1.0 / W2
-        inv4 = inv2 * inv2
-        K = (L * Nn - M * M) * inv4
-        if which == GAUSSIAN:
-            return K, valid, None
-        H = (E * Nn - 2.0 * (F * M) + G * L) / (2.0 * (W2 * sqrt(W2, xp)))
-        if which == MEAN:
-            return H, valid, None
-        if which == RMS:
-            return sqrt(2.0 * (H * H) - K, xp), valid, None
-        gap = G * L - E * Nn
-        disc = 0.25 * (gap * gap) + (G * M - F * Nn) * (E * M - F * L)
-        root = sqrt(disc * (inv4 * inv2), xp)
-        if which == MAX_PRINCIPAL:
-            return H + root, valid, None
-        if which == MIN_PRINCIPAL:
-            return H - root, valid, None
-        return jabs(H + root, xp) + jabs(H - root, xp), valid, None  # ABSOLUTE
-
-    return formula
-
-
-_FORMULAS = {
-    PLANAR: _planar_sections,
-    ISOPHOTES: _isophotes,
-    REFLECTION: _reflection_lines,
-    HIGHLIGHT: _highlight_lines,
-    PARAMETRISATION: _parametrisation_quality,
-    **{c: _curvature(c) for c in (GAUSSIAN, MEAN, MAX_PRINCIPAL, MIN_PRINCIPAL, ABSOLUTE, RMS)},
-}
+    def read(self, prm: Sequence[Any]) -> SimpleNamespace:
+        """The fields of ``prm`` (numbers, or Dr.Jit's opaque values) by name."""
+        return SimpleNamespace(
+            **{
+                name: prm[s.start] if s.stop - s.start == 1 else list(prm[s])
+                for name, s in self.slices.items()
+            }
+        )
 
 
 @cache
@@ -157,15 +109,17 @@ def backend(name: str = "auto") -> str:
 
 
 def run(
-    code: int,
-    option: int,
+    formula: Formula,
+    form: str,
+    layout: Layout,
     prm: NDArray,
     d: NDArray,
     with_gradient: bool,
     backend_name: str = "auto",
     with_partials: bool = False,
 ) -> tuple[NDArray, NDArray | None, NDArray, NDArray, NDArray | None]:
-    """Evaluate shape function ``code`` at every point of ``d`` (shape (o+1, o+1, n, 3)).
+    """Evaluate ``formula`` (its ``form``, parameters ``prm`` packed by ``layout``) at every
+    point of ``d`` (shape (o+1, o+1, n, 3)).
 
     Returns f (n,), the gradient (3, n) or None, valid (n,), eye (n,): points where the
     eye lies on the surface (reflection lines), and the partials (f_u, f_v) (2, n) or None.
@@ -211,7 +165,7 @@ def run(
         )
 
     with np.errstate(all="ignore"):
-        jet, valid, eye = _FORMULAS[code](vec, params, option, xp)
+        jet, valid, eye = formula(vec, layout.read(params), form, xp)
         finite = xp.isfinite(jet.f) & xp.isfinite(jet.u) & xp.isfinite(jet.v)
         valid = finite if valid is None else valid & finite
         if eye is not None:
