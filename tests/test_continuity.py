@@ -250,7 +250,7 @@ def test_samples_and_pairs_are_bounded():
     a, b = pairs()["G2"]
     (junction,) = continuity_report([a, b], samples=4096)
     assert junction.samples == 4096
-    with pytest.raises(GshadeError, match="--samples: expected 1 to 4096, got 4097"):
+    with pytest.raises(GshadeError, match="samples: expected 1 to 4096, got 4097"):
         continuity_report([a, b], samples=4097)
-    with pytest.raises(GshadeError, match="--pair: expected at most 10000 pairs, got 10001"):
+    with pytest.raises(GshadeError, match="pairs: expected at most 10000 pairs, got 10001"):
         continuity_report([a, b], pairs=[(0, "u1", 1, "u0")] * 10001)

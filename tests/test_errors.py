@@ -7,6 +7,8 @@ from gshade import GshadeError
 from gshade.errors import ParameterDomainError
 from gshade.geometry import BezierCurve, BezierPatch, BSplineCurve, BSplinePatch, unit_normal
 
+from .conftest import ROOT
+
 NET = np.zeros((4, 4, 3))
 U4 = [0, 0, 0, 0, 1, 1, 1, 1]
 
@@ -80,3 +82,28 @@ def test_knot_insertion_errors():
         patch.insert_knot("u", 2.0)
     with pytest.raises(GshadeError, match="multiplicity 4"):
         patch.insert_knot("u", 0.0)
+
+
+def test_library_errors_name_parameters_and_the_cli_its_flags(capsys):
+    """The library speaks of its parameters (samples, workers, scheduler); only the command
+    line turns them into its flags (--samples, -j, --scheduler)."""
+    from gshade.batch import check_options
+    from gshade.cli import main
+    from gshade.continuity import continuity_report
+    from gshade.geometry import sphere
+
+    for call, library in [
+        (lambda: continuity_report([sphere(1.0)], samples=0), "samples: expected 1 to"),
+        (lambda: check_options(0, 10.0), "workers: expected at least 1"),
+        (lambda: check_options(1, 10.0, "ftp://x"), "scheduler: expected a tcp://"),
+    ]:
+        with pytest.raises(GshadeError) as info:
+            call()
+        assert str(info.value).startswith(library) and "--" not in str(info.value)
+    teapot = str(ROOT / "scenes" / "teapot-isophotes.toml")
+    for argv, flag in [
+        (["continuity", teapot, "--samples", "0"], "gshade: error: --samples: expected 1 to"),
+        (["batch", teapot, "-o", "/tmp/never-made", "-j", "0"], "gshade: error: -j: expected"),
+    ]:
+        assert main(argv) == 2
+        assert capsys.readouterr().err.startswith(flag)

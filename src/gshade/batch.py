@@ -76,9 +76,9 @@ def check_options(workers: int, timeout: float, scheduler: str | None = None) ->
     from .worker_pool import check_address
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise GshadeError(f"-j: expected at least 1 worker, got {workers}")
+        raise GshadeError(f"workers: expected at least 1 worker, got {workers}")
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
-        raise GshadeError(f"--timeout: expected a number of seconds above 0, got {timeout}")
+        raise GshadeError(f"timeout: expected a number of seconds above 0, got {timeout}")
     if scheduler is not None:
         check_address(scheduler)
 

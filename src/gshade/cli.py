@@ -268,7 +268,7 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"gshade: error: {exc}", file=sys.stderr)
         return EXIT_STATUS["MISMATCH"]
     except GshadeError as exc:  # a bad argument, an output that cannot be written
-        print(f"gshade: error: {exc}", file=sys.stderr)
+        print(f"gshade: error: {_in_flags(str(exc))}", file=sys.stderr)
         return EXIT_STATUS["USAGE"]
     if args.json:
         print(json.dumps(result.as_dict(), indent=2))
@@ -380,8 +380,10 @@ def _continuity(args: argparse.Namespace) -> int:
     pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
     try:
         report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
-    except GshadeError as exc:
-        raise GshadeError(f"{args.scene}: {exc}") from None
+    except GshadeError as exc:  # about the scene's surfaces, or about a flag
+        message = _in_flags(str(exc))
+        where = "" if message.startswith("-") else f"{args.scene}: "
+        raise GshadeError(where + message) from None
     if args.json:
         print(
             json.dumps(
@@ -482,6 +484,27 @@ def _shapes(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Library parameters as the command line spells them: library errors name parameters, the
+#: command line speaks of its flags.
+_FLAGS = {
+    "samples": "--samples",
+    "pairs": "--pair",
+    **{f"tolerance {order}": f"--tol-{order}" for order in ("g0", "g1", "g2", "g3")},
+    "workers": "-j",
+    "timeout": "--timeout",
+    "scheduler": "--scheduler",
+    "diff and diff_png": "--diff and --diff-png",
+}
+
+
+def _in_flags(message: str) -> str:
+    """A library error that begins with a parameter's name, with the flag's name instead."""
+    for name, flag in _FLAGS.items():
+        if message.startswith((f"{name}:", f"{name} ")):
+            return flag + message[len(name) :]
+    return message
+
+
 _signalled: list[int] = []
 #: Commands that stop on a signal through their own cleanup (``batch``: stop the workers,
 #: write the manifest); the others end at once, their temporaries removed.
@@ -532,7 +555,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.run(args)
     except GshadeError as exc:
-        message = str(exc).replace("\r", "\\r").replace("\n", "\\n")  # one line, always
+        message = _in_flags(str(exc)).replace("\r", "\\r").replace("\n", "\\n")  # one line
         print(f"gshade: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # outputs are written atomically: nothing partial is left

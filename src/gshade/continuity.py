@@ -53,7 +53,7 @@ class Tolerances:
         base.update({k: v for k, v in given.items() if v is not None})
         for key, value in base.items():
             if not (value >= 0):
-                raise GshadeError(f"--tol-{key}: expected a number >= 0, got {value!r}")
+                raise GshadeError(f"tolerance {key}: expected a number >= 0, got {value!r}")
         return cls(**base)
 
 
@@ -294,9 +294,9 @@ def continuity_report(
     ``MAX_PARTNERS`` (8) others (so at most 4 x 8 junctions per patch are measured).
     """
     if not 1 <= samples <= MAX_SAMPLES:
-        raise GshadeError(f"--samples: expected 1 to {MAX_SAMPLES}, got {samples}")
+        raise GshadeError(f"samples: expected 1 to {MAX_SAMPLES}, got {samples}")
     if pairs is not None and len(pairs) > MAX_PAIRS:
-        raise GshadeError(f"--pair: expected at most {MAX_PAIRS} pairs, got {len(pairs)}")
+        raise GshadeError(f"pairs: expected at most {MAX_PAIRS} pairs, got {len(pairs)}")
     pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
     tol = tolerances or Tolerances.for_size(diag)

@@ -117,7 +117,7 @@ def compare_and_write_diffs(
     """
     targets = [Path(t) for t in (diff, diff_png) if t]
     if len(targets) == 2 and targets[0].absolute() == targets[1].absolute():
-        raise UsageError(f"--diff and --diff-png: expected two different files, got {diff}")
+        raise UsageError(f"diff and diff_png: expected two different files, got {diff}")
     result, entered = None, False
     try:
         with staged(targets) as names:

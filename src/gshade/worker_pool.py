@@ -345,13 +345,12 @@ def check_address(address: str) -> str:
     """``address`` if it is a ``tcp://`` or ``tls://`` address, else a :class:`GshadeError`."""
     if not address.strip():
         raise GshadeError(
-            "--scheduler: expected a Dask scheduler address such as tcp://host:8786, "
-            "got an empty one"
+            "scheduler: expected a Dask scheduler address such as tcp://host:8786, got an empty one"
         )
     scheme, sep, host = address.partition("://")
     if not sep or scheme not in ("tcp", "tls") or not host.strip():
         raise GshadeError(
-            "--scheduler: expected a tcp:// or tls:// address such as tcp://host:8786, "
+            "scheduler: expected a tcp:// or tls:// address such as tcp://host:8786, "
             f"got {address[:100]!r}"
         )
     return address
@@ -373,11 +372,11 @@ def dask_client(address: str) -> Any:
             context = Security().get_connection_args("client")["ssl_context"]
         except Exception as exc:
             raise GshadeError(
-                f"--scheduler: cannot use Dask's TLS configuration ({type(exc).__name__}: {exc})"
+                f"scheduler: cannot use Dask's TLS configuration ({type(exc).__name__}: {exc})"
             ) from None
         if context is None:
             raise GshadeError(
-                f"--scheduler {address}: no TLS credentials: gshade relies on Dask's "
+                f"scheduler {address}: no TLS credentials: gshade relies on Dask's "
                 "configuration for TLS (distributed.comm.tls.ca-file, "
                 "distributed.comm.tls.client.cert and .client.key, or the environment "
                 "variables DASK_DISTRIBUTED__COMM__TLS__CA_FILE, "
@@ -387,12 +386,12 @@ def dask_client(address: str) -> Any:
         return Client(address, timeout="10s", set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise GshadeError(
-            f"--scheduler: cannot reach the Dask scheduler at {address} ({exc})"
+            f"scheduler: cannot reach the Dask scheduler at {address} ({exc})"
         ) from None
     except Exception as exc:
         line = (str(exc).strip().splitlines() or [""])[0][:200]
         raise GshadeError(
-            f"--scheduler: cannot connect to the Dask scheduler at {address} "
+            f"scheduler: cannot connect to the Dask scheduler at {address} "
             f"({type(exc).__name__}: {line})"
         ) from None
 
