@@ -5,7 +5,7 @@ P = W p gives, for every multi-index (a, b),
 
     p^(a,b) = ( P^(a,b) - sum_{(k,l) != (0,0), k<=a, l<=b} C(a,k) C(b,l) W^(k,l) p^(a-k,b-l) ) / W
 
-(the quotient rule of ../SHAPE_FUNCTIONS.md for orders 1 and 2, to any order).
+(the quotient rule for orders 1 and 2, carried to any order).
 """
 
 from __future__ import annotations
