@@ -17,6 +17,7 @@ import pytest
 from gshade import GshadeError
 from gshade.batch import check_job, check_options, expand_scenes, parse_sweeps, plan_jobs, run_batch
 from gshade.io.image import read_exr
+from gshade.io.outputs import HOST
 
 from .conftest import TEAPOT
 
@@ -416,7 +417,7 @@ def test_a_rerun_removes_what_a_killed_run_left(tmp_path):
                               capture_output=True, text=True).stdout)  # fmt: skip
     out = tmp_path / "out"
     out.mkdir()
-    stale = out / f".a.exr.{dead}-abcd1234.gshade-tmp.exr"
+    stale = out / f".a.exr.{HOST}.{dead}-abcd1234.gshade-tmp.exr"
     stale.write_bytes(b"half")
     run_batch([], out)
     assert not stale.exists()

@@ -18,7 +18,13 @@ import pytest
 from gshade import GshadeError
 from gshade.cli import main
 from gshade.io import load_scene
-from gshade.io.outputs import MAX_NAME_BYTES, output_name, remove_stale_temporaries, staged
+from gshade.io.outputs import (
+    HOST,
+    MAX_NAME_BYTES,
+    output_name,
+    remove_stale_temporaries,
+    staged,
+)
 from gshade.rendering import render
 
 from .conftest import TEAPOT
@@ -152,13 +158,15 @@ def test_stale_temporaries_of_dead_processes_are_removed(tmp_path):
     dead = subprocess.run(
         [sys.executable, "-c", "import os; print(os.getpid())"], text=True, capture_output=True
     ).stdout.strip()
-    stale = tmp_path / f".x.exr.{dead}-abcd1234.gshade-tmp.exr"
-    mine = tmp_path / f".y.exr.{os.getpid()}-abcd1234.gshade-tmp.exr"
+    stale = tmp_path / f".x.exr.{HOST}.{dead}-abcd1234.gshade-tmp.exr"
+    mine = tmp_path / f".y.exr.{HOST}.{os.getpid()}-abcd1234.gshade-tmp.exr"
     other = tmp_path / ".not-ours.exr"
     for p in (stale, mine, other):
         p.write_text("")
+    elsewhere = tmp_path / f".z.exr.another_machine.{dead}-abcd1234.gshade-tmp.exr"
+    elsewhere.write_text("")  # a shared folder: that process id means nothing here
     assert remove_stale_temporaries(tmp_path) == [stale]
-    assert sorted(os.listdir(tmp_path)) == sorted([mine.name, other.name])
+    assert sorted(os.listdir(tmp_path)) == sorted([mine.name, other.name, elsewhere.name])
 
 
 @pytest.mark.parametrize("delay", [0.3, 2.5])  # during the imports; during Mitsuba's render

@@ -10,16 +10,18 @@ Every file gshade writes goes through this module:
   only when every one of them was written (:func:`staged`): a reader never sees a
   half-written file, and a command that fails leaves every target as it was.  The
   temporaries are created before the work starts, so an unwritable target fails at once.
-- Temporaries carry the writing process's id (``.NAME.PID-XXXXXXXX.gshade-tmp.SUFFIX``);
-  whatever the way a process ends, those it leaves behind are removed by the next run that
-  writes into that folder (:func:`remove_stale_temporaries`).  A target that exists as a
-  symbolic link is replaced, not followed.
+- Temporaries carry the writing machine's name and process id
+  (``.NAME.HOST.PID-XXXXXXXX.gshade-tmp.SUFFIX``); whatever the way a process ends, those it
+  leaves behind are removed by the next run on that machine that writes into that folder
+  (:func:`remove_stale_temporaries`); those of other machines are left alone.  A target
+  that exists as a symbolic link is replaced, not followed.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import socket
 import stat
 import tempfile
 import unicodedata
@@ -31,6 +33,7 @@ from pathlib import Path
 from ..errors import GshadeError
 
 __all__ = [
+    "HOST",
     "MAX_NAME_BYTES",
     "atomic_write",
     "discard_temporaries",
@@ -46,7 +49,12 @@ __all__ = [
 MAX_NAME_BYTES = 200
 #: Characters of the target's name kept in a temporary's name (its full name may be long).
 _TEMP_STEM = 40
-_TEMPORARY = re.compile(r"^\..*\.(\d+)-[a-z0-9_]{8}\.gshade-tmp(\.[A-Za-z0-9]+)?$")
+_TEMPORARY = re.compile(
+    r"^\..*\.(?P<host>[A-Za-z0-9_]+)\.(?P<pid>\d+)-[a-z0-9_]{8}\.gshade-tmp(\.[A-Za-z0-9]+)?$"
+)
+#: This machine's name as temporaries carry it: a folder shared between machines (a Dask
+#: cluster's output folder) holds temporaries whose process ids mean nothing here.
+HOST = re.sub(r"[^A-Za-z0-9_]", "_", socket.gethostname())[:32] or "host"
 
 
 def output_name(name: object, what: str = "name") -> str:
@@ -119,7 +127,7 @@ def _temporary(target: Path) -> str:
         try:
             fd, name = tempfile.mkstemp(
                 dir=target.parent,
-                prefix=f".{stem}.{os.getpid()}-",
+                prefix=f".{stem}.{HOST}.{os.getpid()}-",
                 suffix=f".gshade-tmp{''.join(target.suffixes[-1:])}",
             )
             os.close(fd)
@@ -214,8 +222,9 @@ def write_to(name: str, write: Callable[[str], object], target: str | os.PathLik
 
 
 def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
-    """Remove the temporaries in ``folder`` left by processes that no longer run; return
-    them.  Those of running processes (another gshade writing there) are kept."""
+    """Remove the temporaries in ``folder`` left by processes of this machine that no longer
+    run; return them.  Those of running processes (another gshade writing there) and of
+    other machines (a shared folder) are kept."""
     removed: list[Path] = []
     try:
         entries = list(os.scandir(folder))
@@ -225,7 +234,7 @@ def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
         match = _TEMPORARY.match(entry.name)
         if match is None or not entry.is_file(follow_symlinks=False):
             continue
-        if _running(int(match.group(1))):
+        if match.group("host") != HOST or _running(int(match.group("pid"))):
             continue
         try:
             os.unlink(entry.path)
