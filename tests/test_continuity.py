@@ -254,3 +254,36 @@ def test_samples_and_pairs_are_bounded():
         continuity_report([a, b], samples=4097)
     with pytest.raises(GshadeError, match="pairs: expected at most 10000 pairs, got 10001"):
         continuity_report([a, b], pairs=[(0, "u1", 1, "u0")] * 10001)
+
+
+def test_batched_measures_equal_the_per_junction_oracle():
+    """measure_all (each patch evaluated once for all its sides) against measure, junction
+    by junction: the teapot, the scenes' surfaces, the subdivision cube, and a pair at two
+    scales (its small patches take the per-side path: below the batch's irregular limit)."""
+    from gshade.continuity import Tolerances, classify, find_junctions, measure, measure_all
+    from gshade.geometry.subdivision import subdivision_patches
+    from gshade.io.obj import read_obj_mesh
+
+    mesh = read_obj_mesh(ROOT / "scenes" / "data" / "cube.obj")
+    a, b = pairs()["G1"]
+    scaled = [BezierPatch(p.points * s, domain=p.domain) for s in (1e-6, 1e3) for p in (a, b)]
+    cases = [
+        ("teapot", read_newell(TEAPOT)),
+        *scene_patch_sets(),
+        ("cube", subdivision_patches(mesh.vertices, mesh.faces, levels=2)),
+        ("scaled", scaled),
+    ]
+    total = 0
+    for name, patches in cases:
+        pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+        diag = float(np.linalg.norm(np.ptp(pts, axis=0)))
+        tol = Tolerances.for_size(diag)
+        junctions = find_junctions(patches, max(tol.g0, 1e-12 * diag))
+        batched = measure_all(patches, junctions, samples=16)
+        for junction, got in zip(junctions, batched, strict=True):
+            expected = measure(patches, junction, samples=16)
+            for key, value in expected.items():
+                assert got[key] == pytest.approx(value, rel=1e-12, abs=0.0), (name, junction, key)
+            assert classify(got, tol) == classify(expected, tol), (name, junction)
+        total += len(junctions)
+    assert total > 1000

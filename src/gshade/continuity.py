@@ -23,7 +23,13 @@ from numpy.typing import NDArray
 
 from .errors import GshadeError
 from .geometry import Patch, regularised_derivatives, unit_normal
-from .geometry.differential import first_fundamental_form, second_fundamental_form
+from .geometry.differential import (
+    IRREGULAR_TOL,
+    _cross,
+    _dot,
+    first_fundamental_form,
+    second_fundamental_form,
+)
 from .shape import evaluate
 
 __all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions", "junction_between"]
@@ -267,6 +273,105 @@ def measure(patches, junction, samples: int = 32, directions: int = 8) -> dict:
     }
 
 
+def _side_geometry(patches, sides: list[tuple[int, str]], t: NDArray):
+    """:func:`_geometry` of many (patch, side)s: d (4, 4, S, n, 3), normals, and the mean
+    and Gaussian curvatures' surface gradients (S, n, 3), equal to it point by point.
+
+    Each patch is evaluated once for all its sides.  A side takes the batched path only
+    where :func:`_geometry` would do no more than that: every point regular at the side's
+    own derivative scale (no regularisation, plain normals), and every point clearly valid
+    at the batch's scale in ``evaluate`` (whose threshold comes from the largest first
+    derivative of what it is given).  Other sides are measured by :func:`_geometry` itself.
+    """
+    count, n = len(sides), len(t)
+    d = np.empty((4, 4, count, n, 3))
+    by_patch: dict[int, list[int]] = {}
+    for k, (i, _) in enumerate(sides):
+        by_patch.setdefault(i, []).append(k)
+    for i, ks in by_patch.items():
+        params = [_side_params(patches[i], sides[k][1], t) for k in ks]
+        u = np.concatenate([q[0] for q in params])
+        v = np.concatenate([q[1] for q in params])
+        d[:, :, ks] = np.asarray(patches[i].derivatives(u, v, 3)).reshape(4, 4, len(ks), n, 3)
+    with np.errstate(all="ignore"):
+        pu, pv = d[1, 0], d[0, 1]
+        N = _cross(pu, pv)
+        W2 = _dot(N, N)
+        length = np.sqrt(W2)
+        scale = np.maximum(np.abs(pu).max(axis=(1, 2)), np.abs(pv).max(axis=(1, 2)))
+        scale = np.where(scale > 0, scale, 1.0)
+        fast = np.isfinite(d).all(axis=(0, 1, 3, 4))
+        fast &= (length > IRREGULAR_TOL * scale[:, None] ** 2).all(axis=1)
+        if fast.any():
+            limit = IRREGULAR_TOL * scale[fast].max() ** 2
+            fast &= (W2 > 1.01 * limit * limit).all(axis=1)
+    normal = N / np.where(fast[:, None], length, 1.0)[..., None]
+    mean, gauss = np.empty((count, n, 3)), np.empty((count, n, 3))
+    if fast.any():
+        mean[fast] = evaluate("mean", d[:, :, fast]).gradient
+        gauss[fast] = evaluate("gaussian", d[:, :, fast]).gradient
+    for k in np.flatnonzero(~fast).tolist():
+        i, side = sides[k]
+        dk, nk, hk, kk = _geometry(patches[i], side, t)
+        d[:, :, k], normal[k], mean[k], gauss[k] = dk, nk, hk.gradient, kk.gradient
+    return d, normal, mean, gauss
+
+
+def _pick(a: NDArray, b: NDArray) -> NDArray:
+    """Python's max(a, b) element-wise: b only where it is larger (a NaN b is passed over)."""
+    return np.where(b > a, b, a)
+
+
+def measure_all(patches, junctions, samples: int = 32, directions: int = 8) -> list[dict]:
+    """:func:`measure` of every junction, batched (equal to it up to round-off)."""
+    out: list[dict] = []
+    chunk = max(1, 2**15 // samples)  # junctions at a time: bounded temporaries
+    t = (np.arange(samples) + 0.5) / samples
+    for start in range(0, len(junctions), chunk):
+        part = junctions[start : start + chunk]
+        index: dict[tuple[int, str], int] = {}
+        for i, si, j, sj, _ in part:
+            index.setdefault((i, si), len(index))
+            index.setdefault((j, sj), len(index))
+        d, n, h, k = _side_geometry(patches, list(index), t)
+        a = np.array([index[(i, si)] for i, si, *_ in part])
+        b = np.array([index[(j, sj)] for _, _, j, sj, _ in part])
+        rev = np.array([r for *_, r in part], dtype=bool)
+        flip = np.where(rev[:, None], np.arange(samples)[::-1], np.arange(samples))
+        di, ni, hi, ki = d[:, :, a], n[a], h[a], k[a]
+        bb = b[:, None]
+        dj, nj, hj, kj = d[:, :, bb, flip], n[bb, flip], h[bb, flip], k[bb, flip]
+        gap = np.linalg.norm(di[0, 0] - dj[0, 0], axis=-1).max(axis=-1)
+        angle = np.degrees(
+            np.arctan2(np.linalg.norm(np.cross(ni, nj), axis=-1), np.abs(np.sum(ni * nj, -1)))
+        ).max(axis=-1)
+        sign = np.sign(np.sum(ni * nj, -1))[..., None]
+        across_v = np.array([si in ("v0", "v1") for _, si, *_ in part])[:, None, None]
+        along = np.where(across_v, di[1, 0], di[0, 1])
+        along = along / np.linalg.norm(along, axis=-1, keepdims=True)
+        across = np.cross(ni, along)
+        jump = np.zeros(len(part))
+        for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
+            e = np.cos(theta) * along + np.sin(theta) * across
+            k_i = _normal_curvature(di, ni, e)
+            k_j = _normal_curvature(dj, nj, e) * sign[..., 0]
+            worst = np.abs(k_i - k_j).max(axis=-1)
+            jump = _pick(jump, worst)
+        grad_h = np.linalg.norm(hi - sign * hj, axis=-1).max(axis=-1)
+        grad_k = np.linalg.norm(ki - kj, axis=-1).max(axis=-1)
+        gradient_jump = _pick(grad_h, grad_k)
+        for m in range(len(part)):
+            out.append(
+                {
+                    "gap": float(gap[m]),
+                    "normal_angle_deg": float(angle[m]),
+                    "curvature_jump": float(jump[m]),
+                    "curvature_gradient_jump": float(gradient_jump[m]),
+                }
+            )
+    return out
+
+
 def classify(m: dict, tol: Tolerances) -> str:
     if not m["gap"] <= tol.g0:
         return "none"
@@ -306,8 +411,7 @@ def continuity_report(
         junctions = find_junctions(patches, g0)
     else:
         junctions = [junction_between(patches, *pair, g0) for pair in pairs]
-    for junction in junctions:
-        m = measure(patches, junction, samples)
+    for junction, m in zip(junctions, measure_all(patches, junctions, samples), strict=True):
         i, si, j, sj, rev = junction
         out.append(Junction((i, j), (si, sj), rev, classify(m, tol), samples=samples, **m))
     return out
