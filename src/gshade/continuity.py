@@ -30,6 +30,7 @@ from .geometry.differential import (
     first_fundamental_form,
     second_fundamental_form,
 )
+from .geometry.patch import unit_to_domain
 from .shape import evaluate
 
 __all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions", "junction_between"]
@@ -85,11 +86,10 @@ class Junction:
 
 def _side_params(patch: Patch, side: str, t: NDArray) -> tuple[NDArray, NDArray]:
     (u0, u1), (v0, v1) = patch.domain
+    u, v = unit_to_domain(patch.domain, t, t)
     if side in ("u0", "u1"):
-        u = np.full_like(t, u0 if side == "u0" else u1)
-        return u, v0 + (v1 - v0) * t
-    v = np.full_like(t, v0 if side == "v0" else v1)
-    return u0 + (u1 - u0) * t, v
+        return np.full_like(t, u0 if side == "u0" else u1), v
+    return u, np.full_like(t, v0 if side == "v0" else v1)
 
 
 def _side_points(patch: Patch, side: str, t: NDArray) -> NDArray:

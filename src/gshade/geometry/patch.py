@@ -24,12 +24,25 @@ from .bernstein import bernstein_basis
 from .knots import basis_functions, basis_matrix, check_parameters
 from .rational import project_curve_derivatives, project_patch_derivatives
 
-__all__ = ["Curve", "Patch", "TensorProductPatch"]
+__all__ = ["Curve", "Patch", "TensorProductPatch", "unit_to_domain"]
 
 Domain = tuple[tuple[float, float], tuple[float, float]]
 
 #: Points are evaluated in chunks of this many, to bound temporary memory.
 _CHUNK = 1 << 15
+
+
+def unit_to_domain(
+    domain: Domain | ArrayLike, s: ArrayLike, t: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Normalised parameters into a domain: u = u0 + (u1 - u0) s, v = v0 + (v1 - v0) t.
+
+    ``domain`` is ((u0, u1), (v0, v1)), or an array of them of shape (..., 2, 2) that
+    broadcasts with ``s`` and ``t`` (each point into its own patch's domain).
+    """
+    d = np.asarray(domain, dtype=np.float64)
+    u0, u1, v0, v1 = d[..., 0, 0], d[..., 0, 1], d[..., 1, 0], d[..., 1, 1]
+    return u0 + (u1 - u0) * np.asarray(s), v0 + (v1 - v0) * np.asarray(t)
 
 
 def check_order(order: int) -> int:

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from .bernstein import bernstein_basis
 from .bezier import BezierPatch
-from .patch import Patch, check_order
+from .patch import Patch, check_order, unit_to_domain
 
 __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
 
@@ -32,8 +32,8 @@ def domain_spans(patches) -> NDArray[np.float64]:
 
 def patch_grid(patch: Patch, s: NDArray) -> tuple[NDArray, NDArray]:
     """The grid u = u0 + (u1 - u0) s, v = v0 + (v1 - v0) s, shaped for the grid algorithm."""
-    (u0, u1), (v0, v1) = patch.domain
-    return (u0 + (u1 - u0) * s)[:, None], (v0 + (v1 - v0) * s)[None, :]
+    u, v = unit_to_domain(patch.domain, s, s)
+    return u[:, None], v[None, :]
 
 
 def bezier_groups(patches) -> tuple[dict[tuple[int, int], list[int]], list[int]]:

@@ -22,6 +22,7 @@ import numpy as np
 from .. import __version__
 from ..errors import GshadeError
 from ..geometry import patch_normals, unit_normal
+from ..geometry.patch import unit_to_domain
 from ..geometry.patch_groups import grid_derivatives
 from ..image import RenderedImage
 from ..limits import (
@@ -384,9 +385,8 @@ def _channels(image: np.ndarray, data: np.ndarray, atlas: Atlas, patches, view) 
     f = np.where(A > 0, image[..., 4] / np.where(A > 0, A, 1.0), 0.0)
     hit = np.flatnonzero(data[..., 6].ravel() > 0.5)
     patch_index, st = atlas.locate(data[..., 4:6].reshape(-1, 2)[hit].astype(np.float64))
-    domains = np.array([[*p.domain[0], *p.domain[1]] for p in patches])[patch_index]
-    u = domains[:, 0] + (domains[:, 1] - domains[:, 0]) * st[:, 0]
-    v = domains[:, 2] + (domains[:, 3] - domains[:, 2]) * st[:, 1]
+    domains = np.array([p.domain for p in patches], dtype=np.float64)[patch_index]
+    u, v = unit_to_domain(domains, st[:, 0], st[:, 1])
     u, v, d, _ = surface_hits(patches, patch_index, u, v, *view.pixel_rays(hit // W, hit % W))
     normal = unit_normal(d)
     n = normal.n

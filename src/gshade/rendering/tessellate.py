@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
+from ..geometry.patch import unit_to_domain
 from ..geometry.patch_groups import domain_spans, grid_derivatives
 
 __all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
@@ -122,9 +123,8 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
     for k in np.flatnonzero(~normal.regular.all(axis=(1, 2))):
         # limits at collapsed edges need higher derivatives and the way into the domain
         patch = patches[k]
-        (u0, u1), (v0, v1) = patch.domain
         a, b = np.nonzero(~normal.regular[k])
-        u, v = u0 + (u1 - u0) * s[a], v0 + (v1 - v0) * s[b]
+        u, v = unit_to_domain(patch.domain, s[a], s[b])
         normals[k, a, b] = patch_normals(patch, u, v).n
     P = d[:, 0, 0].reshape(-1, 3).copy()
     scale = float(np.ptp(P, axis=0).max()) or 1.0
