@@ -106,3 +106,14 @@ def test_chord_resolution_meets_the_tolerance_measured_on_the_surface(make):
         assert max(own) == n
         for k in (0, int(np.argmin(own))):
             assert _chord_error(patches[k], own[k]) <= tol
+
+
+def test_unit_to_domain_one_domain_and_an_array_of_them():
+    from gshade.geometry.patch import unit_to_domain
+
+    s, t = np.array([0.0, 0.25, 1.0]), np.array([1.0, 0.5, 0.0])
+    u, v = unit_to_domain(((2.0, 4.0), (-1.0, 1.0)), s, t)
+    assert np.array_equal(u, [2.0, 2.5, 4.0]) and np.array_equal(v, [1.0, 0.0, -1.0])
+    domains = np.array([((0.0, 1.0), (0.0, 1.0)), ((2.0, 4.0), (-1.0, 1.0)), ((0, 8), (3, 5))])
+    u, v = unit_to_domain(domains, s, t)  # each point into its own domain
+    assert np.array_equal(u, [0.0, 2.5, 8.0]) and np.array_equal(v, [1.0, 0.0, 3.0])
