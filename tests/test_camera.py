@@ -1,0 +1,78 @@
+"""Framing: the automatic camera shows every surface point, tightly; explicit cameras look
+where they are told; pixel rays agree with a pinhole projection written out here."""
+
+import numpy as np
+import pytest
+
+from gshade import GshadeError
+from gshade.rendering.camera import MARGIN, frame_view
+from gshade.scene import Camera
+
+
+def blob(seed=0, n=400):
+    """Points of an irregular, off-centre cloud (a surface's samples stand-in)."""
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(n, 3)) * [3.0, 1.0, 0.5] + [10.0, -4.0, 2.0]
+
+
+def project(view, points):
+    """Normalised image coordinates in [-1, 1] (x to the right, y up) by the pinhole model."""
+    rel = points - view.origin
+    x, y, z = rel @ view.right, rel @ view.true_up, rel @ view.forward
+    aspect = view.image_width / view.image_height
+    if view.type == "orthographic":
+        half = view.width / 2
+        return x / half, y * aspect / half
+    tan_h = np.tan(np.radians(view.fov) / 2)
+    return x / (z * tan_h), y * aspect / (z * tan_h)
+
+
+@pytest.mark.parametrize("kind", ["perspective", "orthographic"])
+@pytest.mark.parametrize(("width", "height"), [(320, 240), (240, 320), (100, 100)])
+def test_automatic_framing_shows_every_point_with_the_margin(kind, width, height):
+    points = blob()
+    view = frame_view(Camera(kind, None, None, (0, 0, 1), 30.0, None), points, width, height)
+    x, y = project(view, points)
+    extent = max(np.abs(x).max(), np.abs(y).max())
+    assert extent <= 1 / MARGIN + 1e-9  # everything inside, with the margin
+    assert extent >= 1 / MARGIN - 1e-6  # and no farther away than needed
+
+
+def test_the_automatic_view_is_centred_across_the_image():
+    points = blob(1)
+    ortho = frame_view(Camera("orthographic", None, None, (0, 0, 1), 30.0, None), points, 400, 300)
+    x, y = project(ortho, points)
+    assert abs(x.max() + x.min()) < 1e-9 and abs(y.max() + y.min()) < 1e-9  # exactly
+    persp = frame_view(Camera("perspective", None, None, (0, 0, 1), 30.0, None), points, 400, 300)
+    x, y = project(persp, points)
+    assert x.min() < -0.5 < 0.5 < x.max() and y.min() < -0.3 < 0.3 < y.max()  # both sides used
+
+
+def test_an_explicit_camera_looks_where_it_is_told():
+    camera = Camera("perspective", (1.0, 2.0, 3.0), (4.0, 6.0, 3.0), (0, 0, 1), 45.0, None)
+    view = frame_view(camera, blob(), 200, 100)
+    assert np.allclose(view.origin, [1, 2, 3]) and np.allclose(view.forward, [0.6, 0.8, 0.0])
+    assert np.allclose(view.true_up, [0, 0, 1])
+    x, y = project(view, np.array([[4.0, 6.0, 3.0]]))
+    assert np.allclose([x[0], y[0]], 0.0)  # the target sits at the image centre
+
+
+@pytest.mark.parametrize("kind", ["perspective", "orthographic"])
+def test_pixel_rays_pass_through_the_points_they_project_to(kind):
+    points = blob(2, 50)
+    view = frame_view(Camera(kind, None, None, (0, 0, 1), 40.0, None), points, 64, 48)
+    x, y = project(view, points)
+    # the fractional pixel each point projects to, as (row, col) of a pixel's centre
+    cols = (x + 1) / 2 * view.image_width - 0.5
+    rows = (1 - y) / 2 * view.image_height - 0.5
+    origins, directions = view.pixel_rays(rows, cols)
+    rel = points - origins
+    miss = np.linalg.norm(rel - (rel * directions).sum(1)[:, None] * directions, axis=1)
+    assert np.all(miss <= 1e-9 * np.linalg.norm(rel, axis=1))
+
+
+def test_impossible_cameras_are_one_line_errors():
+    with pytest.raises(GshadeError, match="origin, target: expected two different points"):
+        frame_view(Camera("perspective", (1, 1, 1), (1, 1, 1), (0, 0, 1), 30.0, None), blob(), 8, 8)
+    with pytest.raises(GshadeError, match="up: expected a direction not parallel to the view"):
+        frame_view(Camera("perspective", (0, 0, 5), (0, 0, 0), (0, 0, 1), 30.0, None), blob(), 8, 8)
