@@ -253,6 +253,12 @@ HOSTILE = {
         '[[surface]]\ntype = "bezier"\npoints = [[[1, 1, 1], [1, 1, 1]], [[1, 1, 1], [1, 1, 1]]]\n',
         "(bezier): degenerate: it has no regular point",
     ),
+    "all points equal, away from the origin": (  # derivatives are round-off, not zero
+        '[[surface]]\ntype = "bezier"\npoints = ['
+        + ", ".join("[" + ", ".join(["[1.0, 2.0, 3.0]"] * 4) + "]" for _ in range(4))
+        + "]\n",
+        "(bezier): degenerate: it has no regular point",
+    ),
     "collinear points": (
         '[[surface]]\ntype = "bezier"\npoints = [[[0, 0, 0], [1, 1, 1]], [[2, 2, 2], [3, 3, 3]]]\n',
         "degenerate",

@@ -111,8 +111,11 @@ def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 3)
             cross = np.linalg.norm(np.cross(pu, pv), axis=-1).reshape(len(group), -1)
             # the scale of irregular_mask, per patch: the largest first-derivative component
             scale = np.abs(np.concatenate([pu, pv], axis=1)).reshape(len(group), -1).max(axis=1)
+            # derivatives at the round-off of the positions: all control points equal
+            size = np.abs(d[:, 0, 0]).reshape(len(group), -1).max(axis=1)
+            point = scale <= 1e-12 * size
             scale = np.where(scale > 0, scale, 1.0)
-            flat_patch = (cross <= IRREGULAR_TOL * scale[:, None] ** 2).all(axis=1)
+            flat_patch = point | (cross <= IRREGULAR_TOL * scale[:, None] ** 2).all(axis=1)
         for k in np.flatnonzero(overflow | flat_patch):
             if overflow[k]:
                 return start + int(k), "its points or derivatives overflow (numbers too large)"
