@@ -31,7 +31,7 @@ from .comparison import (
     z_test,
 )
 from .errors import GshadeError
-from .io.outputs import output_file, remove_stale_temporaries
+from .io.outputs import output_file
 
 if TYPE_CHECKING:
     from .image import RenderedImage
@@ -235,7 +235,6 @@ def check(
                 f"{references}: the reference folder does not exist "
                 "(use --update to create it with the current renders)"
             )
-    remove_stale_temporaries(references)
     results = []
     for path in scenes:
         result = check_scene(
