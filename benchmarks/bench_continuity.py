@@ -61,8 +61,8 @@ from report import (
     write_section,
 )
 
-from gshade.continuity import CLASSES, Tolerances, continuity_report, find_junctions
-from gshade.continuity import _probe_sides as probe_sides
+from gshade.analysis.continuity import CLASSES, Tolerances, continuity_report, find_junctions
+from gshade.analysis.continuity import _probe_sides as probe_sides
 from gshade.geometry import BSplinePatch
 from gshade.geometry.subdivision import subdivision_patches
 from gshade.io.obj import read_obj_mesh

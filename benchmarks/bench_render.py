@@ -20,7 +20,7 @@ S   Where the time goes.  A fresh Python process does what the command does, in 
     time and S's first-render (fresh process, as in the command) medians of the two Mitsuba
     calls; the share of the in-process ``render()`` call is given for comparison.
 I   Import and start-up time of the command's dependencies: ``python -c CODE`` for
-    ``pass``, ``import gshade.cli``, ``import gshade.io.scene, gshade.rendering``, ``+
+    ``pass``, ``import gshade.app.cli``, ``import gshade.io.scene, gshade.rendering``, ``+
     mitsuba``, and ``+ select_variant("auto")`` (Mitsuba's ``llvm_ad_rgb`` variant set),
     median of 5 runs each; and ``python -X importtime`` of the last, top-level modules by
     cumulative time.
@@ -134,11 +134,11 @@ STAGE_CHILD = textwrap.dedent(
 #: Import runs (I): label -> ``python -c`` code.
 IMPORT_CODES = {
     "python -c pass": "pass",
-    "import gshade.cli": "import gshade.cli",
+    "import gshade.app.cli": "import gshade.app.cli",
     "import gshade.io.scene, gshade.rendering": "import gshade.io.scene, gshade.rendering",
     "... + mitsuba": "import gshade.io.scene, gshade.rendering, mitsuba",
     '... + select_variant("auto")': "import gshade.io.scene, gshade.rendering, mitsuba\n"
-    "from gshade.rendering.variant import select_variant\nselect_variant('auto')",
+    "from gshade.runtime.variant import select_variant\nselect_variant('auto')",
 }
 
 
@@ -562,7 +562,7 @@ def s_rows(cases: list[EndToEnd]) -> list[list[str]]:
     extra = []
     for case in cases:
         extra += [f"{median(case.cli_walls) - median(case.first('wall')):+.3f}", "-"]
-    rows.append(["CLI wall - stage process wall (argparse, gshade.cli; noise)", *extra])
+    rows.append(["CLI wall - stage process wall (argparse, gshade.app.cli; noise)", *extra])
     share = []
     for case in cases:
         share += [f"{100 * case.share():.1f} %", "-"]

@@ -1,7 +1,8 @@
 """How far do renders differ between Mitsuba's variants, and between re-renders?
 
 The numbers behind ``gshade check``'s default thresholds.  Every scene in ``scenes/`` is
-rendered at its check settings (gshade.check.CHECK_DEFAULTS and its ``[check]`` table) with
+rendered at its check settings (gshade.regression.check.CHECK_DEFAULTS and its ``[check]``
+table) with
 ``llvm_ad_rgb`` twice and with ``scalar_rgb`` once, and the images are compared with
 ``gshade.compare`` over the check channels: the largest per-pixel difference, the share of
 pixels over 0.02 and over 1e-3, and SSIM on the picture.  Re-renders in one variant are
@@ -23,8 +24,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from report import machine_info, markdown_table, text_table, write_section
 
 import gshade
-from gshade.check import CHECK_DEFAULTS, find_scenes
-from gshade.comparison import Thresholds, compare
+from gshade.regression.check import CHECK_DEFAULTS, find_scenes
+from gshade.regression.comparison import Thresholds, compare
 from gshade.scene import load_scene
 
 COLUMNS = [

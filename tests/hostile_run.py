@@ -15,7 +15,7 @@ memory limit (``--memory-gb``: an address-space limit, RLIMIT_AS, which normal r
 SIGSEGV where an allocation is refused, so a run killed by a signal is run again watching the
 resident size, and counted as memory if that passes the limit; gshade's own limit,
 GSHADE_MEMORY_LIMIT, is left as the environment sets it).  The command is the ``gshade`` console
-entry point (``gshade.cli.console``) run by the same interpreter as ``--gshade``'s, with a
+entry point (``gshade.app.cli.console``) run by the same interpreter as ``--gshade``'s, with a
 faulthandler stack dump on SIGUSR1 added; a run past its limit gets SIGUSR1 (where it was),
 then SIGTERM (gshade's own cleanup), then SIGKILL 5 s later.  ``--plain`` runs the
 ``--gshade`` script itself (no stack at timeouts).  Every run is classified:
@@ -97,7 +97,7 @@ def shorten(text: str, limit: int = 160) -> str:
 #: ``gshade`` as its console script runs it, plus a stack dump on SIGUSR1 (to stderr).
 WRAPPER = (
     "import faulthandler, signal, sys; faulthandler.register(signal.SIGUSR1, all_threads=False); "
-    "sys.argv[0] = 'gshade'; from gshade.cli import console; sys.exit(console())"
+    "sys.argv[0] = 'gshade'; from gshade.app.cli import console; sys.exit(console())"
 )
 
 

@@ -15,7 +15,14 @@ import numpy as np
 import pytest
 
 from gshade import GshadeError
-from gshade.batch import check_job, check_options, expand_scenes, parse_sweeps, plan_jobs, run_batch
+from gshade.app.batch import (
+    check_job,
+    check_options,
+    expand_scenes,
+    parse_sweeps,
+    plan_jobs,
+    run_batch,
+)
 from gshade.io.image import read_exr
 from gshade.io.outputs import HOST
 
@@ -40,7 +47,7 @@ def scenes(tmp_path):
 def start_batch(folder, out):
     """``gshade batch FOLDER -o OUT`` in the background, its output piped."""
     return subprocess.Popen(
-        [sys.executable, "-m", "gshade.cli", "batch", str(folder), "-o", str(out)],
+        [sys.executable, "-m", "gshade", "batch", str(folder), "-o", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -49,7 +56,7 @@ def start_batch(folder, out):
 
 def cli(*args):
     return subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "batch", *map(str, args)],
+        [sys.executable, "-m", "gshade", "batch", *map(str, args)],
         capture_output=True,
         text=True,
     )
@@ -151,7 +158,7 @@ def test_dask_cluster_gives_the_same_outputs_as_a_local_run(scenes, tmp_path):
     distributed = pytest.importorskip("distributed")
     import dask
 
-    from gshade.worker_pool import DaskPool
+    from gshade.app.worker_pool import DaskPool
 
     jobs = plan_jobs(expand_scenes([str(scenes)]), [])
     local = run_batch(jobs, tmp_path / "local", workers=1)
@@ -381,16 +388,16 @@ def test_sigterm_stops_the_workers_and_the_manifest_shows_progress(scenes, tmp_p
 
 
 def test_an_interrupted_batch_records_the_outputs_it_finds_complete(scenes, tmp_path, monkeypatch):
-    import gshade.batch
+    import gshade.app.batch
 
     jobs = plan_jobs(expand_scenes([str(scenes)]), [])
 
     def render_one_then_interrupt(state, todo, pool):  # Ctrl-C before its result is seen
-        result = gshade.batch.render_job(state.jobs[todo[0]], str(state.out))
+        result = gshade.app.batch.render_job(state.jobs[todo[0]], str(state.out))
         assert result.status == "rendered", result.message
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(gshade.batch, "_collect", render_one_then_interrupt)
+    monkeypatch.setattr(gshade.app.batch, "_collect", render_one_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
         run_batch(jobs, tmp_path / "out")
     assert manifest_status(tmp_path / "out") == {"sphere": "rendered", "teapot": "not run"}
@@ -428,7 +435,7 @@ def test_workers_die_with_their_parent_and_remove_their_temporaries(tmp_path):
     script.write_text(
         "import sys, time\n"
         "from gshade.io.outputs import staged\n"
-        "from gshade.worker_pool import WorkerPool\n"
+        "from gshade.app.worker_pool import WorkerPool\n"
         "def hold(path):\n"
         "    with staged([path]):\n"
         "        time.sleep(60)\n"
@@ -466,7 +473,7 @@ def test_scheduler_addresses_are_checked(scenes, tmp_path):
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert not (tmp_path / "o").exists()
     pytest.importorskip("distributed")
-    from gshade.worker_pool import dask_client
+    from gshade.app.worker_pool import dask_client
 
     with pytest.raises(GshadeError, match=r"Dask's configuration for TLS.*tls\.ca-file"):
         dask_client("tls://127.0.0.1:9")

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gshade.check import check, find_scenes
 from gshade.geometry import sphere
+from gshade.regression.check import check, find_scenes
 
 from .conftest import ROOT, TEAPOT
 
@@ -125,7 +125,7 @@ def test_missing_reference_broken_scene_and_report(workspace):
     assert st["<new> & co"][0] == "FAILURE" and "--update" in st["<new> & co"][1]
     assert st["teapot"][0] == "PASS"  # the others went on
     assert not (refs / "<new> & co.exr").exists()
-    from gshade.check import write_report
+    from gshade.regression.check import write_report
 
     report = write_report(results, folder / "report")
     page = report.read_text()
@@ -142,7 +142,7 @@ def test_cli_exit_status_and_missing_reference_folder(tmp_path):
 
     def run(*args):
         return subprocess.run(
-            [sys.executable, "-m", "gshade.cli", "check", *map(str, args)],
+            [sys.executable, "-m", "gshade", "check", *map(str, args)],
             capture_output=True,
             text=True,
         )

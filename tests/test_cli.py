@@ -3,7 +3,7 @@
 import subprocess
 import sys
 
-from gshade.cli import main
+from gshade.app.cli import main
 
 
 def test_shapes_lists_every_function_with_its_order(capsys):
@@ -17,6 +17,6 @@ def test_shapes_lists_every_function_with_its_order(capsys):
 
 def test_the_console_script_runs():
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "--version"], capture_output=True, text=True
+        [sys.executable, "-m", "gshade", "--version"], capture_output=True, text=True
     )
     assert result.returncode == 0 and result.stdout.startswith("gshade ")

@@ -15,7 +15,7 @@ SCENES = ROOT / "scenes"
 
 def gshade(*args, cwd=None):
     return subprocess.run(
-        [sys.executable, "-m", "gshade.cli", *map(str, args)],
+        [sys.executable, "-m", "gshade", *map(str, args)],
         capture_output=True,
         text=True,
         cwd=cwd,

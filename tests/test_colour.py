@@ -6,7 +6,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from gshade import GshadeError
-from gshade.shape import (
+from gshade.display import (
     Legend,
     auto_range,
     colour_map,
@@ -15,7 +15,7 @@ from gshade.shape import (
     stripe_period,
     stripes,
 )
-from gshade.shape.colour import DARK
+from gshade.display.colour import DARK
 
 
 def indicator(s, duty):

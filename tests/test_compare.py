@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from gshade.comparison import Thresholds, compare
 from gshade.io.image import write_exr
+from gshade.regression.comparison import Thresholds, compare
 
 
 def image(seed=0, shape=(32, 48)):
@@ -18,7 +18,7 @@ def image(seed=0, shape=(32, 48)):
 
 def cli(*args):
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "compare", *map(str, args)],
+        [sys.executable, "-m", "gshade", "compare", *map(str, args)],
         capture_output=True,
         text=True,
     )
@@ -218,7 +218,7 @@ def noisy(rng, mean, sd, runs=8):
 
 
 def test_z_test_passes_noise_and_fails_a_change():
-    from gshade.comparison import z_test
+    from gshade.regression.comparison import z_test
 
     rng = np.random.default_rng(1)
     truth = rng.random((40, 50))
@@ -236,14 +236,14 @@ def test_z_test_passes_noise_and_fails_a_change():
     broken = noisy(rng, truth, 0.05)
     broken["R"][0, 0] = np.nan
     assert z_test(broken, reference).failing >= 1
-    from gshade.comparison import ChannelMismatch
+    from gshade.regression.comparison import ChannelMismatch
 
     with pytest.raises(ChannelMismatch, match=r"R\.var"):
         z_test({c: truth for c in "RGB"}, reference)
 
 
 def test_channel_groups():
-    from gshade.comparison import channel_groups
+    from gshade.regression.comparison import channel_groups
 
     groups = channel_groups(["R", "G", "B", "A", "f", "P.X", "P.Y", "P.Z", "u", "v", "patch"])
     assert groups == {
@@ -264,7 +264,7 @@ def test_channel_groups():
 
 def test_top_level_compare_is_the_function_even_after_the_module_is_imported():
     import gshade
-    import gshade.check  # imports the gshade.comparison module
+    import gshade.regression.check  # imports the gshade.regression.comparison module
 
     a = image()
     assert gshade.compare(a, dict(a)).verdict == "PASS"

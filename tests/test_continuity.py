@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from gshade.continuity import continuity_report
+from gshade.analysis.continuity import continuity_report
 from gshade.geometry import BezierPatch, BSplinePatch
 from gshade.io import read_newell
 
@@ -69,7 +69,7 @@ def test_classes_survive_reversal_and_degree_elevation(expected):
 
 
 def test_the_g0_tolerance_decides_what_is_a_junction():
-    from gshade.continuity import Tolerances
+    from gshade.analysis.continuity import Tolerances
 
     a, b = pairs()["G2"]
     lifted = BezierPatch(b.points + np.array([0, 0, 1e-4]), domain=b.domain)
@@ -87,7 +87,7 @@ def test_teapot_report_and_cli_json():
         [
             sys.executable,
             "-m",
-            "gshade.cli",
+            "gshade.app.cli",
             "continuity",
             str(ROOT / "scenes" / "junctions-mean.toml"),
             "--json",
@@ -138,14 +138,14 @@ def test_cli_pair_errors_exit_2_with_one_line():
         ("0-u1", "gshade: error: --pair: expected I:SIDE,J:SIDE"),
     ]:
         result = subprocess.run(
-            [sys.executable, "-m", "gshade.cli", "continuity", scene, "--pair", pair],
+            [sys.executable, "-m", "gshade", "continuity", scene, "--pair", pair],
             capture_output=True,
             text=True,
         )
         assert result.returncode == 2
         assert result.stderr.startswith(message) and result.stderr.count("\n") == 1
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "continuity", scene, "--pair", "0:u1,1:u0"],
+        [sys.executable, "-m", "gshade", "continuity", scene, "--pair", "0:u1,1:u0"],
         capture_output=True,
         text=True,
     )
@@ -154,7 +154,7 @@ def test_cli_pair_errors_exit_2_with_one_line():
 
 def brute_force_junctions(patches, tolerance, probes=5):
     """The former O(S^2) search, kept as the oracle for the k-d tree search."""
-    from gshade.continuity import SIDES, _side_points
+    from gshade.analysis.continuity import SIDES, _side_points
 
     t = np.linspace(0.0, 1.0, probes)
     sides = []
@@ -188,7 +188,7 @@ def scene_patch_sets():
 
 
 def test_the_kd_tree_search_finds_what_the_brute_force_search_finds():
-    from gshade.continuity import find_junctions
+    from gshade.analysis.continuity import find_junctions
 
     cases = [("teapot", read_newell(TEAPOT)), *scene_patch_sets()]
     a, b = pairs()["G2"]
@@ -211,7 +211,7 @@ def fan(count: int) -> list[BezierPatch]:
 
 
 def test_boundaries_crossing_at_their_middle_are_not_junctions():
-    from gshade.continuity import find_junctions
+    from gshade.analysis.continuity import find_junctions
 
     patches = fan(12)
     u0 = patches[3].points[0]
@@ -224,7 +224,7 @@ def test_boundaries_crossing_at_their_middle_are_not_junctions():
 
 def test_duplicated_surfaces_are_refused_with_one_line(tmp_path):
     from gshade import GshadeError
-    from gshade.continuity import find_junctions
+    from gshade.analysis.continuity import find_junctions
 
     a, _ = pairs()["G2"]
     assert len(find_junctions([a] * 9, 1e-9)) == 4 * 36  # each side: 8 partners
@@ -233,7 +233,7 @@ def test_duplicated_surfaces_are_refused_with_one_line(tmp_path):
     scene = tmp_path / "spheres.toml"
     scene.write_text('[[surface]]\ntype = "sphere"\n' * 300)
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "continuity", str(scene)],
+        [sys.executable, "-m", "gshade", "continuity", str(scene)],
         capture_output=True,
         text=True,
         timeout=60,
@@ -260,7 +260,13 @@ def test_batched_measures_equal_the_per_junction_oracle():
     """measure_all (each patch evaluated once for all its sides) against measure, junction
     by junction: the teapot, the scenes' surfaces, the subdivision cube, and a pair at two
     scales (its small patches take the per-side path: below the batch's irregular limit)."""
-    from gshade.continuity import Tolerances, classify, find_junctions, measure, measure_all
+    from gshade.analysis.continuity import (
+        Tolerances,
+        classify,
+        find_junctions,
+        measure,
+        measure_all,
+    )
     from gshade.geometry.subdivision import subdivision_patches
     from gshade.io.obj import read_obj_mesh
 

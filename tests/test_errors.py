@@ -87,9 +87,9 @@ def test_knot_insertion_errors():
 def test_library_errors_name_parameters_and_the_cli_its_flags(capsys):
     """The library speaks of its parameters (samples, workers, scheduler); only the command
     line turns them into its flags (--samples, -j, --scheduler)."""
-    from gshade.batch import check_options
-    from gshade.cli import main
-    from gshade.continuity import continuity_report
+    from gshade.analysis.continuity import continuity_report
+    from gshade.app.batch import check_options
+    from gshade.app.cli import main
     from gshade.geometry import sphere
 
     for call, library in [

@@ -8,7 +8,7 @@ import pytest
 from PIL import Image
 
 from gshade import GshadeError
-from gshade.figure import load_figure_spec, make_figure
+from gshade.app.figure import load_figure_spec, make_figure
 
 from .conftest import ROOT
 
@@ -158,7 +158,7 @@ def test_bad_specs_name_the_key(tmp_path):
     with pytest.raises(GshadeError, match="columns: unknown key"):
         load_figure_spec(bad)
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "figure", str(bad), "-o", str(tmp_path / "x.gif")],
+        [sys.executable, "-m", "gshade", "figure", str(bad), "-o", str(tmp_path / "x.gif")],
         capture_output=True,
         text=True,
     )

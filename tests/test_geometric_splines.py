@@ -273,7 +273,7 @@ def test_per_junction_beta_spline_patches_meet_the_g2_equations_across_knot_line
 
 def classes(patch):
     """Continuity classes of the junctions between a B-spline patch's Bézier pieces."""
-    from gshade.continuity import continuity_report
+    from gshade.analysis.continuity import continuity_report
 
     pieces = [piece for row in patch.bezier_patches() for piece in row]
     return [j.cls for j in continuity_report(pieces, samples=8)]

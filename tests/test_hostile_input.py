@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from gshade import GshadeError
-from gshade.cli import main
+from gshade.app.cli import main
 from gshade.io import load_scene
 from gshade.io.outputs import (
     HOST,
@@ -178,7 +178,7 @@ def test_sigterm_during_a_render_leaves_no_temporary(tmp_path, delay):
     out = tmp_path / "out"
     out.mkdir()
     p = subprocess.Popen(
-        [sys.executable, "-m", "gshade.cli", "render", str(scene), "-o", str(out / "x.exr")],
+        [sys.executable, "-m", "gshade", "render", str(scene), "-o", str(out / "x.exr")],
         stderr=subprocess.PIPE,
         text=True,
     )

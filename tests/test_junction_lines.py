@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import gshade
-from gshade.continuity import Junction
-from gshade.junction_lines import CLASS_COLOURS, draw_junctions
+from gshade.analysis.continuity import Junction
+from gshade.analysis.junction_lines import CLASS_COLOURS, draw_junctions
 
 from .conftest import ROOT
 

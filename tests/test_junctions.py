@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from gshade import GshadeError
-from gshade.continuity import continuity_report
+from gshade.analysis.continuity import continuity_report
 from gshade.geometry import BezierPatch
 from gshade.geometry.junctions import junction_patch
 

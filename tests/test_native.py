@@ -1,4 +1,5 @@
-"""Native libraries' own output captured (gshade.native), and EXR reading without their noise."""
+"""Native libraries' own output captured (gshade.runtime.native), and EXR reading without
+their noise."""
 
 import os
 import subprocess
@@ -9,7 +10,7 @@ import pytest
 
 from gshade import GshadeError
 from gshade.io.image import read_exr, read_exr_header, write_exr
-from gshade.native import MAX_CAPTURED, captured_output
+from gshade.runtime.native import MAX_CAPTURED, captured_output
 
 
 def test_captured_output_takes_what_is_written_to_the_descriptors(capfd):
@@ -66,7 +67,7 @@ def test_corrupt_exr_error_carries_the_library_message_and_prints_nothing(corrup
 def test_compare_of_a_corrupt_exr_prints_one_line(corrupt_exr):
     cut, good = corrupt_exr
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "compare", str(cut), str(good), "--json"],
+        [sys.executable, "-m", "gshade", "compare", str(cut), str(good), "--json"],
         capture_output=True,
         text=True,
     )
@@ -81,7 +82,7 @@ def test_fifos_are_refused_at_once(tmp_path):
         with pytest.raises(GshadeError, match=r"f.exr: expected an OpenEXR file .*FIFO"):
             read(fifo)
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "compare", str(fifo), str(fifo)],
+        [sys.executable, "-m", "gshade", "compare", str(fifo), str(fifo)],
         capture_output=True,
         text=True,
         timeout=60,

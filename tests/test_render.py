@@ -135,7 +135,7 @@ def test_channels_header_and_files(tmp_path):
     img.write_exr(exr)
     img.write_png(png)
     channels, header = read_exr(exr)
-    assert set(channels) == set(gshade.image.CHANNELS)
+    assert set(channels) == set(gshade.rendering.rendered_image.CHANNELS)
     assert header["scene_hash"] == scene.text_hash
     assert header["variant"] in ("llvm_ad_rgb", "scalar_rgb")
     assert png.stat().st_size > 500

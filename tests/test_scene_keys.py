@@ -7,7 +7,7 @@ import json
 import math
 import re
 
-from gshade.cli import main
+from gshade.app.cli import main
 from gshade.io import parse_scene
 from gshade.scene import SURFACE_TYPES
 from gshade.scene.keys import key_tables, scene_keys
@@ -97,7 +97,7 @@ def test_every_surface_type_is_declared_with_its_keys():
 
 
 def test_the_check_defaults_listed_are_gshade_checks():
-    from gshade.check import CHECK_DEFAULTS, DEFAULT_THRESHOLDS
+    from gshade.regression.check import CHECK_DEFAULTS, DEFAULT_THRESHOLDS
 
     for key, value in {**CHECK_DEFAULTS, **vars(DEFAULT_THRESHOLDS)}.items():
         default = CHECK_KEYS[key].default

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gshade import GshadeError
-from gshade.continuity import find_junctions
+from gshade.analysis.continuity import find_junctions
 from gshade.geometry import (
     BezierPatch,
     BSplinePatch,
@@ -559,7 +559,7 @@ def test_render_of_a_bad_mesh_exits_2_with_one_line(tmp_path):
     scene.write_text(scene_text("m.obj"))
     out = tmp_path / "out.exr"
     result = subprocess.run(
-        [sys.executable, "-m", "gshade.cli", "render", str(scene), "-o", str(out)],
+        [sys.executable, "-m", "gshade", "render", str(scene), "-o", str(out)],
         capture_output=True,
         text=True,
     )

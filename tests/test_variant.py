@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from gshade import GshadeError
-from gshade.rendering.variant import llvm_version, resolve_variant
+from gshade.runtime.variant import llvm_version, resolve_variant
 
 
 @pytest.mark.parametrize(
@@ -32,7 +32,7 @@ def test_unknown_variant_is_named():
 FALLBACK = """
 import warnings
 import numpy as np
-import gshade.rendering.variant as v
+import gshade.runtime.variant as v
 v.find_llvm = lambda: None          # as on a machine without libLLVM >= 17
 from gshade import GshadeError
 try:

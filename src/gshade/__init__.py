@@ -5,13 +5,13 @@ The public API mirrors the command line: ``gshade.load_scene(path)``,
 ``.write_png``) and ``gshade.compare(test, reference, ...)`` (metrics and an idiff verdict).
 Building blocks live in ``gshade.geometry`` (patches and their differential geometry),
 ``gshade.shape`` (shape functions and colours), ``gshade.io`` (scene files, surface data,
-images), ``gshade.rendering``, ``gshade.comparison`` and ``gshade.check``.
+images), ``gshade.rendering``, ``gshade.regression.comparison`` and ``gshade.regression.check``.
 """
 
 __version__ = "0.2.0"
 
 from .errors import GshadeError
-from .llvm import prepare_llvm
+from .runtime.llvm import prepare_llvm
 
 prepare_llvm()  # before anything imports Dr.Jit
 
@@ -25,7 +25,7 @@ def __getattr__(name: str):
 
         return render
     if name == "compare":
-        from .comparison import compare
+        from .regression.comparison import compare
 
         return compare
     if name == "load_scene":

@@ -21,7 +21,7 @@ import OpenEXR
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
-from ..native import NativeOutput, captured_output
+from ..runtime.native import NativeOutput, captured_output
 from .files import read_bytes
 from .outputs import atomic_write
 

@@ -4,7 +4,7 @@ __all__ = ["render"]
 
 
 def __getattr__(name: str):
-    # lazy, so that ``gshade.rendering.variant`` can be imported without Mitsuba
+    # lazy, so that ``gshade.runtime.variant`` can be imported without Mitsuba
     if name == "render":
         from .pipeline import render
 

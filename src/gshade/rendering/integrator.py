@@ -2,7 +2,7 @@
 
 For every camera ray it intersects the mesh, interpolates (f, f_s, f_t) from the atlas at
 the hit's parameters, and turns f into a colour per sample: anti-aliased stripes (the box
-filter of :func:`gshade.shape.colour.coverage_formula` over the sample's footprint, from the
+filter of :func:`gshade.display.colour.coverage_formula` over the sample's footprint, from the
 ray differentials and the exact derivatives), a colour map (a lookup table of a matplotlib
 map), or both.  ``flat`` lighting returns that colour; ``lit`` puts it on a two-sided diffuse
 surface under soft light (sky occlusion from one cosine-distributed ray, a shadowed key light
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..shape.colour import DARK, LIGHT, UNDEFINED, coverage_formula
+from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula
 
 __all__ = ["IntegratorSettings", "make_integrator"]
 

@@ -20,11 +20,11 @@ from dataclasses import asdict, replace
 import numpy as np
 
 from .. import __version__
+from ..display import Legend, auto_range
 from ..errors import GshadeError
 from ..geometry import patch_normals, unit_normal
 from ..geometry.patch import unit_to_domain
 from ..geometry.patch_groups import grid_derivatives
-from ..image import RenderedImage
 from ..limits import (
     MAX_SAMPLES,
     MIN_CHORD_TOLERANCE,
@@ -32,13 +32,14 @@ from ..limits import (
     memory_limit,
     render_memory,
 )
-from ..shape import SHAPE_FUNCTIONS, Legend, auto_range, get_shape_function
+from ..runtime.variant import select_variant
+from ..shape import SHAPE_FUNCTIONS, get_shape_function
 from .camera import frame_view
 from .integrator import IntegratorSettings, make_integrator
+from .rendered_image import RenderedImage
 from .surface_hits import surface_hits
 from .tessellate import max_chord_resolution, tessellate
 from .textures import Atlas, shape_textures
-from .variant import select_variant
 
 __all__ = ["render"]
 
@@ -202,7 +203,7 @@ def render(scene, **overrides) -> RenderedImage:
         resolution = min(resolution, max(2, int(np.sqrt(budget / len(patches)))))
     junctions = None
     if settings.junctions:  # measured first: overlapping surfaces fail before rendering
-        from ..continuity import continuity_report
+        from ..analysis.continuity import continuity_report
 
         try:
             junctions = continuity_report(list(patches))
@@ -249,7 +250,7 @@ def render(scene, **overrides) -> RenderedImage:
     if shape.display != "stripes":
         import matplotlib
 
-        from ..shape.colour import _srgb_to_linear
+        from ..display.colour import _srgb_to_linear
 
         cmap = shape.colormap or ("coolwarm" if signed else "viridis")
         lut = _srgb_to_linear(matplotlib.colormaps[cmap](np.linspace(0, 1, 256))[:, :3])
@@ -319,7 +320,7 @@ def render(scene, **overrides) -> RenderedImage:
             + "): the surface data or shape parameters lie outside what gshade evaluates"
         )
     if junctions is not None:
-        from ..junction_lines import draw_junctions
+        from ..analysis.junction_lines import draw_junctions
 
         channels = draw_junctions(channels, junctions, [p.domain for p in patches])
         lap("junctions")
@@ -359,7 +360,7 @@ def render(scene, **overrides) -> RenderedImage:
         "legend": legend.text(),
     }
     if junctions is not None:
-        from ..junction_lines import junction_metadata
+        from ..analysis.junction_lines import junction_metadata
 
         metadata["junctions"] = junction_metadata(junctions)
     return RenderedImage(channels, metadata, legend, timings)

@@ -94,7 +94,7 @@ RENDER_KEYS = declare_keys(
     ),
     Key("junctions", "true | false", False, "draw the junctions coloured by continuity class"),
 )
-#: gshade check's settings; the defaults are those of gshade.check (CHECK_DEFAULTS and
+#: gshade check's settings; the defaults are those of gshade.regression.check (CHECK_DEFAULTS and
 #: DEFAULT_THRESHOLDS), which the parser leaves out: [check] keeps the keys given.
 _THRESHOLD = "number ≥ 0"
 _PERCENT = "number in [0, 100]"

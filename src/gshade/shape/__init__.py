@@ -1,15 +1,7 @@
-"""Shape functions (Kiciak, Chapter 6) and how they become colours."""
+"""Shape functions (Kiciak, Chapter 6): a registry of functions of a surface's exact
+derivatives, evaluated with Dr.Jit or numpy.  How their values become colours is
+:mod:`gshade.display`."""
 
-from .colour import (
-    ColourMapped,
-    Legend,
-    auto_range,
-    colour_map,
-    combine,
-    stripe_coverage,
-    stripe_period,
-    stripes,
-)
 from .functions import (
     SHAPE_FUNCTIONS,
     Parameter,
@@ -21,17 +13,9 @@ from .functions import (
 
 __all__ = [
     "SHAPE_FUNCTIONS",
-    "ColourMapped",
-    "Legend",
     "Parameter",
     "ShapeFunction",
     "ShapeValues",
-    "auto_range",
-    "colour_map",
-    "combine",
     "evaluate",
     "get_shape_function",
-    "stripe_coverage",
-    "stripe_period",
-    "stripes",
 ]

@@ -44,7 +44,7 @@ class Backend:
     select: Any  # select(mask, a, b): a where mask, b elsewhere
 
     def maximum(self, a, b):
-        # a select, not dr.maximum: LLVM < 17 cannot lower fmaximum (see gshade.llvm)
+        # a select, not dr.maximum: LLVM < 17 cannot lower fmaximum (see gshade.runtime.llvm)
         return self.select(a > b, a, b)
 
     def minimum(self, a, b):

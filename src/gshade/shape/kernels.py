@@ -8,7 +8,7 @@ gradient.
 
 Two backends run the same formulas: Dr.Jit's LLVM backend, which traces a formula into one
 vectorised, multithreaded kernel (compiled once, then loaded from Dr.Jit's disk cache), and
-numpy, used where no usable libLLVM is found (see :mod:`gshade.llvm`).  Parameters enter the
+numpy, used where no usable libLLVM is found (see :mod:`gshade.runtime.llvm`).  Parameters enter the
 Dr.Jit kernels as opaque values, so new parameter values reuse the compiled kernel.
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
-from ..llvm import drjit_llvm_ready
+from ..runtime.llvm import drjit_llvm_ready
 from .jets import NUMPY, Backend, Jet
 
 __all__ = ["BACKENDS", "Formula", "Layout", "backend", "run"]

@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import GshadeError
+from ..errors import GshadeError
 
 __all__ = [
     "EXIT_STATUS",
@@ -212,9 +212,10 @@ def channel_groups(channels: list[str]) -> dict[str, list[str]]:
 
 
 def load_channels(image) -> tuple[dict[str, NDArray], str]:
-    """Channels of a path (EXR), a :class:`gshade.image.RenderedImage` or a dict of arrays."""
+    """Channels of a path (EXR), a :class:`~gshade.rendering.rendered_image.RenderedImage`
+    or a dict of arrays."""
     if isinstance(image, (str, os.PathLike)):
-        from .io.image import read_exr
+        from ..io.image import read_exr
 
         try:
             channels, _ = read_exr(image)
@@ -257,7 +258,7 @@ def _metrics(diff: NDArray, ref: NDArray) -> ChannelMetrics:
 
 def _tone_map(rgb: NDArray) -> NDArray:
     """Linear RGB -> [0, 1] display values (clipped sRGB curve), for SSIM."""
-    from .io.image import linear_to_srgb
+    from ..io.image import linear_to_srgb
 
     return linear_to_srgb(np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, 1.0))
 

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .errors import GshadeError
+from .. import __version__
+from ..errors import GshadeError
 
 __all__ = ["FigureSpec", "load_figure_spec", "make_figure"]
 
@@ -130,8 +130,8 @@ def _flatten(table: dict, prefix: str = "") -> dict:
 
 
 def _panel(scene_path: Path, overrides: dict, spec: FigureSpec):
-    from .rendering import render
-    from .scene import load_scene
+    from ..rendering import render
+    from ..scene import load_scene
 
     all_overrides = {
         "render.width": spec.width,
@@ -145,7 +145,7 @@ def _panel(scene_path: Path, overrides: dict, spec: FigureSpec):
 
 def _display_rgb(image) -> np.ndarray:
     """sRGB picture over white, for the panels."""
-    from .io.image import linear_to_srgb
+    from ..io.image import linear_to_srgb
 
     a = image.alpha[..., None]
     rgb = image.straight_rgb
@@ -161,7 +161,7 @@ def make_figure(spec: FigureSpec, output: str | os.PathLike) -> Path:
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
 
-    from .io.image import atomic_write
+    from ..io.image import atomic_write
 
     output = Path(output)
     fmt = output.suffix.lower().lstrip(".")

@@ -3,7 +3,7 @@
 Scenes (files, folders, globs) and sweeps (``--sweep shape.function=isophotes,gaussian``:
 one render per value; several sweeps multiply) become jobs, each rendering
 ``DIR/<name>.exr`` and ``DIR/<name>.png`` (a sweep's are named after its values:
-``teapot--function=gaussian``).  Jobs run in worker processes (:mod:`gshade.worker_pool`,
+``teapot--function=gaussian``).  Jobs run in worker processes (:mod:`gshade.app.worker_pool`,
 also with ``-j 1``) that keep Mitsuba and the compiled kernels warm between scenes.  A job
 fails alone, with a one-line reason and a log in ``DIR/logs/``, whatever the cause: a scene
 that does not load (even a ``RecursionError``), a name that cannot name a file, a worker that
@@ -24,8 +24,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from . import __version__
-from .errors import GshadeError
+from .. import __version__
+from ..errors import GshadeError
 from .jobs import (
     Job,
     expand_scenes,
@@ -100,7 +100,7 @@ def _sha256(path: str | os.PathLike) -> str:
 
 def _up_to_date(exr: Path, png: Path, digest: str) -> bool:
     """Whether the EXR records ``digest`` and the sha256 of the PNG beside it."""
-    from .io.image import read_exr_header
+    from ..io.image import read_exr_header
 
     try:
         if not (exr.is_file() and png.is_file()):
@@ -120,7 +120,7 @@ def _identity(path: Path) -> tuple[int, int, int] | None:
 
 
 def _outputs(folder: Path, name: str) -> tuple[Path, Path]:
-    from .io.outputs import output_file
+    from ..io.outputs import output_file
 
     return output_file(folder, name, ".exr"), output_file(folder, name, ".png")
 
@@ -128,7 +128,7 @@ def _outputs(folder: Path, name: str) -> tuple[Path, Path]:
 def _write_log(out: Path, job: Job, text: str) -> str | None:
     """Write ``DIR/logs/<name>.log`` (replacing, never following, what is there); its path,
     or None if it cannot be written."""
-    from .io.outputs import atomic_write, output_file
+    from ..io.outputs import atomic_write, output_file
 
     name = job.log or job.name
     try:
@@ -159,7 +159,7 @@ def check_job(job: Job, folder: str, force: bool) -> JobResult:
     if job.error:
         return _fail(result, out, job, job.error, job.detail)
     try:
-        from .scene import load_scene
+        from ..scene import load_scene
 
         exr, png = _outputs(out, job.name)
         result.outputs = [str(exr), str(png)]
@@ -182,9 +182,9 @@ def render_job(job: Job, folder: str) -> JobResult:
     if job.error:
         return _fail(result, out, job, job.error, job.detail)
     try:
-        from .io.outputs import staged, write_to
-        from .rendering import render
-        from .scene import load_scene
+        from ..io.outputs import staged, write_to
+        from ..rendering import render
+        from ..scene import load_scene
 
         exr, png = _outputs(out, job.name)
         result.outputs = [str(exr), str(png)]
@@ -299,7 +299,7 @@ def run_batch(
     worker.  Workers are started from this thread, which must outlive them (on Linux they
     are sent SIGTERM when it ends).
     """
-    from .io.outputs import remove_stale_temporaries
+    from ..io.outputs import remove_stale_temporaries
     from .worker_pool import DaskPool, WorkerPool
 
     check_options(workers, timeout, scheduler)
@@ -332,7 +332,7 @@ def run_batch(
 
 def _collect(state: _Progress, todo: list[int], pool: WorkerPool | DaskPool) -> None:
     """Run the jobs ``todo`` on ``pool``, recording each result as it comes."""
-    from .io.outputs import remove_stale_temporaries
+    from ..io.outputs import remove_stale_temporaries
     from .worker_pool import WorkerPool
 
     local = isinstance(pool, WorkerPool)
@@ -360,7 +360,7 @@ def _worker_failure(state: _Progress, k: int, outcome: Outcome) -> JobResult:
 
 
 def _write_manifest(out: Path, jobs: list[Job], results: list[JobResult | None]) -> None:
-    from .io.outputs import atomic_write
+    from ..io.outputs import atomic_write
 
     entries = [
         asdict(r) if r is not None else {"name": j.name, "scene": j.scene, "status": "not run"}

@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..errors import GshadeError
+from ..io.outputs import output_file
 from .comparison import (
     ChannelMismatch,
     Comparison,
@@ -30,11 +32,9 @@ from .comparison import (
     heat_map,
     z_test,
 )
-from .errors import GshadeError
-from .io.outputs import output_file
 
 if TYPE_CHECKING:
-    from .image import RenderedImage
+    from ..rendering.rendered_image import RenderedImage
 
 __all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
 
@@ -98,7 +98,7 @@ def _thresholds(settings: dict) -> Thresholds:
 
 
 def _write_reference(image, path: Path) -> None:
-    from .io.image import write_exr
+    from ..io.image import write_exr
 
     # variances (statistical references) are kept exactly: they scale the z-test
     half = {
@@ -112,7 +112,7 @@ def _write_reference(image, path: Path) -> None:
 def _render_runs(scene, settings: dict):
     """Render ``runs`` times with independent seeds: the mean of each channel, and for the
     compared channels the variance of that mean in ``C.var`` (for :func:`z_test`)."""
-    from .rendering import render
+    from ..rendering import render
 
     runs = int(settings["runs"])
     if runs < 2:
@@ -147,8 +147,8 @@ def check_scene(
     statistical: bool = False,
 ) -> CheckResult:
     """Render one scene at its check settings and compare it with its reference."""
-    from .rendering import render
-    from .scene import load_scene
+    from ..rendering import render
+    from ..scene import load_scene
 
     start = time.perf_counter()
     name = path.stem
@@ -224,8 +224,8 @@ def check(
 
     ``statistical`` (or a scene's ``[check] statistical = true``) renders ``runs`` times with
     independent seeds and compares with a z-test against the reference's variances
-    (:func:`gshade.comparison.z_test`) instead of thresholds: for noisy ``lit`` renders across
-    machines or variants."""
+    (:func:`gshade.regression.comparison.z_test`) instead of thresholds: for noisy ``lit``
+    renders across machines or variants."""
     references = Path(references)
     if not references.is_dir():
         if update or update_all:
@@ -261,7 +261,7 @@ def _encode_png(img: np.ndarray) -> str:
 
 
 def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
-    from .io.image import linear_to_srgb
+    from ..io.image import linear_to_srgb
 
     img = np.clip(np.round(linear_to_srgb(np.clip(rgb, 0, 1)) * 255), 0, 255).astype(np.uint8)
     if alpha is not None:
@@ -273,7 +273,7 @@ def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
 def _picture(channels: dict) -> str | None:
     if not all(c in channels for c in "RGB"):
         return None
-    from .image import straight_rgb
+    from ..rendering.rendered_image import straight_rgb
 
     return _png_data(straight_rgb(channels), channels.get("A"))
 
@@ -284,7 +284,7 @@ def _diff_picture(comparison: Comparison) -> str:
 
 def write_report(results: list[CheckResult], folder: Path) -> Path:
     """A self-contained HTML page (images embedded), failures first, and summary.json."""
-    from .io.image import atomic_write, read_exr
+    from ..io.image import atomic_write, read_exr
 
     folder = Path(folder)
     try:

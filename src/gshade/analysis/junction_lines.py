@@ -1,6 +1,6 @@
 """Junction lines: the patch junctions drawn over a rendered picture, coloured by class.
 
-Every junction found by :func:`gshade.continuity.continuity_report` is drawn as an
+Every junction found by :func:`gshade.analysis.continuity.continuity_report` is drawn as an
 anti-aliased line of constant screen width along the shared edge, on each side that is
 visible.  The line is found from the image's own exact data channels, not from a
 projection of the edge: at a pixel of patch i, the distance to its edge u = u0 in pixels is
@@ -66,7 +66,7 @@ def draw_junctions(
     channels : dict
         An image's channels: R G B A u v patch (as :func:`gshade.render` returns them).
     junctions : list of Junction
-        From :func:`gshade.continuity.continuity_report` on the same patches.
+        From :func:`gshade.analysis.continuity.continuity_report` on the same patches.
     domains : list
         Each patch's parameter domain ((u0, u1), (v0, v1)).
     width : float

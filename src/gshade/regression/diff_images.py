@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import GshadeError
+from ..io.outputs import atomic_write, staged, write_to
 from .comparison import Comparison, Thresholds, UsageError, compare
-from .errors import GshadeError
-from .io.outputs import atomic_write, staged, write_to
 
 __all__ = [
     "compare_and_write_diffs",
@@ -29,7 +29,7 @@ __all__ = [
 def diff_exr_writer(comparison: Comparison, path: str | os.PathLike) -> Callable[[str], None]:
     """The absolute differences, one channel per compared channel (non-finite as NaN), as
     a function writing them as EXR to a file name (``path`` names the target in errors)."""
-    from .io.image import exr_writer
+    from ..io.image import exr_writer
 
     difference = comparison.difference
     assert difference is not None, "compare() keeps the differences"

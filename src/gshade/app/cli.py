@@ -15,8 +15,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from . import __version__
-from .errors import GshadeError
+from .. import __version__
+from ..errors import GshadeError
 
 __all__ = ["console", "main"]
 
@@ -199,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _scene_overrides(args: argparse.Namespace) -> dict:
-    from .scene import parse_overrides
+    from ..scene import parse_overrides
 
     overrides = parse_overrides(args.set)
     for key in ("width", "height", "spp", "variant", "junctions"):
@@ -210,9 +210,9 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
 
 
 def _render(args: argparse.Namespace) -> int:
-    from .io.outputs import output_file, staged, write_to
-    from .rendering import render
-    from .scene import load_scene
+    from ..io.outputs import output_file, staged, write_to
+    from ..rendering import render
+    from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
@@ -237,8 +237,8 @@ def _compare(args: argparse.Namespace) -> int:
     channels, a difference image that cannot be written: found before comparing)."""
     import json
 
-    from .comparison import EXIT_STATUS, ChannelMismatch, Thresholds, UnreadableImage
-    from .diff_images import compare_and_write_diffs
+    from ..regression.comparison import EXIT_STATUS, ChannelMismatch, Thresholds, UnreadableImage
+    from ..regression.diff_images import compare_and_write_diffs
 
     try:
         try:
@@ -284,7 +284,7 @@ def _compare(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from .check import check, find_scenes, write_report
+    from ..regression.check import check, find_scenes, write_report
 
     scenes = find_scenes(args.scenes)
     if args.report:  # an unusable report folder fails before any scene renders
@@ -364,8 +364,8 @@ def _continuity(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from .continuity import Tolerances, continuity_report
-    from .scene import load_scene
+    from ..analysis.continuity import Tolerances, continuity_report
+    from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
     patches = list(scene.patches)
@@ -410,8 +410,8 @@ def _continuity(args: argparse.Namespace) -> int:
 def _info(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .geometry import irregular_mask
-    from .scene import load_scene
+    from ..geometry import irregular_mask
+    from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
     print(f"scene {scene.name} ({scene.path})")
@@ -465,14 +465,14 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _keys(args: argparse.Namespace) -> int:
-    from .scene.keys import scene_keys
+    from ..scene.keys import scene_keys
 
     print(scene_keys())
     return 0
 
 
 def _shapes(args: argparse.Namespace) -> int:
-    from .shape import SHAPE_FUNCTIONS
+    from ..shape import SHAPE_FUNCTIONS
 
     for fn in SHAPE_FUNCTIONS.values():
         flags = ", eye-dependent" if fn.eye_dependent else ""
@@ -522,7 +522,7 @@ def _terminated(signum: int, frame: object) -> None:
     native call changed its type.  Further signals are ignored while the cleanup runs."""
     import signal
 
-    from .io.outputs import discard_temporaries
+    from ..io.outputs import discard_temporaries
 
     signal.signal(signum, signal.SIG_IGN)
     _signalled.append(signum)

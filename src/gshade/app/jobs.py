@@ -18,7 +18,7 @@ import traceback
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from .errors import GshadeError
+from ..errors import GshadeError
 
 __all__ = ["MAX_JOBS_PER_SCENE", "Job", "expand_scenes", "parse_sweeps", "plan_jobs"]
 
@@ -91,7 +91,7 @@ def _split_values(text: str) -> list[str]:
 def parse_sweeps(items: list[str]) -> list[tuple[str, list[object]]]:
     """``key=v1,v2,…`` items into (dotted key, values); values are TOML (bare words are
     strings)."""
-    from .scene import parse_overrides
+    from ..scene import parse_overrides
 
     sweeps = []
     for item in items:
@@ -135,8 +135,8 @@ def _broken(path: Path, overrides: tuple, name: str, exc: BaseException) -> Job:
 
 def _scene_jobs(path: Path, sweeps: list[tuple[str, list[object]]]) -> list[Job]:
     """The jobs of one scene: one per combination of its sweeps' values."""
-    from .io.outputs import output_name
-    from .scene import load_scene
+    from ..io.outputs import output_name
+    from ..scene import load_scene
 
     try:
         loaded = load_scene(path)
@@ -180,7 +180,7 @@ def plan_jobs(scenes: list[Path], sweeps: list[tuple[str, list[object]]]) -> lis
     which fail on their own when the batch runs.  Of two jobs with the same output name the
     first is rendered and the later ones fail (they would overwrite its outputs).
     """
-    from .io.outputs import output_name
+    from ..io.outputs import output_name
 
     jobs: list[Job] = []
     for path in map(Path, scenes):

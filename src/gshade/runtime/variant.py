@@ -15,7 +15,7 @@ import warnings
 from functools import cache
 
 from ..errors import GshadeError
-from ..llvm import MIN_LLVM, find_llvm, llvm_version, prepare_llvm
+from .llvm import MIN_LLVM, find_llvm, llvm_version, prepare_llvm
 
 __all__ = [
     "MIN_LLVM",

@@ -21,17 +21,17 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import GshadeError
-from .geometry import Patch, regularised_derivatives, unit_normal
-from .geometry.differential import (
+from ..errors import GshadeError
+from ..geometry import Patch, regularised_derivatives, unit_normal
+from ..geometry.differential import (
     IRREGULAR_TOL,
     _cross,
     _dot,
     first_fundamental_form,
     second_fundamental_form,
 )
-from .geometry.patch import unit_to_domain
-from .shape import evaluate
+from ..geometry.patch import unit_to_domain
+from ..shape import evaluate
 
 __all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions", "junction_between"]
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .shape import Legend
+from ..display import Legend
 
 __all__ = ["CHANNELS", "RenderedImage", "straight_rgb"]
 
@@ -64,14 +64,14 @@ class RenderedImage:
     def exr_writer(self, path: str | os.PathLike) -> Callable[[str], None]:
         """All channels (float32) and the metadata, checked now, as a function writing them to
         a file name given later (see :func:`gshade.io.image.exr_writer`)."""
-        from .io.image import exr_writer
+        from ..io.image import exr_writer
 
         return exr_writer(path, {k: self.channels[k] for k in CHANNELS}, header=self.metadata)
 
     def png_writer(self, path: str | os.PathLike) -> Callable[[str], None]:
         """The picture as an sRGB PNG with alpha, as a function writing it to a file name
         given later."""
-        from .io.image import png_writer
+        from ..io.image import png_writer
 
         return png_writer(path, self.straight_rgb, self.alpha)
 
@@ -88,7 +88,7 @@ class RenderedImage:
     ) -> None:
         """Write the EXR and / or the PNG: both are renamed onto their targets only when both
         were written (:func:`gshade.io.outputs.staged`)."""
-        from .io.outputs import staged, write_to
+        from ..io.outputs import staged, write_to
 
         writers = [(p, w) for p, w in ((exr, self.exr_writer), (png, self.png_writer)) if p]
         with staged([p for p, _ in writers]) as names:

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
-from .errors import GshadeError
+from ..errors import GshadeError
 
 __all__ = ["DaskPool", "Outcome", "WorkerPool", "check_address", "dask_client", "describe_exit"]
 
@@ -415,7 +415,7 @@ def _ignoring_sigint() -> Iterator[None]:
 def _terminated(signum: int, frame: object) -> None:
     """SIGTERM in a worker: remove its temporaries and end at once (an exception raised here
     could land inside Mitsuba's native code and crash the worker instead)."""
-    from .io.outputs import discard_temporaries
+    from ..io.outputs import discard_temporaries
 
     discard_temporaries()
     os._exit(128 + signum)

@@ -1,0 +1,5 @@
+"""``python -m gshade``: the ``gshade`` command."""
+
+from .app.cli import console
+
+console()
