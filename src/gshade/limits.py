@@ -68,13 +68,15 @@ MAX_PATCHES = 100_000
 MAX_SUBDIVISION_LEVELS = 4
 
 #: Peak bytes per pixel, per mesh vertex and per texel of a render, and its fixed part
-#: (Python, Mitsuba, LLVM), measured with a margin on the 2-core machine (2026-11-29:
-#: 2048² pixels 2.4 GB, 5.1 M vertices 2.3 GB, 8.4 M texels of mean curvature 2.8 GB).
-#: Samples per pixel cost time, not memory: Mitsuba renders them in passes.
+#: (Python, Mitsuba, LLVM), each an upper bound with a margin (the calibration renders are
+#: in benchmarks/RESULTS.md, *Memory estimate*).  Samples per pixel cost time, not memory:
+#: Mitsuba renders them in passes.
 _BYTES_PER_PIXEL = 600
 _BYTES_PER_VERTEX = 450
 _BYTES_PER_TEXEL = 350
 _BYTES_FIXED = 300 * 2**20
+#: Address space that Python, Mitsuba and LLVM reserve without using it (with a margin).
+_RESERVED_ADDRESS_SPACE = 512 * 2**20
 
 
 def render_memory(pixels: int, vertices: int, texels: int) -> int:
@@ -109,7 +111,7 @@ def _cgroup_memory() -> int | None:
 
 def _address_space() -> int | None:
     """What ``ulimit -v`` leaves for the render's data: the limit less the address space
-    Python, Mitsuba and LLVM reserve without using it (about 0.4 GB, measured)."""
+    Python, Mitsuba and LLVM reserve without using it (``_RESERVED_ADDRESS_SPACE``)."""
     try:
         import resource
 
@@ -118,7 +120,7 @@ def _address_space() -> int | None:
         return None
     if soft == resource.RLIM_INFINITY:
         return None
-    return max(soft - 512 * 2**20, 0)
+    return max(soft - _RESERVED_ADDRESS_SPACE, 0)
 
 
 def memory_limit() -> int:
