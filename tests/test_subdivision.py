@@ -26,13 +26,9 @@ from gshade.geometry import (
     patch_normals,
     regularised_derivatives,
 )
-from gshade.geometry.subdivision import (
-    MeshTopology,
-    StamPatch,
-    catmull_clark,
-    check_mesh,
-    subdivision_patches,
-)
+from gshade.geometry.catmull_clark import catmull_clark
+from gshade.geometry.quad_mesh import MeshTopology, check_mesh
+from gshade.geometry.subdivision import StamPatch, subdivision_patches
 from gshade.io import load_scene, parse_obj, read_obj
 from gshade.shape import evaluate
 

@@ -1,6 +1,7 @@
 """Exact parametric curves and patches with derivatives, and their differential geometry."""
 
 from .bernstein import bernstein_basis, de_casteljau, elevate_degree
+from .betaspline import BetaSplineCurve, BetaSplinePatch
 from .bezier import BezierCurve, BezierPatch
 from .bspline import BSplineCurve, BSplinePatch
 from .coons import CoonsPatch
@@ -14,7 +15,7 @@ from .differential import (
     second_fundamental_form,
     unit_normal,
 )
-from .geometric_splines import BetaSplineCurve, BetaSplinePatch, NuSplinePatch, nu_spline
+from .nuspline import NuSplinePatch, nu_spline
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
 from .revolution import circle, cylinder, revolve, sphere, torus

@@ -14,6 +14,7 @@ returned arrays are views with the coordinate axis moved last.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -234,6 +235,27 @@ class BSplineBasis:
 
 
 # --------------------------------------------------------------------------- evaluation
+
+
+def show_value(value, limit: int = 60) -> str:
+    """A value on one line for a message, shortened (numbers as a plain list)."""
+    try:
+        text = str(np.asarray(value, dtype=np.float64).tolist())
+    except (TypeError, ValueError):
+        text = repr(value)
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def value_pair(value, name: str) -> tuple:
+    """A (u, v) pair from one value for both directions or a pair."""
+    if isinstance(value, np.ndarray) and value.ndim > 0:
+        value = list(value)
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        return value, value
+    if len(value) != 2:
+        raise GshadeError(f"{name}: expected one value or a (u, v) pair, got {show_value(value)}")
+    return value[0], value[1]
 
 
 def check_points(points: ArrayLike, ndim: int, what: str, min_count: int = 2) -> NDArray:

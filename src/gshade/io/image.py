@@ -200,8 +200,7 @@ def write_exr(
 @cache
 def _use_all_cores() -> None:
     """Let OpenEXR compress (and decompress) scanline blocks on every usable core: its
-    global pool has no threads by default (a 16-channel 1024 x 768 file: 0.19 s -> 0.12 s
-    on 2 cores, measured)."""
+    global pool has no threads by default."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux

@@ -30,9 +30,9 @@ from ..geometry import (
     sphere,
     torus,
 )
-from ..geometry.geometric_splines import ENDS as NU_ENDS
-from ..geometry.geometric_splines import NuSplinePatch
 from ..geometry.junctions import CLASSES, junction_patch
+from ..geometry.nuspline import ENDS as NU_ENDS
+from ..geometry.nuspline import NuSplinePatch
 from ..geometry.subdivision import subdivision_patches
 from ..limits import MAX_DEGREE, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
 from .data_files import DataFiles

@@ -1,23 +1,10 @@
-"""Geometric spline curves and patches (Kiciak §2.3–2.4): Nielson's ν-splines, Barsky's β-splines.
-
-ν-splines (Kiciak eq. 2.15): cubic Hermite arcs through points a_0..a_N at knots
-u_0 < ... < u_N whose tangents b_i make p''(u_i+) = p''(u_i-) + ν_i p'(u_i) (G2 with t1 = 1,
-t2 = ν_i), i.e. with h_i = u_(i+1) - u_i the tridiagonal system
-
-    h_i b_(i-1) + (2 (h_(i-1) + h_i) + h_(i-1) h_i ν_i / 2) b_i + h_(i-1) b_(i+1)
-        = 3 (h_i / h_(i-1) (a_i - a_(i-1)) + h_(i-1) / h_i (a_(i+1) - a_i)),
-
-closed by natural ends (p'' = 0), given end tangents, or cyclically (closed curves).  ν_i = 0
-gives the C2 interpolating cubic spline; larger ν_i pull the curve toward the polyline near
-a_i.  For fixed knots and tensions the curve is linear in the data points, so the tensor
-product (interpolate the columns of a grid, then the rows of the result) is a well-defined
-patch, :class:`NuSplinePatch` (Kiciak §2.4).
+"""Barsky's cubic β-splines: G2 (not C2) curves and patches with bias and tension.
 
 A cubic β-spline s(t) = sum_i d_i B_i(t) joins its polynomial arcs with G2 continuity for a
-bias β1 > 0 and a tension β2 >= 0 (Kiciak's connection parameters t1 = β1, t2 = β2): at every
-junction s*' = β1 s' and s*'' = β1^2 s'' + β2 s'.  With global parameters, on the arc between
-integers i and i + 1 (local t = T - i) the four nonzero basis functions are (Barsky 1981),
-with δ = 2β1^3 + 4β1^2 + 4β1 + β2 + 2:
+bias β1 > 0 and a tension β2 >= 0 (Kiciak's connection parameters t1 = β1, t2 = β2): at
+every junction s'(+) = β1 s'(-) and s''(+) = β1^2 s''(-) + β2 s'(-).  With global
+parameters, on the arc between integers i and i + 1 (local t = T - i) the four nonzero basis
+functions are (Barsky 1981), with δ = 2β1^3 + 4β1^2 + 4β1 + β2 + 2,
 
     b_-2 = 2β1^3 (1 - t)^3 / δ
     b_-1 = (2β1^3 t (t^2 - 3t + 3) + 2β1^2 (t^3 - 3t^2 + 2) + 2β1 (t^3 - 3t + 2)
@@ -26,16 +13,21 @@ with δ = 2β1^3 + 4β1^2 + 4β1 + β2 + 2:
     b_1  = 2 t^3 / δ
 
 β1 = 1, β2 = 0 gives the uniform cubic B-spline.  Curves with control points d_0..d_m are
-defined for T in [0, m - 2]; patches are their tensor products.
+defined for T in [0, m - 2]; patches are their tensor products.  Parameters β1_j, β2_j per
+junction j give the discretely shaped β-spline, built arc by arc in Bézier form
+(:class:`BetaSplineBasis`).
 
-With parameters β1_j, β2_j per junction j (the "discretely shaped" β-spline of Bartels,
-Beatty & Barsky) each arc is built as a cubic Bézier arc from the G2 conditions at its two
-junctions; see :class:`BetaSplineBasis`.
+References
+----------
+B. A. Barsky, *The Beta-spline: a local representation based on shape parameters and
+fundamental geometric measures*, PhD thesis, University of Utah (1981).  R. H. Bartels,
+J. C. Beatty, B. A. Barsky, *An Introduction to Splines for Use in Computer Graphics and
+Geometric Modeling*, Morgan Kaufmann (1987) (discretely shaped β-splines).  Kiciak §2.3.2
+(curves), §2.4 (patches).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from numbers import Real
 
 import numpy as np
@@ -43,269 +35,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bspline import BSplineCurve, BSplinePatch
-from .patch import BasisCurve, TensorProductPatch, check_points
+from .patch import BasisCurve, TensorProductPatch, check_points, show_value, value_pair
 
-__all__ = [
-    "BetaSplineBasis",
-    "BetaSplineCurve",
-    "BetaSplinePatch",
-    "NuSplinePatch",
-    "nu_spline",
-]
+__all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch"]
 
 #: ``_BERNSTEIN_TO_POWER[k, j]``: coefficient of t^j in the cubic Bernstein polynomial B_k.
 _BERNSTEIN_TO_POWER = np.array(
     [[1.0, -3.0, 3.0, -1.0], [0.0, 3.0, -6.0, 3.0], [0.0, 0.0, 3.0, -3.0], [0.0, 0.0, 0.0, 1.0]]
 )
 _POWER_TO_BERNSTEIN = np.linalg.inv(_BERNSTEIN_TO_POWER)
-
-ENDS = ("natural", "closed")
-
-# --------------------------------------------------------------------------- ν-splines
-
-
-def _show(value, limit: int = 60) -> str:
-    """A value on one line, shortened (numbers as a plain list)."""
-    try:
-        text = str(np.asarray(value, dtype=np.float64).tolist())
-    except (TypeError, ValueError):
-        text = repr(value)
-    text = " ".join(text.split())
-    return text if len(text) <= limit else text[: limit - 1] + "…"
-
-
-def _knots(knots: ArrayLike | None, count: int, name: str) -> NDArray:
-    """``count`` increasing knots (default 0, 1, ..., count - 1)."""
-    if knots is None:
-        return np.arange(float(count))
-    try:
-        u = np.asarray(knots, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise GshadeError(
-            f"{name}: expected {count} increasing numbers, got {_show(knots)}"
-        ) from None
-    if u.shape != (count,) or not np.all(np.isfinite(u)) or not np.all(np.diff(u) > 0):
-        raise GshadeError(f"{name}: expected {count} increasing numbers, got {_show(knots)}")
-    return u
-
-
-def _tensions(nu: ArrayLike, count: int, name: str) -> NDArray:
-    """Tensions ν_i >= 0: one number for all knots or ``count`` numbers."""
-    try:
-        v = np.asarray(nu, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise GshadeError(
-            f"{name}: expected numbers >= 0: one number or a list of {count} (one per knot), "
-            f"got {_show(nu)}"
-        ) from None
-    if v.ndim > 1 or (v.ndim == 1 and v.shape[0] != count):
-        raise GshadeError(
-            f"{name}: expected numbers >= 0: one number or a list of {count} (one per knot), "
-            f"got {v.size} numbers"
-        )
-    if not np.all(np.isfinite(v) & (v >= 0)):
-        raise GshadeError(f"{name}: expected numbers >= 0 (tensions), got {_show(nu)}")
-    return np.broadcast_to(v, (count,)).copy()
-
-
-def _nu_spline_net(
-    a: NDArray, u: NDArray, nu: NDArray, end_tangents: tuple[NDArray, NDArray] | None, closed: bool
-) -> tuple[NDArray, NDArray]:
-    """Bézier net and knot vector of the ν-spline through the rows of ``a`` (any width).
-
-    Open: ``a`` has N + 1 rows, ``u`` N + 1 knots.  Closed: ``u`` has N + 2 knots, the last
-    arc returns from a_N to a_0 and every row of the system is of the form (2.15), cyclically.
-    The result is linear in ``a``: this is what makes the tensor-product patch well defined.
-    """
-    from scipy.linalg import solve_banded
-
-    n = a.shape[0] - 1
-    h = np.diff(u)
-    if closed:
-        m = n + 1  # arcs; tangents b_0..b_n, b_(n+1) = b_0
-        da = np.diff(np.concatenate([a, a[:1]]), axis=0)  # a_(i+1) - a_i, cyclic
-        A = np.zeros((m, m))
-        rhs = np.empty_like(a)
-        for i in range(m):
-            hp, hi = h[i - 1], h[i]  # h_(i-1) (cyclic), h_i
-            A[i, (i - 1) % m] += hi
-            A[i, i] += 2 * (hp + hi) + hp * hi * nu[i] / 2
-            A[i, (i + 1) % m] += hp
-            rhs[i] = 3 * (hi / hp * da[i - 1] + hp / hi * da[i])
-        b = np.linalg.solve(A, rhs)
-        ends = np.concatenate([a, a[:1]])
-        tangents = np.concatenate([b, b[:1]])
-    else:
-        m = n
-        da = np.diff(a, axis=0)
-        ab = np.zeros((3, n + 1))  # banded: super-, main and sub-diagonal
-        rhs = np.zeros_like(a)
-        if end_tangents is None:  # natural ends: 2 b_0 + b_1 = 3 da_0 / h_0, and mirrored
-            ab[1, 0], ab[0, 1], rhs[0] = 2.0, 1.0, 3 * da[0] / h[0]
-            ab[1, n], ab[2, n - 1], rhs[n] = 2.0, 1.0, 3 * da[-1] / h[-1]
-        else:
-            ab[1, 0], rhs[0] = 1.0, end_tangents[0]
-            ab[1, n], rhs[n] = 1.0, end_tangents[1]
-        for i in range(1, n):
-            ab[2, i - 1] = h[i]  # coefficient of b_(i-1) in row i
-            ab[1, i] = 2 * (h[i - 1] + h[i]) + h[i - 1] * h[i] * nu[i] / 2
-            ab[0, i + 1] = h[i - 1]  # coefficient of b_(i+1) in row i
-            rhs[i] = 3 * (h[i] / h[i - 1] * da[i - 1] + h[i - 1] / h[i] * da[i])
-        tangents = solve_banded((1, 1), ab, rhs)
-        ends = a
-    net = np.empty((3 * m + 1, a.shape[1]))
-    net[0::3] = ends
-    net[1::3] = ends[:-1] + (h[:, None] / 3) * tangents[:-1]
-    net[2::3] = ends[1:] - (h[:, None] / 3) * tangents[1:]
-    knot_vector = np.concatenate([[u[0]] * 4, np.repeat(u[1:-1], 3), [u[-1]] * 4])
-    return net, knot_vector
-
-
-def nu_spline(
-    points: ArrayLike,
-    knots: ArrayLike | None = None,
-    nu: ArrayLike = 0.0,
-    end_tangents: tuple[ArrayLike, ArrayLike] | None = None,
-    *,
-    closed: bool = False,
-) -> BSplineCurve:
-    """Nielson's ν-spline through ``points`` as a piecewise cubic B-spline curve (Kiciak §2.3.1).
-
-    The tangents b_i at the knots solve Kiciak's equation (2.15)::
-
-        h_i b_(i-1) + (2 (h_(i-1) + h_i) + h_(i-1) h_i ν_i / 2) b_i + h_(i-1) b_(i+1)
-            = 3 (h_i / h_(i-1) (a_i - a_(i-1)) + h_(i-1) / h_i (a_(i+1) - a_i)),
-
-    i.e. p''(u_i+) = p''(u_i-) + ν_i p'(u_i): G2 with connection parameters t1 = 1, t2 = ν_i.
-
-    Parameters
-    ----------
-    points : array_like, shape (N + 1, dim), N >= 1 (N >= 2 if closed)
-        The points a_i to interpolate.
-    knots : array_like, shape (N + 1,) (N + 2 if closed), optional
-        Increasing parameters u_i (default 0, 1, ...); a closed curve returns to a_0 at
-        u_(N+1).
-    nu : float or array_like, shape (N + 1,)
-        Tensions ν_i >= 0 at the knots (for open curves the end values are not used).
-    end_tangents : (b_0, b_N), optional
-        Given end tangents of an open curve; by default natural ends (p'' = 0 there).
-    closed : bool
-        A closed curve: N + 1 arcs, G2 also where the last arc meets the first.
-
-    Returns
-    -------
-    BSplineCurve
-        Degree 3 with triple interior knots: each arc is one Bézier segment
-        (a_i, a_i + h_i b_i / 3, a_(i+1) - h_i b_(i+1) / 3, a_(i+1)).
-    """
-    a = check_points(points, 1, "ν-spline", min_count=3 if closed else 2)
-    n = a.shape[0] - 1
-    u = _knots(knots, n + 2 if closed else n + 1, "knots")
-    v = _tensions(nu, n + 1, "nu")
-    ends = None
-    if end_tangents is not None:
-        if closed:
-            raise GshadeError("end_tangents: a closed ν-spline has no ends")
-        try:
-            b0, bn = (np.asarray(b, dtype=np.float64) for b in end_tangents)
-        except (TypeError, ValueError):
-            raise GshadeError(
-                f"end_tangents: expected two vectors of length {a.shape[1]}"
-            ) from None
-        if b0.shape != a.shape[1:] or bn.shape != a.shape[1:]:
-            raise GshadeError(f"end_tangents: expected two vectors of length {a.shape[1]}")
-        ends = (b0, bn)
-    net, knot_vector = _nu_spline_net(a, u, v, ends, closed)
-    return BSplineCurve(net, 3, knot_vector)
-
-
-def _pair(value, name: str) -> tuple:
-    """A (u, v) pair from one value for both directions or a pair."""
-    if isinstance(value, np.ndarray) and value.ndim > 0:
-        value = list(value)
-    if isinstance(value, str) or not isinstance(value, Sequence):
-        return value, value
-    if len(value) != 2:
-        raise GshadeError(f"{name}: expected one value or a (u, v) pair, got {_show(value)}")
-    return value[0], value[1]
-
-
-class NuSplinePatch(BSplinePatch):
-    """Tensor-product ν-spline patch interpolating a grid of points (Kiciak §2.4).
-
-    With the ν-spline operators L_u (knots u_i, tensions ν_u,i) and L_v, which map data
-    points linearly to Bézier control points (:func:`nu_spline` is linear in its points for
-    fixed knots and tensions), the bicubic Bézier net is L_u A L_v^T: every column of the
-    grid A is interpolated in u, then every row of the result in v.  Hence p(u_i, v_j) = a_ij,
-    every curve v = const is the ν-spline in u through the points c_i(v) = sum_j a_ij φ_j(v)
-    (and symmetrically), so across the knot line u = u_i
-
-        p_u(u_i+, v) = p_u(u_i-, v),   p_uu(u_i+, v) = p_uu(u_i-, v) + ν_u,i p_u(u_i, v),
-
-    with p_v, p_uv, p_vv continuous: the equations of G2 continuity with connection
-    functions α = 0, β = 1, γ = 0, δ = ν_u,i (not C2 where ν_u,i != 0).  ν = 0 everywhere
-    gives the C2 bicubic interpolating spline.
-
-    Parameters
-    ----------
-    points : array_like, shape (M + 1, N + 1, 3)
-        The grid a_ij; i runs along u, j along v.
-    knots_u, knots_v : array_like, optional
-        Increasing interpolation knots: M + 1 (M + 2 if closed in u) and N + 1 (N + 2)
-        numbers; default 0, 1, 2, ...
-    nu_u, nu_v : float or array_like
-        Tensions >= 0, one number or one per knot line (M + 1 and N + 1 numbers; the end
-        values are not used unless the direction is closed).
-    ends : str or (str, str)
-        "natural" (p'' = 0 at the boundary, default) or "closed" (the grid wraps around),
-        for both directions or as a (u, v) pair.
-
-    Notes
-    -----
-    The patch is a :class:`BSplinePatch` of degree (3, 3) with triple interior knots, so it
-    evaluates through the common ``derivatives(u, v, order)`` of every patch and has exact
-    Bézier extraction (``bezier_patches``).
-    """
-
-    def __init__(
-        self,
-        points: ArrayLike,
-        knots_u: ArrayLike | None = None,
-        knots_v: ArrayLike | None = None,
-        nu_u: ArrayLike = 0.0,
-        nu_v: ArrayLike = 0.0,
-        ends: str | tuple[str, str] = "natural",
-    ) -> None:
-        end_u, end_v = _pair(ends, "ends")
-        for e in (end_u, end_v):
-            if e not in ENDS:
-                raise GshadeError(f"ends: expected one of {', '.join(ENDS)}, got {e!r}")
-        closed = (end_u == "closed", end_v == "closed")
-        A = check_points(points, 2, "ν-spline patch", min_count=2)
-        m, n = A.shape[0] - 1, A.shape[1] - 1
-        for direction, count, wrap in (("u", m + 1, closed[0]), ("v", n + 1, closed[1])):
-            if wrap and count < 3:
-                raise GshadeError(
-                    f"points: a ν-spline patch closed in {direction} needs at least 3 points "
-                    f"in that direction, got shape {A.shape}"
-                )
-        u = _knots(knots_u, m + 1 + closed[0], "knots_u")
-        v = _knots(knots_v, n + 1 + closed[1], "knots_v")
-        tu = _tensions(nu_u, m + 1, "nu_u")
-        tv = _tensions(nu_v, n + 1, "nu_v")
-        # columns in u (each of the N + 1 columns, 3 coordinates), then rows in v
-        net_u, U = _nu_spline_net(A.reshape(m + 1, -1), u, tu, None, closed[0])
-        net_u = net_u.reshape(-1, n + 1, 3).transpose(1, 0, 2).reshape(n + 1, -1)
-        net, V = _nu_spline_net(net_u, v, tv, None, closed[1])
-        net = net.reshape(net.shape[0], -1, 3).transpose(1, 0, 2)
-        super().__init__(net, (3, 3), (U, V))
-        self.grid = A
-        self.interpolation_knots = (u, v)
-        self.nu = (tu, tv)
-        self.ends = (end_u, end_v)
-
-
-# --------------------------------------------------------------------------- β-splines
 
 
 def _shape_values(value, count: int, name: str, bias: bool, n_points: int) -> float | NDArray:
@@ -321,7 +59,7 @@ def _shape_values(value, count: int, name: str, bias: bool, n_points: int) -> fl
     if isinstance(value, (Real, np.number)) and not isinstance(value, bool):
         x = float(value)
         if not (np.isfinite(x) and (x > 0 if bias else x >= 0)):
-            raise GshadeError(f"{name}: expected a number {what}, got {_show(value)}")
+            raise GshadeError(f"{name}: expected a number {what}, got {show_value(value)}")
         return x
     try:
         v = np.asarray(value, dtype=np.float64)
@@ -330,7 +68,7 @@ def _shape_values(value, count: int, name: str, bias: bool, n_points: int) -> fl
     if v is None or v.ndim != 1:
         raise GshadeError(
             f"{name}: expected a number {what} or a list of {count} such numbers ({per}), "
-            f"got {_show(value)}"
+            f"got {show_value(value)}"
         )
     if v.shape[0] != count or count == 0:
         raise GshadeError(
@@ -440,7 +178,7 @@ class BetaSplineBasis:
         if not np.all(np.isfinite(self.segment_coefficients)):
             raise GshadeError(
                 f"{names[0]}, {names[1]}: expected values small enough for a finite basis, got "
-                f"{_show(beta1)} and {_show(beta2)}"
+                f"{show_value(beta1)} and {show_value(beta2)}"
             )
 
     def _build(self, b1: float | NDArray, b2: float | NDArray, count: int, segments: int) -> None:
@@ -587,7 +325,7 @@ class BetaSplinePatch(TensorProductPatch):
         beta2_v=None,
     ) -> None:
         P = check_points(points, 2, "β-spline patch", min_count=4)
-        given = {"beta1": _pair(beta1, "beta1"), "beta2": _pair(beta2, "beta2")}
+        given = {"beta1": value_pair(beta1, "beta1"), "beta2": value_pair(beta2, "beta2")}
         per = {"beta1_u": beta1_u, "beta2_u": beta2_u, "beta1_v": beta1_v, "beta2_v": beta2_v}
         bases = []
         for k, direction in enumerate("uv"):
