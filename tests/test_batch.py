@@ -120,6 +120,12 @@ def test_bad_batch_input(scenes, tmp_path):
         expand_scenes([str(tmp_path / "nothing.toml")])
     with pytest.raises(GshadeError, match="matches no scene file"):
         expand_scenes([str(tmp_path / "*.nope")])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(GshadeError, match="empty: the folder has no scene files"):
+        expand_scenes([str(scenes), str(tmp_path / "empty")])
+    # files, folders and patterns, in order, each file once
+    both = expand_scenes([str(scenes / "teapot.toml"), str(scenes), str(scenes / "*.toml")])
+    assert both == [scenes / "teapot.toml", scenes / "sphere.toml"]
     with pytest.raises(GshadeError, match="expected key=value1,value2"):
         parse_sweeps(["shape.function"])
     # a sweep over a key the scenes lack fails their jobs (one line each), not the batch

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gshade import GshadeError
 from gshade.geometry import sphere
 from gshade.regression.check import check, find_scenes
 
@@ -122,10 +123,11 @@ def test_missing_reference_broken_scene_and_report(workspace):
     results = check([broken, new, scenes[0]], refs)
     st = {r.name: (r.status, r.message) for r in results}
     assert st["broken"][0] == "ERROR" and "nothing.txt" in st["broken"][1]
-    assert st["<new> & co"][0] == "FAILURE" and "--update" in st["<new> & co"][1]
+    # the library names its parameter; the command line (below) says --update
+    assert st["<new> & co"][0] == "FAILURE" and "with update=True" in st["<new> & co"][1]
     assert st["teapot"][0] == "PASS"  # the others went on
     assert not (refs / "<new> & co.exr").exists()
-    from gshade.regression.check import write_report
+    from gshade.regression.report import write_report
 
     report = write_report(results, folder / "report")
     page = report.read_text()
@@ -134,6 +136,22 @@ def test_missing_reference_broken_scene_and_report(workspace):
     assert page.count("data:image/png;base64,") >= 3
     summary = json.loads((folder / "report" / "summary.json").read_text())
     assert summary["counts"]["ERROR"] == 1 and summary["counts"]["PASS"] == 1
+
+
+def test_find_scenes_takes_files_and_folders_as_named(tmp_path):
+    """Folders give their *.toml by name; an empty one is fine unless nothing is found at
+    all; no glob patterns (gshade batch has them); a file named twice is checked twice."""
+    folder, empty = tmp_path / "scenes", tmp_path / "empty"
+    folder.mkdir()
+    empty.mkdir()
+    for name in ("b.toml", "a.toml", "notes.txt"):
+        (folder / name).write_text("")
+    found = find_scenes([str(folder), str(empty), str(folder / "b.toml")])
+    assert found == [folder / "a.toml", folder / "b.toml", folder / "b.toml"]
+    with pytest.raises(GshadeError, match="empty: no scene files"):
+        find_scenes([str(empty)])
+    with pytest.raises(GshadeError, match=r"\*.toml: no such scene file or folder"):
+        find_scenes([str(folder / "*.toml")])
 
 
 def test_cli_exit_status_and_missing_reference_folder(tmp_path):
@@ -149,6 +167,10 @@ def test_cli_exit_status_and_missing_reference_folder(tmp_path):
 
     result = run(scene, "--references", tmp_path / "nope")
     assert result.returncode == 2 and "reference folder does not exist" in result.stderr
+    assert "(use --update to create it" in result.stderr
+    (tmp_path / "empty").mkdir()
+    result = run(scene, "--references", tmp_path / "empty")
+    assert result.returncode == 2 and "; run with --update to create it" in result.stdout
     assert run(scene, "--references", tmp_path / "refs", "--update").returncode == 0
     result = run(scene, "--references", tmp_path / "refs")
     assert result.returncode == 0 and "1 passed, 0 failed" in result.stdout

@@ -88,22 +88,32 @@ def test_library_errors_name_parameters_and_the_cli_its_flags(capsys):
     """The library speaks of its parameters (samples, workers, scheduler); only the command
     line turns them into its flags (--samples, -j, --scheduler)."""
     from gshade.analysis.continuity import continuity_report
-    from gshade.app.batch import check_options
+    from gshade.app.batch import check_options, parse_sweeps
     from gshade.app.cli import main
     from gshade.geometry import sphere
+    from gshade.regression.comparison import Thresholds
+    from gshade.scene import load_scene, parse_overrides
 
+    teapot = str(ROOT / "scenes" / "teapot-isophotes.toml")
     for call, library in [
         (lambda: continuity_report([sphere(1.0)], samples=0), "samples: expected 1 to"),
         (lambda: check_options(0, 10.0), "workers: expected at least 1"),
         (lambda: check_options(1, 10.0, "ftp://x"), "scheduler: expected a tcp://"),
+        (lambda: parse_overrides(["shape.period"]), "override shape.period: expected key="),
+        (lambda: load_scene(teapot, {"shape.x": 1}), f"{teapot}: override shape.x: unknown"),
+        (lambda: parse_sweeps(["shape.function"]), "sweep 'shape.function': expected key="),
+        (lambda: Thresholds(fail=-1.0), "fail: expected a finite number >= 0"),
     ]:
         with pytest.raises(GshadeError) as info:
             call()
         assert str(info.value).startswith(library) and "--" not in str(info.value)
-    teapot = str(ROOT / "scenes" / "teapot-isophotes.toml")
-    for argv, flag in [
-        (["continuity", teapot, "--samples", "0"], "gshade: error: --samples: expected 1 to"),
-        (["batch", teapot, "-o", "/tmp/never-made", "-j", "0"], "gshade: error: -j: expected"),
+    for argv, flag, status in [
+        (["continuity", teapot, "--samples", "0"], "--samples: expected 1 to", 2),
+        (["batch", teapot, "-o", "/tmp/never-made", "-j", "0"], "-j: expected", 2),
+        (["info", teapot, "--set", "shape.period"], "--set shape.period: expected key=", 2),
+        (["info", teapot, "--set", "shape.x=1"], f"{teapot}: --set shape.x: unknown", 2),
+        (["batch", teapot, "-o", "/tmp/never-made", "--sweep", "x"], "--sweep 'x': expected", 2),
+        (["compare", teapot, teapot, "--fail", "-1"], "--fail: expected a finite number", 5),
     ]:
-        assert main(argv) == 2
-        assert capsys.readouterr().err.startswith(flag)
+        assert main(argv) == status
+        assert capsys.readouterr().err.startswith(f"gshade: error: {flag}")

@@ -151,6 +151,11 @@ def test_bad_specs_name_the_key(tmp_path):
     bad.write_text('rows = ["nothing.toml"]\n')
     with pytest.raises(GshadeError, match="rows: no such scene file"):
         load_figure_spec(bad)
+    bad.write_text('title = "x"\nrows = [1,\n  2 3]\n')
+    with pytest.raises(GshadeError, match=r"bad.toml: invalid TOML: .*\(at line 3, column 5\)"):
+        load_figure_spec(bad)
+    with pytest.raises(GshadeError, match=r"expected a figure spec .*got a directory"):
+        load_figure_spec(tmp_path)
     bad.write_text("rows = []\n")
     with pytest.raises(GshadeError, match="rows: expected a list of scene files"):
         load_figure_spec(bad)

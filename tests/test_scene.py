@@ -1,4 +1,4 @@
-"""Scene files: every surface type, defaults, --set overrides, the hash, and bad input."""
+"""Scene files: every surface type, defaults, overrides, the hash, and bad input."""
 
 import shutil
 
@@ -210,7 +210,7 @@ def test_parse_overrides_values():
 
 @pytest.mark.parametrize("item", ["shape.period", "=3", "shape..period=1", ".x=1", "a.=1"])
 def test_parse_overrides_errors(item):
-    with pytest.raises(GshadeError, match=r"--set .*expected key=value"):
+    with pytest.raises(GshadeError, match=r"^override .*expected key=value"):
         parse_overrides([item])
 
 
@@ -273,13 +273,16 @@ def test_override_of_the_function_drops_the_old_functions_parameters(tmp_path):
 @pytest.mark.parametrize(
     ("key", "message"),
     [
-        ("camera.fob", r'--set camera.fob: unknown key "fob" in \[camera\]; did you mean "fov"\?'),
-        ("camra.fov", r'--set camra.fov: unknown section "camra"; did you mean "camera"\?'),
+        (
+            "camera.fob",
+            r'override camera.fob: unknown key "fob" in \[camera\]; did you mean "fov"\?',
+        ),
+        ("camra.fov", r'override camra.fov: unknown section "camra"; did you mean "camera"\?'),
         ("shape.lihgt", r'unknown key "lihgt" in \[shape\]; did you mean "light"\?.*light, form'),
         ("shape.direction", r'unknown key "direction" in \[shape\]'),  # not an isophotes param
-        ("render", r"--set render: expected a key of the form render.key"),
-        ("render.width.x", r"--set render.width.x: expected a key of the form render.key"),
-        ("surface.9.radius", r"--set surface.9.radius: expected a surface number from 1 to 1"),
+        ("render", r"override render: expected a key of the form render.key"),
+        ("render.width.x", r"override render.width.x: expected a key of the form render.key"),
+        ("surface.9.radius", r"override surface.9.radius: expected a surface number from 1 to 1"),
         ("surface.1.radus", r'unknown key "radus" for a sphere surface; did you mean "radius"'),
         ("surface.radius", r"expected a key of the form surface.N.key"),
     ],
@@ -288,7 +291,7 @@ def test_override_errors(tmp_path, key, message):
     path = write(tmp_path, SPHERE)
     with pytest.raises(GshadeError, match=message) as info:
         load_scene(path, {key: 1})
-    assert str(info.value).startswith(f"{path}: --set {key}: ")
+    assert str(info.value).startswith(f"{path}: override {key}: ")
 
 
 # --------------------------------------------------------------------------- the hash
@@ -316,6 +319,13 @@ def test_hash_follows_contents_overrides_and_data_files(tmp_path):
 
 NET = "[[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]]"
 BSPLINE = '[[surface]]\ntype = "bspline"\ndegree = [1, 1]\npoints = ' + NET + "\n"
+JUNCTION = '[[surface]]\ntype = "junction"\npoints = ' + NET + "\n"
+NUSPLINE = '[[surface]]\ntype = "nuspline"\npoints = ' + NET + "\n"
+BETASPLINE = (
+    '[[surface]]\ntype = "betaspline"\npoints = '
+    + str([[[i, j, (i * j) % 2] for j in range(4)] for i in range(5)])
+    + "\n"
+)
 CURVES = (
     "v0 = [[0, 0, 0], [1, 0, 0]]\nv1 = [[0, 1, 0], [1, 1, 0]]\nu0 = [[0, 0, 0], [0, 1, 0]]\n"
     "u1 = [[1, 0, 0], [1, 1, 0]]\n"
@@ -609,6 +619,43 @@ BAD = {
     "check spp": (
         SPHERE + "[check]\nspp = 0.5\n",
         r"\[check\] spp: expected an integer from 1 to 4096, got 0.5",
+    ),
+    # the types are the scene's to check, the domains the patch constructors' (named by key)
+    "junction class unknown": (
+        JUNCTION + 'continuity = "G5"\n',
+        r"\(junction\): continuity: expected one of G0, G1, G2, G3, got 'G5'$",
+    ),
+    "junction class a number": (
+        JUNCTION + "continuity = 2\n",
+        r'\(junction\): continuity: expected one of "G0", .*, got 2$',
+    ),
+    "nuspline ends unknown": (
+        NUSPLINE + 'ends = "open"\n',
+        r"\(nuspline\): ends: expected one of natural, closed, got 'open'$",
+    ),
+    "nuspline ends numbers": (
+        NUSPLINE + "ends = [1, 2]\n",
+        r'\(nuspline\): ends: expected one of "natural", "closed" or a pair \[u, v\] of them',
+    ),
+    "nuspline tensions count": (
+        NUSPLINE + "nu_u = [0, 0, 0]\n",
+        r"\(nuspline\): nu_u: expected numbers >= 0: one number or a list of 2 .*got 3 numbers",
+    ),
+    "nuspline tensions a string": (
+        NUSPLINE + 'nu_v = "x"\n',
+        r'\(nuspline\): nu_v: expected a number or a list of numbers .*got "x"$',
+    ),
+    "betaspline net too small": (
+        '[[surface]]\ntype = "betaspline"\npoints = ' + NET + "\n",
+        r"\(betaspline\): points: expected at least 4 control points per direction",
+    ),
+    "betaspline bias per junction": (
+        BETASPLINE + "beta1_u = [1, 1]\n",
+        r"\(betaspline\): beta1_u: expected a number > 0 \(the bias\) or a list of 1 .*got 2",
+    ),
+    "betaspline tension negative": (
+        BETASPLINE + "beta2 = -1\n",
+        r"\(betaspline\): beta2: expected a number >= 0 \(the tension\), got -1",
     ),
 }
 

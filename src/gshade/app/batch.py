@@ -1,10 +1,10 @@
 """``gshade batch``: render many scenes (and sweeps over their keys) into one folder.
 
-Scenes (files, folders, globs) and sweeps (``--sweep shape.function=isophotes,gaussian``:
-one render per value; several sweeps multiply) become jobs, each rendering
-``DIR/<name>.exr`` and ``DIR/<name>.png`` (a sweep's are named after its values:
+Scenes (files, folders, globs) and sweeps (``shape.function=isophotes,gaussian``: one
+render per value; several sweeps multiply) become jobs (:mod:`gshade.app.jobs`), each
+rendering ``DIR/<name>.exr`` and ``DIR/<name>.png`` (a sweep's are named after its values:
 ``teapot--function=gaussian``).  Jobs run in worker processes (:mod:`gshade.app.worker_pool`,
-also with ``-j 1``) that keep Mitsuba and the compiled kernels warm between scenes.  A job
+also with one worker) that keep Mitsuba and the compiled kernels warm between scenes.  A job
 fails alone, with a one-line reason and a log in ``DIR/logs/``, whatever the cause: a scene
 that does not load (even a ``RecursionError``), a name that cannot name a file, a worker that
 dies (a crash, the OOM killer) or runs past the time limit.  Up-to-date outputs (the EXR
@@ -52,7 +52,7 @@ __all__ = [
     "run_batch",
 ]
 
-#: Default time limit of one job, in seconds (``--timeout``).
+#: Default time limit of one job, in seconds.
 DEFAULT_TIMEOUT = 3600.0
 
 

@@ -1,4 +1,5 @@
-"""The ``gshade`` command line.
+"""The ``gshade`` command line: the parser, the dispatch to the subcommands
+(:mod:`gshade.app.commands`), the exit statuses and the signals.
 
 Exit statuses: 0 success, 2 bad input (one line on stderr naming the file, the key or line,
 what was expected and what was found; never a traceback), 130 after Ctrl-C, 128 + the signal
@@ -17,8 +18,13 @@ from typing import Any, NoReturn
 
 from .. import __version__
 from ..errors import GshadeError
+from . import commands
+from .flags import in_flags
 
-__all__ = ["console", "main"]
+__all__ = ["build_parser", "console", "main"]
+
+#: ``gshade compare``'s status for usage errors (idiff's own are 0-4).
+COMPARE_USAGE = 5
 
 
 class _SubcommandParser(argparse.ArgumentParser):
@@ -47,6 +53,8 @@ class _SubcommandParser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser; each subcommand's arguments carry ``run`` (its function in
+    :mod:`gshade.app.commands`) and ``error_status`` (for a GshadeError, default 2)."""
     parser = argparse.ArgumentParser(
         prog="gshade",
         description="Render the shape quality of parametric surfaces (Kiciak's shape functions).",
@@ -54,11 +62,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"gshade {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_SubcommandParser)
     shapes = sub.add_parser("shapes", help="list the shape functions, their order and parameters")
-    shapes.set_defaults(run=_shapes)
+    shapes.set_defaults(run=commands.shapes)
     keys = sub.add_parser(
         "keys", help="list the scene files' keys: types, ranges, defaults, meanings"
     )
-    keys.set_defaults(run=_keys)
+    keys.set_defaults(run=commands.keys)
 
     render = sub.add_parser("render", help="render a scene file to EXR (and PNG)")
     render.add_argument("scene", help="scene file (TOML)")
@@ -82,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="override any scene key, e.g. --set shape.period=0.05 (repeatable)",
     )
-    render.set_defaults(run=_render)
+    render.set_defaults(run=commands.render)
 
     cmp = sub.add_parser(
         "compare",
@@ -92,7 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
         "status: 0 pass, 1 warning, 2 failure (the images differ), 3 size or channel "
         "mismatch, 4 unreadable file (idiff's), 5 usage error (a bad argument, a "
         "difference image that cannot be written).",
-        usage_status=5,
+        usage_status=COMPARE_USAGE,
     )
     cmp.add_argument("test", help="the new image (EXR)")
     cmp.add_argument("reference", help="the reference image (EXR)")
@@ -116,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="write the difference images only if the verdict is not PASS",
     )
     cmp.add_argument("--json", action="store_true", help="print the metrics as JSON")
-    cmp.set_defaults(run=_compare)
+    cmp.set_defaults(run=commands.compare, error_status=COMPARE_USAGE)
 
     chk = sub.add_parser(
         "check", help="render scenes at their check settings and diff them with references"
@@ -134,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="render each scene several times and compare by a z-test against the "
         "reference's variances (for noisy lit renders)",
     )
-    chk.set_defaults(run=_check)
+    chk.set_defaults(run=commands.check)
 
     bat = sub.add_parser("batch", help="render many scenes (and sweeps) into a folder")
     bat.add_argument("scenes", nargs="+", help="scene files, folders or glob patterns")
@@ -161,12 +169,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help='run on an existing Dask cluster, e.g. tcp://host:8786 (pip install "gshade[dask]")',
     )
-    bat.set_defaults(run=_batch)
+    bat.set_defaults(run=commands.batch)
 
     fig = sub.add_parser("figure", help="a multi-panel figure from a figure spec")
     fig.add_argument("spec", help="figure spec (TOML)")
     fig.add_argument("-o", "--output", required=True, help="OUT.png, OUT.pdf or OUT.svg")
-    fig.set_defaults(run=_figure)
+    fig.set_defaults(run=commands.figure)
 
     cont = sub.add_parser("continuity", help="measure and classify the patch junctions")
     cont.add_argument("scene", help="scene file (TOML)")
@@ -189,320 +197,13 @@ def build_parser() -> argparse.ArgumentParser:
         "an error if the two boundaries do not coincide; at most 10000 pairs",
     )
     cont.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    cont.set_defaults(run=_continuity)
+    cont.set_defaults(run=commands.continuity)
 
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    info.set_defaults(run=_info)
+    info.set_defaults(run=commands.info)
     return parser
-
-
-def _scene_overrides(args: argparse.Namespace) -> dict:
-    from ..scene import parse_overrides
-
-    overrides = parse_overrides(args.set)
-    for key in ("width", "height", "spp", "variant", "junctions"):
-        value = getattr(args, key, None)
-        if value is not None:
-            overrides[f"render.{key}"] = value
-    return overrides
-
-
-def _render(args: argparse.Namespace) -> int:
-    from ..io.outputs import output_file, staged, write_to
-    from ..rendering import render
-    from ..scene import load_scene
-
-    scene = load_scene(args.scene, _scene_overrides(args))
-    output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
-    targets = [output] + ([Path(args.png)] if args.png else [])
-    # the outputs' temporaries are made first: an unwritable target fails before rendering,
-    # and the targets change only once every file is written
-    with staged(targets) as names:
-        image = render(scene)
-        writers = [image.exr_writer(output)] + ([image.png_writer(args.png)] if args.png else [])
-        for target, writer, name in zip(targets, writers, names, strict=True):
-            write_to(name, writer, target)
-    print(
-        f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
-        f"{image.metadata['legend']}"
-    )
-    return 0
-
-
-def _compare(args: argparse.Namespace) -> int:
-    """``gshade compare``: 0 pass, 1 warning, 2 failure (the images differ), 3 size or
-    channel mismatch, 4 unreadable file (idiff's statuses), 5 usage error (bad thresholds or
-    channels, a difference image that cannot be written: found before comparing)."""
-    import json
-
-    from ..regression.comparison import EXIT_STATUS, ChannelMismatch, Thresholds, UnreadableImage
-    from ..regression.diff_images import compare_and_write_diffs
-
-    try:
-        try:
-            thresholds = Thresholds(
-                args.fail, args.failpercent, args.hardfail, args.warn, args.warnpercent
-            )
-        except GshadeError as exc:  # "fail: expected ..." names the option
-            raise GshadeError(f"--{exc}") from None
-        channels = [c.strip() for c in args.channels.split(",") if c.strip()]
-        if not channels:
-            raise GshadeError(
-                f"--channels: expected channel names such as R,G,B, got {args.channels!r}"
-            )
-        result = compare_and_write_diffs(
-            args.test,
-            args.reference,
-            channels=channels,
-            thresholds=thresholds,
-            diff=args.diff,
-            diff_png=args.diff_png,
-            only_if_not_pass=args.diff_on_fail,
-        )
-    except UnreadableImage as exc:
-        print(f"gshade: error: {exc}", file=sys.stderr)
-        return EXIT_STATUS["UNREADABLE"]
-    except ChannelMismatch as exc:
-        print(f"gshade: error: {exc}", file=sys.stderr)
-        return EXIT_STATUS["MISMATCH"]
-    except GshadeError as exc:  # a bad argument, an output that cannot be written
-        print(f"gshade: error: {_in_flags(str(exc))}", file=sys.stderr)
-        return EXIT_STATUS["USAGE"]
-    if args.json:
-        print(json.dumps(result.as_dict(), indent=2))
-    else:
-        for name, m in {**result.per_channel, **result.per_group}.items():
-            at = f" at ({m.max_at[0]}, {m.max_at[1]})" if m.max_at else ""
-            print(
-                f"  {name:>6}: max {m.max_error:.6g}{at}, mean {m.mean_error:.6g}, "
-                f"RMSE {m.rmse:.6g}, PSNR {m.psnr:.4g} dB (range {m.data_range:.4g})"
-            )
-        print(result.summary())
-    return result.exit_status
-
-
-def _check(args: argparse.Namespace) -> int:
-    from ..regression.check import check, find_scenes, write_report
-
-    scenes = find_scenes(args.scenes)
-    if args.report:  # an unusable report folder fails before any scene renders
-        try:
-            Path(args.report).mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise GshadeError(
-                f"--report {args.report}: cannot create the folder ({exc.strerror})"
-            ) from None
-    results = check(
-        scenes,
-        Path(args.references),
-        update=args.update,
-        update_all=args.update_all,
-        statistical=args.statistical,
-        progress=lambda r: print(r.line(), flush=True),
-    )
-    if args.report:
-        report = write_report(results, Path(args.report))
-        print(f"report: {report}")
-    failed = [r for r in results if not r.ok]
-    written = sum(bool(r.written) for r in results)
-    print(
-        f"{len(results) - len(failed)} passed, {len(failed)} failed"
-        + (f" ({written} references written)" if written else "")
-    )
-    return 0 if not failed else 2
-
-
-def _batch(args: argparse.Namespace) -> int:
-    from .batch import check_options, expand_scenes, parse_sweeps, plan_jobs, run_batch
-
-    check_options(args.jobs, args.timeout, args.scheduler)  # before anything is read or made
-    jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
-    results = run_batch(
-        jobs,
-        args.output,
-        workers=args.jobs,
-        force=args.force,
-        scheduler=args.scheduler,
-        timeout=args.timeout,
-    )
-    failed = [r for r in results if r.status == "failed"]
-    for r in failed:
-        name = r.name if len(r.name) <= 80 else r.name[:79] + "…"
-        print(f"failed: {name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
-    counts = {s: sum(r.status == s for r in results) for s in ("rendered", "up to date")}
-    print(
-        f"{counts['rendered']} rendered, {counts['up to date']} up to date, "
-        f"{len(failed)} failed; manifest: {Path(args.output) / 'manifest.json'}"
-    )
-    return 0 if not failed else 2
-
-
-def _figure(args: argparse.Namespace) -> int:
-    from .figure import load_figure_spec, make_figure
-
-    path = make_figure(load_figure_spec(args.spec), args.output)
-    print(f"{path}")
-    return 0
-
-
-def _parse_pair(text: str) -> tuple[int, str, int, str]:
-    """'0:u1,1:u0' -> (0, 'u1', 1, 'u0')."""
-    try:
-        (i, si), (j, sj) = (part.split(":") for part in text.split(","))
-        return int(i), si.strip(), int(j), sj.strip()
-    except ValueError:
-        raise GshadeError(
-            f"--pair: expected I:SIDE,J:SIDE such as 0:u1,1:u0 (SIDE one of u0 u1 v0 v1), "
-            f"got {text!r}"
-        ) from None
-
-
-def _continuity(args: argparse.Namespace) -> int:
-    import json
-
-    import numpy as np
-
-    from ..analysis.continuity import Tolerances, continuity_report
-    from ..scene import load_scene
-
-    scene = load_scene(args.scene, _scene_overrides(args))
-    patches = list(scene.patches)
-    pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
-    tol = Tolerances.for_size(
-        float(np.linalg.norm(np.ptp(pts, axis=0))),
-        g0=args.tol_g0,
-        g1=args.tol_g1,
-        g2=args.tol_g2,
-        g3=args.tol_g3,
-    )
-    pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
-    try:
-        report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
-    except GshadeError as exc:  # about the scene's surfaces, or about a flag
-        message = _in_flags(str(exc))
-        where = "" if message.startswith("-") else f"{args.scene}: "
-        raise GshadeError(where + message) from None
-    if args.json:
-        print(
-            json.dumps(
-                {"junctions": [j.as_dict() for j in report], "tolerances": tol.__dict__}, indent=2
-            )
-        )
-        return 0
-    print(
-        f"{'patches':>10}  {'sides':>7}  class  {'gap':>9}  {'angle(deg)':>10}  "
-        f"{'curv.jump':>9}  {'grad.jump':>9}"
-    )
-    for j in report:
-        print(
-            f"{j.patches[0]:>4} {j.patches[1]:>4}  {j.sides[0]}-{j.sides[1]}  {j.cls:>5}  "
-            f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
-            f"{j.curvature_gradient_jump:9.2e}"
-        )
-    counts = {c: sum(j.cls == c for j in report) for c in ("G3", "G2", "G1", "G0", "none")}
-    summary = ", ".join(f"{n} {c}" for c, n in counts.items() if n)
-    print(f"{len(report)} junctions" + (f": {summary}" if summary else ""))
-    return 0
-
-
-def _info(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from ..geometry import irregular_mask
-    from ..scene import load_scene
-
-    scene = load_scene(args.scene, _scene_overrides(args))
-    print(f"scene {scene.name} ({scene.path})")
-    points = []
-    for k, surface in enumerate(scene.surfaces):
-        kinds: dict[str, int] = {}
-        for patch in surface.patches:
-            degree = getattr(patch, "degree", None)
-            label = type(patch).__name__ + (f" degree {tuple(degree)}" if degree else "")
-            label += " rational" if getattr(patch, "rational", False) else ""
-            kinds[label] = kinds.get(label, 0) + 1
-        summary = ", ".join(f"{n} x {label}" for label, n in kinds.items())
-        print(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
-    index = 0
-    irregular = []
-    for patch in scene.patches:
-        u, v = patch.parameter_grid(17, 17)
-        d = patch.derivatives(u, v, 1)
-        points.append(d[0, 0].reshape(-1, 3))
-        mask = irregular_mask(d)
-        if mask.any():
-            edges = [
-                name
-                for name, sel in (
-                    ("u0", mask[0]),
-                    ("u1", mask[-1]),
-                    ("v0", mask[:, 0]),
-                    ("v1", mask[:, -1]),
-                )
-                if sel.all()
-            ]
-            irregular.append(
-                f"patch {index}: "
-                + (
-                    ", ".join(f"collapsed edge {e}" for e in edges)
-                    or f"{int(mask.sum())} sample points"
-                )
-            )
-        index += 1
-    pts = np.concatenate(points)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    print(f"  patches: {index}")
-    print(
-        f"  bounding box: [{', '.join(f'{x:.6g}' for x in lo)}] .. "
-        f"[{', '.join(f'{x:.6g}' for x in hi)}]"
-    )
-    print("  irregular points:" + ("" if irregular else " none"))
-    for line in irregular:
-        print(f"    {line}")
-    return 0
-
-
-def _keys(args: argparse.Namespace) -> int:
-    from ..scene.keys import scene_keys
-
-    print(scene_keys())
-    return 0
-
-
-def _shapes(args: argparse.Namespace) -> int:
-    from ..shape import SHAPE_FUNCTIONS
-
-    for fn in SHAPE_FUNCTIONS.values():
-        flags = ", eye-dependent" if fn.eye_dependent else ""
-        print(f"{fn.name}  (order {fn.order}{flags})")
-        print(f"    {fn.summary}")
-        for name, p in fn.parameters.items():
-            default = p.default if p.kind != "choice" else f"{p.default} ({'|'.join(p.choices)})"
-            print(f"    {name} = {default}: {p.help}")
-    return 0
-
-
-#: Library parameters as the command line spells them: library errors name parameters, the
-#: command line speaks of its flags.
-_FLAGS = {
-    "samples": "--samples",
-    "pairs": "--pair",
-    **{f"tolerance {order}": f"--tol-{order}" for order in ("g0", "g1", "g2", "g3")},
-    "workers": "-j",
-    "timeout": "--timeout",
-    "scheduler": "--scheduler",
-    "diff and diff_png": "--diff and --diff-png",
-}
-
-
-def _in_flags(message: str) -> str:
-    """A library error that begins with a parameter's name, with the flag's name instead."""
-    for name, flag in _FLAGS.items():
-        if message.startswith((f"{name}:", f"{name} ")):
-            return flag + message[len(name) :]
-    return message
 
 
 _signalled: list[int] = []
@@ -537,6 +238,7 @@ _command = [""]
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``gshade`` with ``argv`` (default: the process's arguments); the exit status."""
     import signal
 
     parser = build_parser()
@@ -555,9 +257,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.run(args)
     except GshadeError as exc:
-        message = _in_flags(str(exc)).replace("\r", "\\r").replace("\n", "\\n")  # one line
+        # the library names its parameters; here they are the flags that set them
+        scene = getattr(args, "scene", None)
+        message = in_flags(str(exc), str(Path(scene)) if scene else "")
+        message = message.replace("\r", "\\r").replace("\n", "\\n")  # one line
         print(f"gshade: error: {message}", file=sys.stderr)
-        return 2
+        return getattr(args, "error_status", 2)
     except KeyboardInterrupt:  # outputs are written atomically: nothing partial is left
         print("gshade: interrupted", file=sys.stderr)
         return 130
@@ -572,7 +277,7 @@ def console() -> None:
     """The ``gshade`` command: run, flush, and leave without the interpreter's finalisation.
 
     Everything is written and closed by then; tearing down Mitsuba's JIT, its threads and the
-    modules would add about 0.4 s to every command (measured), for nothing.
+    modules would only delay every command.
     """
     try:
         status = main()

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -62,20 +61,10 @@ class FigureSpec:
 
 def load_figure_spec(path: str | os.PathLike) -> FigureSpec:
     """Read and check a figure spec; errors name the file and the key."""
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:  # pragma: no cover
-        import tomli as tomllib
+    from ..scene.tables import read_toml
 
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise GshadeError(f"{path}: no such figure spec") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise GshadeError(f"{path}: cannot read the figure spec ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise GshadeError(f"{path}: invalid TOML: {exc}") from None
+    raw = read_toml(path, "a figure spec (TOML)")
     for key in raw:
         if key not in _KEYS:
             raise GshadeError(f"{path}: {key}: unknown key (expected one of: {', '.join(_KEYS)})")

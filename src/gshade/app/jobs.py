@@ -1,6 +1,6 @@
 """Batch jobs: scenes (files, folders, globs) and sweeps into the renders ``gshade batch`` runs.
 
-Sweeps (``--sweep shape.function=isophotes,gaussian``: one render per value; several sweeps
+Sweeps (``shape.function=isophotes,gaussian``: one render per value; several sweeps
 multiply; a scene's ``[sweep]`` table adds its own) name their outputs after their values
 (``teapot--function=gaussian``).  Planning never fails for one scene: whatever goes wrong
 (a scene that does not load, a sweep over a key it lacks, a name that cannot name a file)
@@ -9,7 +9,6 @@ becomes a job with ``error`` set, which fails alone when the batch runs.
 
 from __future__ import annotations
 
-import glob
 import itertools
 import json
 import math
@@ -46,21 +45,18 @@ class Job:
 
 
 def expand_scenes(items: list[str]) -> list[Path]:
-    """Scene files from files, folders (their *.toml) and glob patterns, in order, once."""
+    """Scene files from files, folders (their *.toml) and glob patterns (see
+    :func:`gshade.scene.discovery.scene_files`), in order, each once; a folder or a pattern
+    without scene files is an error."""
+    from ..scene.discovery import is_pattern, scene_files
+
     found: list[Path] = []
     for item in items:
-        if any(ch in item for ch in "*?["):
-            matches = [Path(p) for p in sorted(glob.glob(item, recursive=True))]
-            if not matches:
-                raise GshadeError(f"{item}: the pattern matches no scene file")
-        elif Path(item).is_dir():
-            matches = sorted(Path(item).glob("*.toml"))
-            if not matches:
-                raise GshadeError(f"{item}: the folder has no scene files (*.toml)")
-        elif Path(item).is_file():
-            matches = [Path(item)]
-        else:
-            raise GshadeError(f"{item}: no such scene file or folder")
+        matches = scene_files(item, patterns=True)
+        if not matches and is_pattern(item):
+            raise GshadeError(f"{item}: the pattern matches no scene file")
+        if not matches:
+            raise GshadeError(f"{item}: the folder has no scene files (*.toml)")
         for m in matches:
             if m.resolve() not in {f.resolve() for f in found}:
                 found.append(m)
@@ -90,14 +86,14 @@ def _split_values(text: str) -> list[str]:
 
 def parse_sweeps(items: list[str]) -> list[tuple[str, list[object]]]:
     """``key=v1,v2,…`` items into (dotted key, values); values are TOML (bare words are
-    strings)."""
+    strings).  Errors name the sweep: ``sweep 'ITEM': ...``."""
     from ..scene import parse_overrides
 
     sweeps = []
     for item in items:
         key, sep, values = item.partition("=")
         if not sep or not key.strip() or not values.strip():
-            raise GshadeError(f"--sweep {item!r}: expected key=value1,value2,…")
+            raise GshadeError(f"sweep {item!r}: expected key=value1,value2,…")
         try:
             parsed = [
                 parse_overrides([f"{key.strip()}={v}"])[key.strip()] for v in _split_values(values)
@@ -105,7 +101,7 @@ def parse_sweeps(items: list[str]) -> list[tuple[str, list[object]]]:
         except GshadeError:
             raise
         except Exception as exc:  # e.g. RecursionError, or an integer of 5000 digits
-            raise GshadeError(failure_reason(exc, f"--sweep {item[:60]!r}")) from None
+            raise GshadeError(failure_reason(exc, f"sweep {item[:60]!r}")) from None
         sweeps.append((key.strip(), parsed))
     return sweeps
 

@@ -365,7 +365,7 @@ def dask_client(address: str) -> Any:
         from distributed import Client, Security
     except ImportError:
         raise GshadeError(
-            '--scheduler: Dask\'s distributed package is not installed (pip install "gshade[dask]")'
+            'scheduler: Dask\'s distributed package is not installed (pip install "gshade[dask]")'
         ) from None
     if address.startswith("tls://"):
         try:

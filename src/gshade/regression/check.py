@@ -1,18 +1,16 @@
-"""``gshade check``: render scenes at their check settings and diff them with references.
+"""Reference checks (``gshade check``): render scenes at their check settings and diff them
+with references.
 
 Per scene: render at the ``[check]`` table's settings (small defaults, so that a check is
 fast), compare with ``references/<name>.exr`` (channels and idiff thresholds from ``[check]``,
 defaults below), and report a verdict.  References are written only on request, atomically:
 ``update`` writes those of new or failing scenes (Blender's rule), ``update_all`` every one.
-A scene that fails to render is reported and the others go on.
+A scene that fails to render is reported and the others go on.  The HTML report of the
+results is :mod:`gshade.regression.report`'s.
 """
 
 from __future__ import annotations
 
-import base64
-import html
-import io
-import json
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -29,14 +27,13 @@ from .comparison import (
     Thresholds,
     UnreadableImage,
     compare,
-    heat_map,
     z_test,
 )
 
 if TYPE_CHECKING:
     from ..rendering.rendered_image import RenderedImage
 
-__all__ = ["CHECK_DEFAULTS", "CheckResult", "check", "find_scenes", "write_report"]
+__all__ = ["CHECK_DEFAULTS", "DEFAULT_THRESHOLDS", "CheckResult", "check", "find_scenes"]
 
 #: Settings of a check render unless the scene's ``[check]`` table says otherwise.
 CHECK_DEFAULTS = {"width": 160, "height": 120, "spp": 4, "channels": ("R", "G", "B", "A", "f")}
@@ -75,16 +72,15 @@ class CheckResult:
 
 
 def find_scenes(paths: list[str] | None) -> list[Path]:
-    """Scene files from files and folders (a folder means its *.toml); default scenes/."""
+    """Scene files from files and folders (a folder means its *.toml, see
+    :func:`gshade.scene.discovery.scene_files`), in order; default scenes/.  Only finding
+    none at all is an error."""
+    from ..scene.discovery import scene_files
+
     items = [Path(p) for p in (paths or ["scenes"])]
     found: list[Path] = []
     for item in items:
-        if item.is_dir():
-            found += sorted(item.glob("*.toml"))
-        elif item.exists():
-            found.append(item)
-        else:
-            raise GshadeError(f"{item}: no such scene file or folder")
+        found += scene_files(item)
     if not found:
         raise GshadeError(f"{', '.join(map(str, items))}: no scene files (*.toml) found")
     return found
@@ -179,7 +175,7 @@ def check_scene(
     reference = output_file(references, name, ".exr")  # the name was checked at loading
     result = CheckResult(name, path, "FAILURE", "", reference, image=image)
     if not reference.exists():
-        result.message = f"no reference {reference}; run with --update to create it"
+        result.message = f"no reference {reference}; run with update=True to create it"
     else:
         try:
             if statistical:
@@ -233,7 +229,7 @@ def check(
         else:
             raise GshadeError(
                 f"{references}: the reference folder does not exist "
-                "(use --update to create it with the current renders)"
+                "(use update=True to create it with the current renders)"
             )
     results = []
     for path in scenes:
@@ -244,133 +240,3 @@ def check(
         if progress is not None:
             progress(result)
     return results
-
-
-# --------------------------------------------------------------------------- report
-
-_ORDER = {"ERROR": 0, "FAILURE": 1, "WARNING": 2, "NEW": 3, "PASS": 4}
-
-
-def _encode_png(img: np.ndarray) -> str:
-    """An 8-bit image as a data: URL, for embedding in the report."""
-    import imageio.v3 as iio
-
-    buf = io.BytesIO()
-    iio.imwrite(buf, img, extension=".png")
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
-
-
-def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
-    from ..io.image import linear_to_srgb
-
-    img = np.clip(np.round(linear_to_srgb(np.clip(rgb, 0, 1)) * 255), 0, 255).astype(np.uint8)
-    if alpha is not None:
-        a = np.clip(np.round(np.clip(alpha, 0, 1) * 255), 0, 255).astype(np.uint8)
-        img = np.concatenate([img, a[..., None]], -1)
-    return _encode_png(img)
-
-
-def _picture(channels: dict) -> str | None:
-    if not all(c in channels for c in "RGB"):
-        return None
-    from ..rendering.rendered_image import straight_rgb
-
-    return _png_data(straight_rgb(channels), channels.get("A"))
-
-
-def _diff_picture(comparison: Comparison) -> str:
-    return _encode_png(heat_map(comparison))
-
-
-def write_report(results: list[CheckResult], folder: Path) -> Path:
-    """A self-contained HTML page (images embedded), failures first, and summary.json."""
-    from ..io.image import atomic_write, read_exr
-
-    folder = Path(folder)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise GshadeError(f"{folder}: cannot create the report folder ({exc.strerror})") from None
-    ordered = sorted(
-        results, key=lambda r: (_ORDER.get(r.status, 0) if not r.written else 4, r.name)
-    )
-    rows = []
-    for r in ordered:
-        cells = []
-        if r.image is not None:
-            cells.append(("new", _picture(r.image.channels)))
-        if r.reference is not None and r.reference.exists() and not r.written:
-            try:
-                cells.append(("reference", _picture(read_exr(r.reference)[0])))
-            except GshadeError:
-                pass
-        if r.comparison is not None:
-            cells.append(
-                (
-                    f"|difference| (max {r.comparison.overall.max_error:.3g})",
-                    _diff_picture(r.comparison),
-                )
-            )
-        figures = "".join(
-            f'<figure><img src="{src}" alt="{html.escape(label)}"><figcaption>'
-            f"{html.escape(label)}</figcaption></figure>"
-            for label, src in cells
-            if src
-        )
-        metrics = ""
-        if r.comparison is not None:
-            metrics = (
-                "<table><tr><th>channel</th><th>max</th><th>mean</th><th>RMSE</th>"
-                "<th>PSNR (dB)</th></tr>"
-                + "".join(
-                    f"<tr><td>{html.escape(c)}</td><td>{m.max_error:.4g}</td>"
-                    f"<td>{m.mean_error:.4g}</td><td>{m.rmse:.4g}</td><td>{m.psnr:.4g}</td></tr>"
-                    for c, m in r.comparison.per_channel.items()
-                )
-                + "</table>"
-            )
-        status = f"{r.status} ({r.written} reference)" if r.written else r.status
-        rows.append(
-            f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
-            f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
-            f"{html.escape(r.message)}</p>{figures}{metrics}"
-            + (f"<pre>{html.escape(r.log)}</pre>" if r.log else "")
-            + "</section>"
-        )
-    counts = {s: sum(r.status == s for r in results) for s in _ORDER}
-    page = (
-        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>gshade check</title><style>"
-        "body{font-family:sans-serif;margin:1em}figure{display:inline-block;margin:4px}"
-        "img{image-rendering:pixelated;background:#444;max-width:480px}"
-        "section{border-top:1px solid #ccc;padding:.5em 0}.failure h2,.error h2{color:#b00}"
-        ".warning h2{color:#a60}.pass h2{color:#070}td,th{padding:0 .6em;text-align:right}"
-        "</style></head><body><h1>gshade check</h1><p>"
-        + ", ".join(f"{n} {html.escape(s)}" for s, n in counts.items())
-        + "</p>"
-        + "".join(rows)
-        + "</body></html>"
-    )
-    atomic_write(
-        folder / "report.html", ".html", lambda tmp: Path(tmp).write_text(page, encoding="utf-8")
-    )
-    summary = {
-        "counts": counts,
-        "scenes": [
-            {
-                "name": r.name,
-                "scene": str(r.scene),
-                "status": r.status,
-                "message": r.message,
-                "written": r.written or None,
-                "seconds": round(r.seconds, 3),
-                "metrics": r.comparison.as_dict() if r.comparison is not None else None,
-            }
-            for r in ordered
-        ],
-    }
-    atomic_write(
-        folder / "summary.json",
-        ".json",
-        lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2)),
-    )
-    return folder / "report.html"

@@ -8,10 +8,11 @@ Every error is a :class:`~gshade.errors.GshadeError` whose one-line message name
 file, the table and key, what was expected and what was found, e.g.
 ``scene.toml: [camera] fov: expected a number in (0, 180), got "wide"``.
 
-Modules: :mod:`.model` (the validated scene), :mod:`.tables` (typed table access and key
-declarations), :mod:`.surfaces` (the surface types), :mod:`.data_files` (where data files
-may lie), :mod:`.sections` (the other tables), :mod:`.overrides` (``--set``),
-:mod:`.load` (reading a file), :mod:`.keys` (the reference).
+Modules: :mod:`.model` (the validated scene), :mod:`.tables` (TOML files, typed table
+access and key declarations), :mod:`.surfaces` (the surface types), :mod:`.data_files`
+(where data files may lie), :mod:`.sections` (the other tables), :mod:`.overrides` (dotted
+keys set before validation), :mod:`.load` (reading a file), :mod:`.discovery` (the scene
+files a folder or a pattern names), :mod:`.keys` (the reference).
 """
 
 from .data_files import DATA_PATH_VARIABLE

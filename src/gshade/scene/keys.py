@@ -45,7 +45,7 @@ def key_tables() -> list[KeyTable]:
         KeyTable(
             "[sweep]",
             TOP_KEYS["sweep"].description,
-            note='"table.key" = [values]: a dotted scene key (as --set takes), one render a value',
+            note='"table.key" = [values]: a dotted key such as "shape.period", one render a value',
         )
     )
     return tables

@@ -7,25 +7,19 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
-
 from ..errors import GshadeError
 from ..geometry.regularity import degenerate_patch
-from ..limits import MAX_MAGNITUDE, MAX_NESTING, MAX_PATCHES, MAX_SCENE_FILE_BYTES, MAX_STRING
+from ..limits import MAX_MAGNITUDE, MAX_NESTING, MAX_PATCHES, MAX_STRING
 from .data_files import data_roots
 from .model import Scene
 from .overrides import apply_overrides
 from .sections import parse_camera, parse_check, parse_render, parse_shape, parse_sweep
 from .surfaces import SURFACE_TYPES, build_surface
-from .tables import REQUIRED, Key, Table, declare_keys, show
+from .tables import REQUIRED, Key, Table, declare_keys, parse_toml, read_toml, show
 
 __all__ = ["TOP_KEYS", "load_scene", "parse_scene"]
 
@@ -130,7 +124,7 @@ def _hash(raw: dict[str, Any], data_files: Sequence[Path]) -> str:
 
 
 def _build(
-    text: str,
+    raw: dict[str, Any],
     file: str,
     path: Path | None,
     base: Path,
@@ -139,16 +133,6 @@ def _build(
 ) -> Scene:
     from ..io.outputs import output_name
 
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise GshadeError(f"{file}: invalid TOML: {exc}") from None
-    except ValueError as exc:  # an integer of more than 4300 digits
-        raise GshadeError(f"{file}: invalid TOML: {str(exc).split(';')[0]}") from None
-    except RecursionError:
-        raise GshadeError(
-            f"{file}: invalid TOML: arrays or tables nested too deeply (at most {MAX_NESTING})"
-        ) from None
     _check_values(file, raw)
     if overrides:
         raw = apply_overrides(file, raw, dict(overrides))
@@ -237,19 +221,9 @@ def load_scene(
     GshadeError
         One line naming the file, the table and key, what was expected and what was found.
     """
-    from ..io.files import read_bytes
-
     path = Path(path)
-    file = str(path)
-    data = read_bytes(path, "a scene file (TOML)", limit=MAX_SCENE_FILE_BYTES)
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise GshadeError(
-            f"{file}: expected a UTF-8 text file (TOML), got byte {data[exc.start]:#04x} at "
-            f"offset {exc.start}"
-        ) from None
-    return _build(text, file, path, path.parent, overrides, data_path)
+    raw = read_toml(path, "a scene file (TOML)")
+    return _build(raw, str(path), path, path.parent, overrides, data_path)
 
 
 def parse_scene(
@@ -265,4 +239,4 @@ def parse_scene(
     ``source`` names the text in messages; data files are found relative to ``base`` (and
     must lie within it or ``data_path``).  See :func:`load_scene`.
     """
-    return _build(text, source, None, Path(base), overrides, data_path)
+    return _build(parse_toml(text, source), source, None, Path(base), overrides, data_path)

@@ -8,11 +8,23 @@ from pathlib import Path
 from typing import Any
 
 from ..geometry import Patch
+from ..runtime.variant import VARIANTS
 from ..shape.functions import SHAPE_FUNCTIONS
+
+__all__ = [
+    "CAMERA_TYPES",
+    "DISPLAYS",
+    "LIGHTINGS",
+    "VARIANTS",
+    "Camera",
+    "RenderSettings",
+    "Scene",
+    "Shape",
+    "Surface",
+]
 
 DISPLAYS = ("stripes", "colormap", "both")
 LIGHTINGS = ("lit", "flat")
-VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
 CAMERA_TYPES = ("perspective", "orthographic")
 
 

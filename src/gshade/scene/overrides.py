@@ -1,5 +1,7 @@
-"""The override language: ``--set key=value`` items (:func:`parse_overrides`) and applying
-them to a scene file's contents before it is validated."""
+"""Overrides: ``key=value`` items with dotted scene keys (:func:`parse_overrides`), and
+applying them to a scene file's contents before it is validated.
+
+Their errors name the override (``override shape.period: ...``)."""
 
 from __future__ import annotations
 
@@ -32,7 +34,7 @@ def _parse_value(text: str) -> Any:
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
-    """Parse ``--set key=value`` items into overrides for :func:`load_scene`.
+    """Parse ``key=value`` items into overrides for :func:`load_scene`.
 
     Parameters
     ----------
@@ -50,7 +52,7 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
     Raises
     ------
     GshadeError
-        If an item has no ``=`` or its key is empty or malformed.
+        If an item has no ``=`` or its key is empty or malformed (``override ITEM: ...``).
     """
     out: dict[str, Any] = {}
     for item in items:
@@ -58,7 +60,7 @@ def parse_overrides(items: Sequence[str]) -> dict[str, Any]:
         key = key.strip()
         if not sep or not key or any(not part.strip() for part in key.split(".")):
             raise GshadeError(
-                f"--set {item}: expected key=value with a dotted key, e.g. shape.period=0.05"
+                f"override {item}: expected key=value with a dotted key, e.g. shape.period=0.05"
             )
         out[".".join(part.strip() for part in key.split("."))] = _parse_value(value.strip())
     return out
@@ -69,12 +71,13 @@ _EXCLUSIVE = {"shape.period": "shape.stripes", "shape.stripes": "shape.period"}
 
 
 def apply_overrides(file: str, raw: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
-    """The scene dict with the overrides applied (checking that their keys exist)."""
+    """The scene dict with the overrides applied (checking that their keys exist); errors
+    read ``FILE: override KEY: ...``."""
     raw = copy.deepcopy(raw)
     sections = ("name", *SECTION_KEYS, "surface.N")
 
     def fail(key: str, message: str) -> GshadeError:
-        return GshadeError(f"{file}: --set {key}: {message}")
+        return GshadeError(f"{file}: override {key}: {message}")
 
     def section(key: str, name: str) -> dict[str, Any]:
         table = raw.setdefault(name, {})

@@ -105,23 +105,22 @@ def _weights(t: Table) -> np.ndarray | None:
     return t.array("weights", _WEIGHTS) if "weights" in t.data else None
 
 
-def _number_or_list(t: Table, key: str, count: int, what: str, *, positive: bool) -> Any:
-    """A number (one value for all) or a list of ``count`` numbers; absent: the default."""
-    bound = "> 0" if positive else ">= 0"
-    expected = f"a number {bound} or a list of {count} numbers {bound} ({what})"
+def _number_or_list(t: Table, key: str, what: str) -> Any:
+    """A number (one value for all) or a list of numbers (``what`` says what each is for,
+    in messages); absent: the default.  Their bounds and count are the patch's to check."""
+    expected = f"a number or a list of numbers ({what})"
     x = t.raw(key, expected=expected)
     if x is None:
         return None
 
     def ok(v: Any) -> bool:
-        return is_number(v) and math.isfinite(v) and (v > 0 if positive else v >= 0)
+        return is_number(v) and math.isfinite(v)
 
     if ok(x):
         return float(x)
-    if isinstance(x, list) and count > 0 and len(x) == count and all(ok(v) for v in x):
+    if isinstance(x, list) and all(ok(v) for v in x):
         return [float(v) for v in x]
-    found = f" ({len(x)} numbers)" if isinstance(x, list) and len(x) != count else ""
-    raise t.error(key, f"expected {expected}, got {show(x)}{found}")
+    raise t.error(key, f"expected {expected}, got {show(x)}")
 
 
 # --------------------------------------------------------------------------- the types
@@ -281,21 +280,15 @@ def _per_junction(direction: str, k: int) -> Key:
     *(_per_junction(direction, k) for direction in "uv" for k in (1, 2)),
 )
 def _build_betaspline(t: Table, files: DataFiles) -> list[Patch]:
+    # the net's size and the values' bounds are BetaSplinePatch's to check
     points = t.array("points", _NET, 3)
-    if min(points.shape[:2]) < 4:
-        raise t.error(
-            "points",
-            f"expected at least 4 rows of at least 4 points (a cubic β-spline), got "
-            f"{points.shape[0]} rows of {points.shape[1]}",
-        )
-    beta1 = t.number("beta1", lo=0)
-    beta2 = t.number("beta2", lo=0, closed=True)
+    beta1 = t.number("beta1")
+    beta2 = t.number("beta2")
     per_direction = {}
     for d, rows in (("u", points.shape[0]), ("v", points.shape[1])):
-        what = f"one per interior junction in {d}: {_ROWS[d]}"
-        what += f" ({rows}) - 4"
-        for key, positive in ((f"beta1_{d}", True), (f"beta2_{d}", False)):
-            per_direction[key] = _number_or_list(t, key, rows - 4, what, positive=positive)
+        what = f"one per interior junction in {d}: {_ROWS[d]} ({rows}) - 4"
+        for key in (f"beta1_{d}", f"beta2_{d}"):
+            per_direction[key] = _number_or_list(t, key, what)
     with t.reported():
         return [BetaSplinePatch(points, beta1, beta2, **per_direction)]
 
@@ -326,11 +319,13 @@ def _build_betaspline(t: Table, files: DataFiles) -> list[Patch]:
     ),
 )
 def _build_nuspline(t: Table, files: DataFiles) -> list[Patch]:
+    # the names of the ends, the knots' count and order and the tensions' count and bounds
+    # are NuSplinePatch's to check
     points = t.array("points", _NET, 3)
     ends = t.raw("ends")
     if not (
-        ends in NU_ENDS
-        or (isinstance(ends, list) and len(ends) == 2 and all(e in NU_ENDS for e in ends))
+        isinstance(ends, str)
+        or (isinstance(ends, list) and len(ends) == 2 and all(isinstance(e, str) for e in ends))
     ):
         raise t.error(
             "ends",
@@ -345,9 +340,7 @@ def _build_nuspline(t: Table, files: DataFiles) -> list[Patch]:
             wrap = " + 1, closed" if closed[k] else ""
             expected = f"a list of {count + closed[k]} increasing knots ({count} {rows}{wrap})"
             given[f"knots_{d}"] = t.array(f"knots_{d}", (expected,))
-        given[f"nu_{d}"] = _number_or_list(
-            t, f"nu_{d}", count, f"one per knot: {count} {rows}", positive=False
-        )
+        given[f"nu_{d}"] = _number_or_list(t, f"nu_{d}", f"one per knot: {count} {rows}")
     with t.reported():
         return [NuSplinePatch(points, **given)]
 
@@ -370,7 +363,8 @@ def _connection(key: str, default: float, junctions: str) -> Key:
 )
 def _build_junction(t: Table, files: DataFiles) -> list[Patch]:
     points = _bezier_net(t, "points")
-    continuity = t.choice("continuity", CLASSES)
+    # the class, and beta > 0, are junction_patch's to check
+    continuity = t.string("continuity", expected=f"one of {one_of(CLASSES)}")
     names = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta")
     connection = {key: t.number(key) for key in names}
     with t.reported():
@@ -393,7 +387,7 @@ def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
     from ..io.obj import read_obj_mesh
 
     name = t.string("file", expected="a path to an OBJ file (a quad mesh)")
-    levels = t.integer("levels", minimum=0)
+    levels = t.integer("levels", minimum=None)  # >= 0: subdivision_patches checks it
     if levels > MAX_SUBDIVISION_LEVELS:
         raise t.error(
             "levels",

@@ -1,4 +1,4 @@
-"""Typed access to a scene file's TOML tables, with one-line messages that name the file,
+"""TOML files and typed access to their tables, with one-line messages that name the file,
 the table and key, what was expected and what was found; and :class:`Key`, the
 declaration of a table's key (what it accepts, its default, what it means) that the
 parsers read their allowed keys and defaults from and ``gshade keys`` lists."""
@@ -8,14 +8,23 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
+import sys
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
 from ..errors import GshadeError
+from ..limits import MAX_NESTING, MAX_SCENE_FILE_BYTES
 
 __all__ = [
     "REQUIRED",
@@ -26,10 +35,13 @@ __all__ = [
     "is_int",
     "is_number",
     "one_of",
+    "parse_toml",
+    "read_toml",
     "show",
     "suggest",
     "toml_value",
 ]
+
 
 #: The default of a key that must be given.
 REQUIRED: Any = object()
@@ -37,6 +49,61 @@ REQUIRED: Any = object()
 _DECLARED: Any = object()
 #: Shortest direction vector (light, view up, ...) accepted: normalising it stays exact.
 MIN_DIRECTION = 1e-12
+
+
+def parse_toml(text: str, file: str) -> dict[str, Any]:
+    """TOML text as a dict; ``file`` names it in messages.
+
+    Raises
+    ------
+    GshadeError
+        ``FILE: invalid TOML: ...`` in one line, with the line and column where the parser
+        gives them (also for integers of more than 4300 digits and for nesting too deep for
+        the parser).
+    """
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise GshadeError(f"{file}: invalid TOML: {exc}") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise GshadeError(f"{file}: invalid TOML: {str(exc).split(';')[0]}") from None
+    except RecursionError:
+        raise GshadeError(
+            f"{file}: invalid TOML: arrays or tables nested too deeply (at most {MAX_NESTING})"
+        ) from None
+
+
+def read_toml(
+    path: str | os.PathLike, expected: str, limit: int = MAX_SCENE_FILE_BYTES
+) -> dict[str, Any]:
+    """A TOML file as a dict: a regular file of at most ``limit`` bytes, UTF-8 text.
+
+    Parameters
+    ----------
+    path : path-like
+    expected : str
+        What the file should be, for messages (``"a scene file (TOML)"``).
+    limit : int
+        The largest file accepted, in bytes.
+
+    Raises
+    ------
+    GshadeError
+        One line naming the file: it does not exist, is not a regular file, is too large,
+        is not UTF-8 (the offset of the first bad byte) or not TOML (see :func:`parse_toml`).
+    """
+    from ..io.files import read_bytes
+
+    path = Path(path)
+    data = read_bytes(path, expected, limit=limit)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise GshadeError(
+            f"{path}: expected a UTF-8 text file (TOML), got byte {data[exc.start]:#04x} at "
+            f"offset {exc.start}"
+        ) from None
+    return parse_toml(text, str(path))
 
 
 @dataclass(frozen=True)
@@ -209,18 +276,30 @@ class Table:
         return float(x)
 
     def integer(
-        self, key: str, default: Any = _DECLARED, *, minimum: int = 1, maximum: int | None = None
+        self,
+        key: str,
+        default: Any = _DECLARED,
+        *,
+        minimum: int | None = 1,
+        maximum: int | None = None,
     ) -> Any:
+        """An integer in [minimum, maximum]; ``minimum`` None: any integer (the bounds are
+        the library's to check)."""
         default = self._default(key, default)
-        expected = {0: "an integer >= 0", 1: "a positive integer"}.get(
-            minimum, f"an integer >= {minimum}"
-        )
-        if maximum is not None:
+        if minimum is None:
+            expected = "an integer"
+        elif maximum is not None:
             expected = f"an integer from {minimum} to {maximum}"
+        else:
+            expected = {0: "an integer >= 0", 1: "a positive integer"}.get(
+                minimum, f"an integer >= {minimum}"
+            )
         x = self.raw(key, default, expected)
         if x is default and key not in self.data:
             return x
-        if not is_int(x) or x < minimum or (maximum is not None and x > maximum):
+        if not (
+            is_int(x) and (minimum is None or x >= minimum) and (maximum is None or x <= maximum)
+        ):
             raise self.error(key, f"expected {expected}, got {show(x)}")
         return int(x)
 

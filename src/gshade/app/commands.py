@@ -1,0 +1,323 @@
+"""The ``gshade`` subcommands, one function each: render, info, continuity, shapes, keys,
+compare, check, batch and figure.
+
+Each takes the parsed arguments (:func:`gshade.app.cli.build_parser`) and returns the exit
+status.  Bad input raises a GshadeError, which :func:`gshade.app.cli.main` reports in one
+line in the command line's words (:mod:`gshade.app.flags`).  Everything a command needs is
+imported when it runs, so that ``gshade --help`` starts at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..errors import GshadeError
+from .flags import in_flags, parameter
+
+__all__ = [
+    "batch",
+    "check",
+    "compare",
+    "continuity",
+    "figure",
+    "info",
+    "keys",
+    "render",
+    "shapes",
+]
+
+
+def _scene_overrides(args: argparse.Namespace) -> dict:
+    """The overrides of ``--set`` and of the render flags (``--width`` ...)."""
+    from ..scene import parse_overrides
+
+    overrides = parse_overrides(args.set)
+    for key in ("width", "height", "spp", "variant", "junctions"):
+        value = getattr(args, key, None)
+        if value is not None:
+            overrides[f"render.{key}"] = value
+    return overrides
+
+
+# --------------------------------------------------------------------------- scenes
+
+
+def render(args: argparse.Namespace) -> int:
+    """``gshade render``: the EXR (and PNG), written together once both are complete."""
+    from ..io.outputs import output_file, staged, write_to
+    from ..rendering import render as render_scene
+    from ..scene import load_scene
+
+    scene = load_scene(args.scene, _scene_overrides(args))
+    output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
+    targets = [output] + ([Path(args.png)] if args.png else [])
+    # the outputs' temporaries are made first: an unwritable target fails before rendering,
+    # and the targets change only once every file is written
+    with staged(targets) as names:
+        image = render_scene(scene)
+        writers = [image.exr_writer(output)] + ([image.png_writer(args.png)] if args.png else [])
+        for target, writer, name in zip(targets, writers, names, strict=True):
+            write_to(name, writer, target)
+    print(
+        f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
+        f"{image.metadata['legend']}"
+    )
+    return 0
+
+
+def info(args: argparse.Namespace) -> int:
+    """``gshade info``: the surfaces, patch count, bounding box and irregular points."""
+    import numpy as np
+
+    from ..geometry import irregular_mask
+    from ..scene import load_scene
+
+    scene = load_scene(args.scene, _scene_overrides(args))
+    print(f"scene {scene.name} ({scene.path})")
+    for k, surface in enumerate(scene.surfaces):
+        kinds: dict[str, int] = {}
+        for patch in surface.patches:
+            degree = getattr(patch, "degree", None)
+            label = type(patch).__name__ + (f" degree {tuple(degree)}" if degree else "")
+            label += " rational" if getattr(patch, "rational", False) else ""
+            kinds[label] = kinds.get(label, 0) + 1
+        summary = ", ".join(f"{n} x {label}" for label, n in kinds.items())
+        print(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
+    points = []
+    irregular = []
+    for index, patch in enumerate(scene.patches):
+        u, v = patch.parameter_grid(17, 17)
+        d = patch.derivatives(u, v, 1)
+        points.append(d[0, 0].reshape(-1, 3))
+        mask = irregular_mask(d)
+        if mask.any():
+            sides = (("u0", mask[0]), ("u1", mask[-1]), ("v0", mask[:, 0]), ("v1", mask[:, -1]))
+            edges = [name for name, sel in sides if sel.all()]
+            where = ", ".join(f"collapsed edge {e}" for e in edges)
+            irregular.append(f"patch {index}: " + (where or f"{int(mask.sum())} sample points"))
+    pts = np.concatenate(points)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    print(f"  patches: {len(points)}")
+    print(
+        f"  bounding box: [{', '.join(f'{x:.6g}' for x in lo)}] .. "
+        f"[{', '.join(f'{x:.6g}' for x in hi)}]"
+    )
+    print("  irregular points:" + ("" if irregular else " none"))
+    for line in irregular:
+        print(f"    {line}")
+    return 0
+
+
+def _parse_pair(text: str) -> tuple[int, str, int, str]:
+    """'0:u1,1:u0' -> (0, 'u1', 1, 'u0')."""
+    try:
+        (i, si), (j, sj) = (part.split(":") for part in text.split(","))
+        return int(i), si.strip(), int(j), sj.strip()
+    except ValueError:
+        raise GshadeError(
+            f"--pair: expected I:SIDE,J:SIDE such as 0:u1,1:u0 (SIDE one of u0 u1 v0 v1), "
+            f"got {text!r}"
+        ) from None
+
+
+def continuity(args: argparse.Namespace) -> int:
+    """``gshade continuity``: every junction's measurements and class, as a table or JSON."""
+    import json
+
+    import numpy as np
+
+    from ..analysis.continuity import Tolerances, continuity_report
+    from ..scene import load_scene
+
+    scene = load_scene(args.scene, _scene_overrides(args))
+    patches = list(scene.patches)
+    pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+    tol = Tolerances.for_size(
+        float(np.linalg.norm(np.ptp(pts, axis=0))),
+        g0=args.tol_g0,
+        g1=args.tol_g1,
+        g2=args.tol_g2,
+        g3=args.tol_g3,
+    )
+    pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
+    try:
+        report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
+    except GshadeError as exc:  # about a parameter (a flag), or about the scene's surfaces
+        if parameter(str(exc)) is not None:
+            raise
+        raise GshadeError(f"{args.scene}: {exc}") from None
+    if args.json:
+        print(
+            json.dumps(
+                {"junctions": [j.as_dict() for j in report], "tolerances": tol.__dict__}, indent=2
+            )
+        )
+        return 0
+    print(
+        f"{'patches':>10}  {'sides':>7}  class  {'gap':>9}  {'angle(deg)':>10}  "
+        f"{'curv.jump':>9}  {'grad.jump':>9}"
+    )
+    for j in report:
+        print(
+            f"{j.patches[0]:>4} {j.patches[1]:>4}  {j.sides[0]}-{j.sides[1]}  {j.cls:>5}  "
+            f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
+            f"{j.curvature_gradient_jump:9.2e}"
+        )
+    counts = {c: sum(j.cls == c for j in report) for c in ("G3", "G2", "G1", "G0", "none")}
+    summary = ", ".join(f"{n} {c}" for c, n in counts.items() if n)
+    print(f"{len(report)} junctions" + (f": {summary}" if summary else ""))
+    return 0
+
+
+# --------------------------------------------------------------------------- references
+
+
+def shapes(args: argparse.Namespace) -> int:
+    """``gshade shapes``: the shape functions, their order and parameters."""
+    from ..shape import SHAPE_FUNCTIONS
+
+    for fn in SHAPE_FUNCTIONS.values():
+        flags = ", eye-dependent" if fn.eye_dependent else ""
+        print(f"{fn.name}  (order {fn.order}{flags})")
+        print(f"    {fn.summary}")
+        for name, p in fn.parameters.items():
+            default = p.default if p.kind != "choice" else f"{p.default} ({'|'.join(p.choices)})"
+            print(f"    {name} = {default}: {p.help}")
+    return 0
+
+
+def keys(args: argparse.Namespace) -> int:
+    """``gshade keys``: the scene files' keys."""
+    from ..scene.keys import scene_keys
+
+    print(scene_keys())
+    return 0
+
+
+# --------------------------------------------------------------------------- comparisons
+
+
+def compare(args: argparse.Namespace) -> int:
+    """``gshade compare``: 0 pass, 1 warning, 2 failure (the images differ), 3 size or
+    channel mismatch, 4 unreadable file (idiff's statuses).  A usage error (bad thresholds
+    or channels, a difference image that cannot be written: found before comparing) is
+    raised, for :func:`gshade.app.cli.main` to report with status 5."""
+    import json
+
+    from ..regression.comparison import EXIT_STATUS, ChannelMismatch, Thresholds, UnreadableImage
+    from ..regression.diff_images import compare_and_write_diffs
+
+    thresholds = Thresholds(args.fail, args.failpercent, args.hardfail, args.warn, args.warnpercent)
+    channels = [c.strip() for c in args.channels.split(",") if c.strip()]
+    if not channels:
+        raise GshadeError(
+            f"--channels: expected channel names such as R,G,B, got {args.channels!r}"
+        )
+    try:
+        result = compare_and_write_diffs(
+            args.test,
+            args.reference,
+            channels=channels,
+            thresholds=thresholds,
+            diff=args.diff,
+            diff_png=args.diff_png,
+            only_if_not_pass=args.diff_on_fail,
+        )
+    except UnreadableImage as exc:
+        print(f"gshade: error: {exc}", file=sys.stderr)
+        return EXIT_STATUS["UNREADABLE"]
+    except ChannelMismatch as exc:
+        print(f"gshade: error: {exc}", file=sys.stderr)
+        return EXIT_STATUS["MISMATCH"]
+    if args.json:
+        print(json.dumps(result.as_dict(), indent=2))
+    else:
+        for name, m in {**result.per_channel, **result.per_group}.items():
+            at = f" at ({m.max_at[0]}, {m.max_at[1]})" if m.max_at else ""
+            print(
+                f"  {name:>6}: max {m.max_error:.6g}{at}, mean {m.mean_error:.6g}, "
+                f"RMSE {m.rmse:.6g}, PSNR {m.psnr:.4g} dB (range {m.data_range:.4g})"
+            )
+        print(result.summary())
+    return result.exit_status
+
+
+def check(args: argparse.Namespace) -> int:
+    """``gshade check``: one line per scene as it is checked, then the counts; 2 if any
+    scene failed."""
+    from ..regression.check import check as check_scenes
+    from ..regression.check import find_scenes
+    from ..regression.report import write_report
+
+    scenes = find_scenes(args.scenes)
+    if args.report:  # an unusable report folder fails before any scene renders
+        try:
+            Path(args.report).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise GshadeError(
+                f"--report {args.report}: cannot create the folder ({exc.strerror})"
+            ) from None
+
+    def progress(result) -> None:
+        result.message = in_flags(result.message)  # for the report too
+        print(result.line(), flush=True)
+
+    results = check_scenes(
+        scenes,
+        Path(args.references),
+        update=args.update,
+        update_all=args.update_all,
+        statistical=args.statistical,
+        progress=progress,
+    )
+    if args.report:
+        report = write_report(results, Path(args.report))
+        print(f"report: {report}")
+    failed = [r for r in results if not r.ok]
+    written = sum(bool(r.written) for r in results)
+    print(
+        f"{len(results) - len(failed)} passed, {len(failed)} failed"
+        + (f" ({written} references written)" if written else "")
+    )
+    return 0 if not failed else 2
+
+
+# --------------------------------------------------------------------------- many scenes
+
+
+def batch(args: argparse.Namespace) -> int:
+    """``gshade batch``: every job's outputs, the failures on stderr, then the counts; 2 if
+    any job failed."""
+    from .batch import check_options, expand_scenes, parse_sweeps, plan_jobs, run_batch
+
+    check_options(args.jobs, args.timeout, args.scheduler)  # before anything is read or made
+    jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
+    results = run_batch(
+        jobs,
+        args.output,
+        workers=args.jobs,
+        force=args.force,
+        scheduler=args.scheduler,
+        timeout=args.timeout,
+    )
+    failed = [r for r in results if r.status == "failed"]
+    for r in failed:
+        name = r.name if len(r.name) <= 80 else r.name[:79] + "…"
+        print(f"failed: {name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
+    counts = {s: sum(r.status == s for r in results) for s in ("rendered", "up to date")}
+    print(
+        f"{counts['rendered']} rendered, {counts['up to date']} up to date, "
+        f"{len(failed)} failed; manifest: {Path(args.output) / 'manifest.json'}"
+    )
+    return 0 if not failed else 2
+
+
+def figure(args: argparse.Namespace) -> int:
+    """``gshade figure``: render the spec's panels and write the figure."""
+    from .figure import load_figure_spec, make_figure
+
+    path = make_figure(load_figure_spec(args.spec), args.output)
+    print(f"{path}")
+    return 0

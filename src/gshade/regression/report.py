@@ -1,0 +1,166 @@
+"""The report of a reference check: a self-contained HTML page (the images embedded as
+PNG), failures first, and ``summary.json`` with every scene's verdict, message and metrics."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GshadeError
+from .check import CheckResult
+from .comparison import Comparison, heat_map
+
+__all__ = ["write_report"]
+
+_ORDER = {"ERROR": 0, "FAILURE": 1, "WARNING": 2, "NEW": 3, "PASS": 4}
+
+
+def _encode_png(img: np.ndarray) -> str:
+    """An 8-bit image as a data: URL, for embedding in the report."""
+    import imageio.v3 as iio
+
+    buf = io.BytesIO()
+    iio.imwrite(buf, img, extension=".png")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
+    from ..io.image import linear_to_srgb
+
+    img = np.clip(np.round(linear_to_srgb(np.clip(rgb, 0, 1)) * 255), 0, 255).astype(np.uint8)
+    if alpha is not None:
+        a = np.clip(np.round(np.clip(alpha, 0, 1) * 255), 0, 255).astype(np.uint8)
+        img = np.concatenate([img, a[..., None]], -1)
+    return _encode_png(img)
+
+
+def _picture(channels: dict) -> str | None:
+    if not all(c in channels for c in "RGB"):
+        return None
+    from ..rendering.rendered_image import straight_rgb
+
+    return _png_data(straight_rgb(channels), channels.get("A"))
+
+
+def _figures(r: CheckResult) -> str:
+    """The new image, the reference (unless just written) and the difference heat map."""
+    from ..io.image import read_exr
+
+    cells = []
+    if r.image is not None:
+        cells.append(("new", _picture(r.image.channels)))
+    if r.reference is not None and r.reference.exists() and not r.written:
+        try:
+            cells.append(("reference", _picture(read_exr(r.reference)[0])))
+        except GshadeError:
+            pass
+    if r.comparison is not None:
+        label = f"|difference| (max {r.comparison.overall.max_error:.3g})"
+        cells.append((label, _encode_png(heat_map(r.comparison))))
+    return "".join(
+        f'<figure><img src="{src}" alt="{html.escape(label)}"><figcaption>'
+        f"{html.escape(label)}</figcaption></figure>"
+        for label, src in cells
+        if src
+    )
+
+
+def _metrics(comparison: Comparison | None) -> str:
+    """The per-channel metrics as a table."""
+    if comparison is None:
+        return ""
+    return (
+        "<table><tr><th>channel</th><th>max</th><th>mean</th><th>RMSE</th>"
+        "<th>PSNR (dB)</th></tr>"
+        + "".join(
+            f"<tr><td>{html.escape(c)}</td><td>{m.max_error:.4g}</td>"
+            f"<td>{m.mean_error:.4g}</td><td>{m.rmse:.4g}</td><td>{m.psnr:.4g}</td></tr>"
+            for c, m in comparison.per_channel.items()
+        )
+        + "</table>"
+    )
+
+
+def _section(r: CheckResult) -> str:
+    """One scene's section: verdict, message, pictures, metrics and log."""
+    status = f"{r.status} ({r.written} reference)" if r.written else r.status
+    return (
+        f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
+        f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
+        f"{html.escape(r.message)}</p>{_figures(r)}{_metrics(r.comparison)}"
+        + (f"<pre>{html.escape(r.log)}</pre>" if r.log else "")
+        + "</section>"
+    )
+
+
+_STYLE = (
+    "body{font-family:sans-serif;margin:1em}figure{display:inline-block;margin:4px}"
+    "img{image-rendering:pixelated;background:#444;max-width:480px}"
+    "section{border-top:1px solid #ccc;padding:.5em 0}.failure h2,.error h2{color:#b00}"
+    ".warning h2{color:#a60}.pass h2{color:#070}td,th{padding:0 .6em;text-align:right}"
+)
+
+
+def write_report(results: list[CheckResult], folder: Path) -> Path:
+    """Write ``report.html`` and ``summary.json`` into ``folder`` (created if need be).
+
+    Parameters
+    ----------
+    results : list of CheckResult
+        As :func:`gshade.regression.check.check` returns them.
+    folder : path-like
+
+    Returns
+    -------
+    Path
+        The HTML page: self-contained (images embedded), failures first.
+    """
+    from ..io.image import atomic_write
+
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise GshadeError(f"{folder}: cannot create the report folder ({exc.strerror})") from None
+    ordered = sorted(
+        results, key=lambda r: (_ORDER.get(r.status, 0) if not r.written else 4, r.name)
+    )
+    counts = {s: sum(r.status == s for r in results) for s in _ORDER}
+    page = (
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>gshade check</title><style>"
+        + _STYLE
+        + "</style></head><body><h1>gshade check</h1><p>"
+        + ", ".join(f"{n} {html.escape(s)}" for s, n in counts.items())
+        + "</p>"
+        + "".join(_section(r) for r in ordered)
+        + "</body></html>"
+    )
+    atomic_write(
+        folder / "report.html", ".html", lambda tmp: Path(tmp).write_text(page, encoding="utf-8")
+    )
+    summary = {
+        "counts": counts,
+        "scenes": [
+            {
+                "name": r.name,
+                "scene": str(r.scene),
+                "status": r.status,
+                "message": r.message,
+                "written": r.written or None,
+                "seconds": round(r.seconds, 3),
+                "metrics": r.comparison.as_dict() if r.comparison is not None else None,
+            }
+            for r in ordered
+        ],
+    }
+    atomic_write(
+        folder / "summary.json",
+        ".json",
+        lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2)),
+    )
+    return folder / "report.html"
