@@ -2,7 +2,7 @@
 
 Mitsuba's ``llvm_ad_rgb`` variant JIT-compiles its kernels with the system's libLLVM, and
 LLVM 15 or 16 aborts the whole process on the first kernel (``Cannot select ... fmaximum``,
-measured with drjit 1.5).  gshade therefore looks for libLLVM >= 17 itself — the
+observed with drjit 1.5).  gshade therefore looks for libLLVM >= 17 itself — the
 ``karellen-llvm-core`` wheel installed with gshade puts one into the environment — and points
 Dr.Jit at it with ``DRJIT_LIBLLVM_PATH`` before Mitsuba is imported.  With none, ``auto``
 falls back to ``scalar_rgb`` with one warning.
