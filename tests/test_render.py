@@ -149,3 +149,25 @@ def test_renders_are_bit_identical():
     a, b = gshade.render(scene), gshade.render(scene)
     for name in a.channels:
         assert np.array_equal(a[name], b[name]), name
+
+
+STAGES = ["setup", "tessellate", "textures", "scene", "render", "render_data", "exact_channels"]
+
+
+def test_timings_name_the_stages():
+    """benchmarks/bench_render.py reads these names."""
+    scene = parse_scene(SPHERE.replace("512", "24"))
+    assert list(gshade.render(scene, spp=1).timings) == STAGES
+    with_junctions = gshade.render(scene, spp=1, junctions=True).timings
+    assert list(with_junctions) == [STAGES[0], "junctions", *STAGES[1:]]
+
+
+def test_the_integrators_are_mitsuba_plugins_by_name():
+    import mitsuba as mi
+
+    from gshade.rendering.integrator import DATA_FILM, DATA_PLUGIN, SHAPE_FILM, SHAPE_PLUGIN
+
+    gshade.render(parse_scene(SPHERE.replace("512", "8")), spp=1)  # registers them
+    shape, data = (mi.load_dict({"type": name}) for name in (SHAPE_PLUGIN, DATA_PLUGIN))
+    assert list(shape.aov_names()) == list(SHAPE_FILM[4:]) == ["f"]
+    assert list(data.aov_names()) == list(DATA_FILM[4:]) == ["x", "y", "hit"]

@@ -89,3 +89,46 @@ def test_the_kernel_and_numpy_agree_and_misses_keep_their_start():
     for x, y in zip(a[:3], b[:3], strict=True):
         np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(a[0][:50], u[:50])  # missed: the start values
+
+
+def test_the_newton_step_is_exact_on_a_plane_for_every_array_library():
+    """p(u, v) = q + u a + v b: one step from anywhere reaches the ray's point, with the
+    numpy operations and Dr.Jit's (fused and written-out products)."""
+    from gshade.rendering.newton import newton_step, ray_residual
+    from gshade.runtime.backend import NUMPY, drjit_ops
+
+    rng = np.random.default_rng(5)
+    n = 200
+    q, a, b = np.array([0.3, -1.0, 2.0]), np.array([1.0, 0.2, 0.1]), np.array([-0.3, 1.0, 0.4])
+    u_true, v_true = rng.uniform(-1, 1, (2, n))
+    point = q + u_true[:, None] * a + v_true[:, None] * b
+    direction = rng.normal(size=(n, 3)) + np.cross(a, b)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    origin = point - 3.0 * direction
+    u, v = u_true + rng.normal(size=n), v_true + rng.normal(size=n)
+    p = q + u[:, None] * a + v[:, None] * b
+    pu, pv = np.broadcast_to(a, (n, 3)), np.broadcast_to(b, (n, 3))
+    t, r = ray_residual(p, origin, direction, NUMPY)
+    du, dv, dt, ok = newton_step(pu, pv, direction, r, NUMPY, 1e-300)
+    assert ok.all()
+    # grazing rays (d in the tangent plane) take no step
+    graze = newton_step(pu, pv, np.broadcast_to(a, (n, 3)), r, NUMPY, 1e-300)
+    assert not graze[3].any() and not graze[0].any() and not graze[1].any()
+    np.testing.assert_allclose(u + du, u_true, atol=1e-12)
+    np.testing.assert_allclose(v + dv, v_true, atol=1e-12)
+    np.testing.assert_allclose(t + dt, 3.0, atol=1e-12)
+    if backend() != "drjit":
+        return
+    from drjit.llvm import Array3f64
+
+    def vec(x):
+        return Array3f64(*(np.ascontiguousarray(x[:, c]) for c in range(3)))
+
+    for fused in (True, False):
+        ops = drjit_ops(fused=fused)
+        t, r = ray_residual(vec(p), vec(origin), vec(direction), ops)
+        du, dv, dt, ok = newton_step(vec(pu), vec(pv), vec(direction), r, ops, 1e-300)
+        assert np.array(ok).all()
+        np.testing.assert_allclose(u + np.array(du), u_true, atol=1e-12)
+        np.testing.assert_allclose(v + np.array(dv), v_true, atol=1e-12)
+        np.testing.assert_allclose(np.array(t + dt), 3.0, atol=1e-12)

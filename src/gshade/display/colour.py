@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from ..runtime.backend import NUMPY_NAN, ArrayOps
 
 __all__ = [
     "ColourMapped",
@@ -38,17 +39,6 @@ LIGHT = (0.92, 0.92, 0.90)
 UNDEFINED = (0.25, 0.1, 0.3)
 
 
-class _Ops:
-    """The array operations the stripe filter needs: numpy's here, Dr.Jit's in the renderer."""
-
-    floor = staticmethod(np.floor)
-    minimum = staticmethod(np.minimum)
-    maximum = staticmethod(np.maximum)
-    abs = staticmethod(np.abs)
-    select = staticmethod(np.where)
-    logical_not = staticmethod(np.logical_not)
-
-
 def _primitive(x, duty, ops):
     """Q(x) = floor(x) duty + min(fract(x), duty): the integral of the stripe indicator."""
     fl = ops.floor(x)
@@ -63,10 +53,10 @@ def _second_primitive(x, duty, ops):
     return duty * n * (n - 1.0) / 2.0 + n * (duty - duty * duty / 2.0) + n * duty * tau + partial
 
 
-def coverage_formula(s, a, b, duty, ops=_Ops):
+def coverage_formula(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
     """The box-filtered stripe coverage (see :func:`stripe_coverage`), written once for any
-    array library with the operations of ``ops`` (floor, minimum, maximum, abs, select,
-    logical_not).
+    array library through ``ops`` (:class:`gshade.runtime.backend.ArrayOps`; floor, minimum,
+    maximum, abs, select, logical_not): numpy's here, Dr.Jit's in the renderer.
     Use float64: the second difference loses digits in float32."""
     a, b = ops.abs(a), ops.abs(b)
     a, b = ops.maximum(a, b), ops.minimum(a, b)

@@ -1,7 +1,11 @@
-"""gshade's Mitsuba integrator: per-sample shape colours from exact shape-function textures.
+"""gshade's Mitsuba integrators: shape colours from exact shape-function textures, and the
+data pass.
 
-For every camera ray it intersects the mesh, interpolates (f, f_s, f_t) from the atlas at
-the hit's parameters, and turns f into a colour per sample: anti-aliased stripes (the box
+Two integrators, registered with Mitsuba by name, share the atlas and the surface textures:
+
+``gshade_shape`` (:data:`SHAPE_PLUGIN`): for every camera ray it intersects the mesh, moves
+the hit onto the surface interpolated from the atlas (one Newton step), interpolates
+(f, f_s, f_t) there, and turns f into a colour per sample: anti-aliased stripes (the box
 filter of :func:`gshade.display.colour.coverage_formula` over the sample's footprint, from the
 ray differentials and the exact derivatives), a colour map (a lookup table of a matplotlib
 map), or both.  ``flat`` lighting returns that colour; ``lit`` puts it on a two-sided diffuse
@@ -9,9 +13,8 @@ surface under soft light (sky occlusion from one cosine-distributed ray, a shado
 and a head light).  AOV ``f`` is f at hits and 0 elsewhere, so that its pixel mean divided
 by the coverage A is the mean over the samples that hit.
 
-A second mode (set ``integrator.data = True`` before a render) returns only the hit's atlas
-coordinates, for the per-pixel data channels that gshade then evaluates exactly (P, N, u, v,
-patch); it reads the same textures.
+``gshade_data`` (:data:`DATA_PLUGIN`): the hit's atlas coordinates after the same Newton
+step, for the per-pixel data channels that gshade then evaluates exactly (P, N, u, v, patch).
 
 Traced into one kernel in the ``llvm_ad_rgb`` variant (as fast as Mitsuba's own plugins);
 run per sample in ``scalar_rgb``.
@@ -19,21 +22,50 @@ run per sample in ``scalar_rgb``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula
+from ..runtime.backend import drjit_ops
+from .atlas import GEOMETRY, SHAPE, Atlas, bilinear, cell_centre, hermite, locate_cell, tile_bounds
+from .newton import newton_step
+from .textures import ShapeTextures
 
-__all__ = ["IntegratorSettings", "make_integrator"]
+__all__ = [
+    "DATA_FILM",
+    "DATA_PLUGIN",
+    "SHAPE_FILM",
+    "SHAPE_PLUGIN",
+    "IntegratorSettings",
+    "make_integrators",
+]
 
 STRIPES, COLORMAP, BOTH = 0, 1, 2
 DISPLAY_CODES = {"stripes": STRIPES, "colormap": COLORMAP, "both": BOTH}
 
+#: the Mitsuba plugin names of the two integrators
+SHAPE_PLUGIN, DATA_PLUGIN = "gshade_shape", "gshade_data"
+#: the film channels each integrator's render gives: R G B A, then its AOVs
+SHAPE_FILM = ("R", "G", "B", "A", "f")
+DATA_FILM = ("R", "G", "B", "A", "x", "y", "hit")
+
+#: the packed textures' channels that the integrators read (see gshade.rendering.atlas)
+_P = [GEOMETRY.hermite_channels("p", c) for c in range(3)]
+_P_S = [GEOMETRY.channel("p_s", c) for c in range(3)]
+_P_T = [GEOMETRY.channel("p_t", c) for c in range(3)]
+_F, _F_S, _F_T = SHAPE.hermite_channels("f"), SHAPE.channel("f_s"), SHAPE.channel("f_t")
+_VALID = SHAPE.channel("valid")
+
+#: Rays this close to the interpolated tangent plane (|det [p_s p_t -d]| at most this, in
+#: float32) keep the mesh's parameters.
+TINY = 1e-20
+
 
 @dataclass(frozen=True)
 class IntegratorSettings:
-    """What the integrator draws (all in world space / units of f)."""
+    """What the integrators draw (all in world space / units of f)."""
 
     display: str = "stripes"
     lighting: str = "lit"
@@ -41,66 +73,78 @@ class IntegratorSettings:
     duty: float = 0.5
     phase: float = 0.0
     value_range: tuple[float, float] = (0.0, 1.0)
-    atlas_scale: tuple[float, float] = (1.0, 1.0)
-    atlas_size: tuple[int, int, int] = (2, 2, 2)  # width, height, tile (texels)
+    atlas: Atlas = field(default_factory=lambda: Atlas(2, 1, 1))
     key_light: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
 
-class _DrJitOps:
-    """The array operations of :func:`coverage_formula`, for Dr.Jit arrays (or scalars).
+#: the variants whose integrators are registered with Mitsuba
+_REGISTERED: set[str] = set()
 
-    Minimum and maximum are written as compare-and-select: Dr.Jit lowers ``dr.minimum`` to
-    LLVM's ``fminimum``, which some LLVM versions cannot compile for x86 in every kernel
-    (the process aborts: "Cannot select ... fminimum"), even LLVM 23 (seen here).
+
+def make_integrators(
+    settings: IntegratorSettings, textures: ShapeTextures, lut: np.ndarray | None
+) -> tuple[Any, Any]:
+    """The shape and the data integrators for the active Mitsuba variant, sharing one
+    texture of the surface.
+
+    ``textures``: the atlas images of the surface and of the functions (the striped or
+    primary one first; for ``display == 'both'`` the colour-mapped one second).  ``lut``:
+    (256, 3) linear RGB map, or None for stripes alone.
     """
-
-    def __init__(self, dr, scalar: bool) -> None:
-        select = dr.select
-        self.floor = dr.floor
-        self.minimum = lambda a, b: select(a < b, a, b)
-        self.maximum = lambda a, b: select(a > b, a, b)
-        self.abs = dr.abs
-        self.select = select
-        self.logical_not = (lambda m: not m) if scalar else (lambda m: ~m)
-
-    def clip(self, x, lo, hi):
-        return self.minimum(self.maximum(x, lo), hi)
-
-
-_CLASSES: dict[str, type] = {}
-
-
-def make_integrator(
-    settings: IntegratorSettings,
-    textures: dict[str, np.ndarray],
-    lut: np.ndarray | None,
-):
-    """An integrator instance for the active Mitsuba variant.
-
-    ``textures``: 'values' (H, W, 3) float32 = (f, f_s, f_t), 'twist' (H, W) = f_st and
-    'valid' (H, W) of the striped/primary function; for ``display == 'both'`` the same as
-    'colour_values', 'colour_twist', 'colour_valid' of the colour-mapped function; and the
-    surface's 'position', 'tangent_s', 'tangent_t', 'twist_st' (H, W, 3) (see
-    :class:`gshade.rendering.textures.ShapeTextures`).  ``lut``: (256, 3) linear RGB map.
-    """
-    import drjit as dr
     import mitsuba as mi
 
     variant = mi.variant()
     if variant is None:
-        raise RuntimeError("make_integrator: no Mitsuba variant is set (select_variant first)")
-    cls = _CLASSES.get(variant)
-    if cls is None:
-        cls = _define(mi, dr)
-        _CLASSES[variant] = cls
-    integrator = cls(mi.Properties())
-    integrator.configure(settings, textures, lut)
-    return integrator
+        raise RuntimeError("make_integrators: no Mitsuba variant is set (select_variant first)")
+    if variant not in _REGISTERED:
+        _register(mi)
+        _REGISTERED.add(variant)
+    geometry = _texture(mi, GEOMETRY.pack(textures.geometry()))
+    values = [_texture(mi, SHAPE.pack(textures.function(k))) for k in range(len(textures.values))]
+    shape = mi.load_dict({"type": SHAPE_PLUGIN})
+    shape.configure(settings, geometry, values, lut)
+    # in a scalar variant every Python integrator warns that it is slow: once a render
+    scalar = variant.startswith("scalar")
+    data = _load_quietly(mi, DATA_PLUGIN) if scalar else mi.load_dict({"type": DATA_PLUGIN})
+    data.configure(settings, geometry)
+    return shape, data
 
 
-def _define(mi, dr):
+def _load_quietly(mi, plugin: str):
+    """The plugin, loaded with Mitsuba's warnings off."""
+    logger = mi.logger()
+    level = logger.log_level()
+    logger.set_log_level(mi.LogLevel.Error)
+    try:
+        return mi.load_dict({"type": plugin})
+    finally:
+        logger.set_log_level(level)
+
+
+def _texture(mi, data: np.ndarray):
+    """A Dr.Jit texture of a packed (H, W, channels) float32 image."""
+    import drjit as dr
+
+    return mi.Texture2f(
+        mi.TensorXf(data),
+        use_accel=False,
+        filter_mode=dr.FilterMode.Linear,
+        wrap_mode=dr.WrapMode.Clamp,
+    )
+
+
+def _register(mi) -> None:
+    """Define the integrators for the active variant and register them with Mitsuba."""
+    shape, data = _define(mi)
+    mi.register_integrator(SHAPE_PLUGIN, lambda props: shape(props))
+    mi.register_integrator(DATA_PLUGIN, lambda props: data(props))
+
+
+def _define(mi):
+    import drjit as dr
+
     scalar = mi.variant().startswith("scalar")
-    ops = _DrJitOps(dr, scalar)
+    ops = drjit_ops(scalar)
     Float, Float64, Color3f = mi.Float, mi.Float64, mi.Color3f
 
     def bitmap(array, filter_type="bilinear"):
@@ -114,37 +158,58 @@ def _define(mi, dr):
             }
         )
 
-    def packed(arrays):
-        """A Dr.Jit texture of the arrays' channels side by side (H, W, sum of channels)."""
-        channels = [a[..., None] if a.ndim == 2 else a for a in arrays]
-        data = np.ascontiguousarray(np.concatenate(channels, -1), dtype=np.float32)
-        return mi.Texture2f(
-            mi.TensorXf(data),
-            use_accel=False,
-            filter_mode=dr.FilterMode.Linear,
-            wrap_mode=dr.WrapMode.Clamp,
-        )
-
     def opaque(x):
         return x if scalar else dr.opaque(Float, x)
 
-    class GshadeIntegrator(mi.SamplingIntegrator):
-        def configure(self, settings, textures, lut):
-            self.data = False
+    class AtlasIntegrator(mi.SamplingIntegrator):
+        """What both integrators share: the atlas and the surface's texture, the cell
+        lookup and the Newton step onto the interpolated surface."""
+
+        def to_string(self):
+            return f"{type(self).__name__}[{mi.variant()}]"
+
+        def configure_atlas(self, settings, geometry):
+            self.geometry = geometry  # p, p_s, p_t, p_st: 12 channels, fetched at once
+            atlas = settings.atlas
+            self.atlas_w, self.atlas_h, self.tile = atlas.width, atlas.height, atlas.tile
+            self.spacing = atlas.spacing
+            self.ks, self.kt = (opaque(k) for k in atlas.scale)
+
+        def _cell(self, si, texture, hit):
+            """The cell around si.uv inside its tile: the four corner texels (all channels)
+            and the cell (:func:`gshade.rendering.atlas.locate_cell`)."""
+            cell = locate_cell(si.uv.x, si.uv.y, self.atlas_w, self.atlas_h, self.tile, ops)
+            centre = mi.Point2f(
+                cell_centre(cell.i, self.atlas_w), cell_centre(cell.j, self.atlas_h)
+            )
+            return texture.eval_fetch(centre, hit), cell
+
+        def _onto_surface(self, si, ray, hit):
+            """Move si.uv from the mesh's interpolated parameters to the surface point on the
+            ray: one Newton step (:func:`gshade.rendering.newton.newton_step`) from the mesh
+            hit, with p from bicubic Hermite interpolation, p_s and p_t bilinear."""
+            corners, cell = self._cell(si, self.geometry, hit)
+            a, b = cell.a, cell.b
+            p = mi.Vector3f(*(hermite(corners, a, b, self.spacing, ch) for ch in _P))
+            ps = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_S))
+            pt = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_T))
+            ds, dt, _, solvable = newton_step(ps, pt, ray.d, si.p - p, ops, TINY, with_t=False)
+            ok = hit & solvable
+            # stay inside this patch's tile (between its first and last texel centres)
+            x = ops.clip(si.uv.x + ds / self.ks, *tile_bounds(cell.c0, self.tile, self.atlas_w))
+            y = ops.clip(si.uv.y + dt / self.kt, *tile_bounds(cell.r0, self.tile, self.atlas_h))
+            si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
+
+    class ShapeIntegrator(AtlasIntegrator):
+        """R G B A and AOV f: the shape function's picture."""
+
+        def configure(self, settings, geometry, values, lut):
+            self.configure_atlas(settings, geometry)
             self.display = DISPLAY_CODES[settings.display]
             self.lit = settings.lighting == "lit"
-            # one texture per kind of data, all a texel's channels fetched at once
-            self.geometry = packed(
-                [textures[k] for k in ("position", "tangent_s", "tangent_t", "twist_st")]
-            )  # p, p_s, p_t, p_st: 12 channels
-            self.values = packed(
-                [textures["values"], textures["twist"], textures["valid"]]
-            )  # f, f_s, f_t, f_st, valid
-            self.atlas_w, self.atlas_h, self.tile = settings.atlas_size
+            self.values = values[0]  # f, f_s, f_t, f_st, valid
             if self.display == BOTH:
-                self.colour_values = packed(
-                    [textures["colour_values"], textures["colour_twist"], textures["colour_valid"]]
-                )
+                self.colour_values = values[1]
             if lut is not None:
                 self.lut = bitmap(lut[None, :, :])
                 self.lut_size = lut.shape[0]
@@ -153,11 +218,10 @@ def _define(mi, dr):
             self.duty = float(settings.duty)
             self.lo = opaque(settings.value_range[0])
             self.inv_span = opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
-            self.ks, self.kt = (opaque(k) for k in settings.atlas_scale)
             self.key = mi.Vector3f(*settings.key_light)
 
         def aov_names(self):
-            return ["x", "y", "hit"] if self.data else ["f"]
+            return list(SHAPE_FILM[4:])
 
         def _lookup(self, g):
             t = ops.clip((g - self.lo) * self.inv_span, 0.0, 1.0)
@@ -165,89 +229,18 @@ def _define(mi, dr):
             si.uv = mi.Point2f((t * (self.lut_size - 1) + 0.5) / self.lut_size, 0.5)
             return self.lut.eval(si)
 
-        def _cell(self, si, texture, hit):
-            """The texel cell around si.uv inside its tile: the four corner texels (all
-            channels, in the order (i, j), (i+1, j), (i, j+1), (i+1, j+1)) and the cell
-            coordinates (a, b) in [0, 1]^2."""
-            X = si.uv.x * self.atlas_w - 0.5
-            Y = si.uv.y * self.atlas_h - 0.5
-            c0 = dr.floor((X + 0.5) / self.tile) * self.tile
-            r0 = dr.floor((Y + 0.5) / self.tile) * self.tile
-            i = ops.clip(dr.floor(X), c0, c0 + self.tile - 2)
-            j = ops.clip(dr.floor(Y), r0, r0 + self.tile - 2)
-            a = ops.clip(X - i, 0.0, 1.0)
-            b = ops.clip(Y - j, 0.0, 1.0)
-            # the cell's centre: a linear lookup there reads exactly these four texels
-            centre = mi.Point2f((i + 1.0) / self.atlas_w, (j + 1.0) / self.atlas_h)
-            return texture.eval_fetch(centre, hit), a, b
-
-        def _hermite(self, corners, a, b, first: int, stride: int = 1):
-            """Bicubic Hermite interpolation (error O(h^4)) from exact values and s, t and
-            st derivatives at the cell's corners: the channels ``first + k * stride`` for
-            k = 0..3 hold the value, d/ds, d/dt and d2/dsdt."""
-            h = 1.0 / (self.tile - 1)  # texel spacing in the normalised parameters
-            va = (1 - a * a * (3 - 2 * a), a * a * (3 - 2 * a))
-            da = (a * (1 - a) * (1 - a) * h, -a * a * (1 - a) * h)
-            vb = (1 - b * b * (3 - 2 * b), b * b * (3 - 2 * b))
-            db = (b * (1 - b) * (1 - b) * h, -b * b * (1 - b) * h)
-            total = 0.0
-            for texel, (di, dj) in zip(corners, ((0, 0), (1, 0), (0, 1), (1, 1)), strict=True):
-                weights = (va[di] * vb[dj], da[di] * vb[dj], va[di] * db[dj], da[di] * db[dj])
-                for k, w in enumerate(weights):
-                    total = total + w * texel[first + k * stride]
-            return total
-
-        @staticmethod
-        def _bilinear(corners, a, b, channel):
-            c = [texel[channel] for texel in corners]
-            return (c[0] * (1 - a) + c[1] * a) * (1 - b) + (c[2] * (1 - a) + c[3] * a) * b
-
-        def _onto_surface(self, si, ray, hit):
-            """Move si.uv from the mesh's interpolated parameters to the exact surface point
-            on the ray: one Newton step on p(s, t) = hit + tau d ([p_s p_t -d] (ds, dt, dtau)
-            = hit - p by Cramer's rule), with p from bicubic Hermite interpolation."""
-            corners, a, b = self._cell(si, self.geometry, hit)
-            p = mi.Vector3f(*(self._hermite(corners, a, b, c, 3) for c in range(3)))
-            ps = mi.Vector3f(*(self._bilinear(corners, a, b, 3 + c) for c in range(3)))
-            pt = mi.Vector3f(*(self._bilinear(corners, a, b, 6 + c) for c in range(3)))
-            r = si.p - p
-            c = -ray.d
-            det = dr.dot(ps, dr.cross(pt, c))
-            ok = hit & (dr.abs(det) > 1e-20)
-            inv = dr.select(ok, dr.rcp(det), 0.0)
-            ds = dr.dot(r, dr.cross(pt, c)) * inv
-            dt = dr.dot(ps, dr.cross(r, c)) * inv
-            # stay inside this patch's tile (between its first and last texel centres)
-            x = si.uv.x + ds / self.ks
-            y = si.uv.y + dt / self.kt
-            c0 = dr.floor(si.uv.x * self.atlas_w / self.tile) * self.tile
-            r0 = dr.floor(si.uv.y * self.atlas_h / self.tile) * self.tile
-            x = ops.clip(x, (c0 + 0.5) / self.atlas_w, (c0 + self.tile - 0.5) / self.atlas_w)
-            y = ops.clip(y, (r0 + 0.5) / self.atlas_h, (r0 + self.tile - 0.5) / self.atlas_h)
-            si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
-
         def _shape_value(self, si, hit, texture):
             """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
             defined (bilinear validity > 1/2), from one fetch of the cell's texels."""
-            corners, a, b = self._cell(si, texture, hit)
-            f = self._hermite(corners, a, b, 0)
-            slopes = (self._bilinear(corners, a, b, 1), self._bilinear(corners, a, b, 2))
-            return f, slopes, self._bilinear(corners, a, b, 4) > 0.5
+            corners, cell = self._cell(si, texture, hit)
+            a, b = cell.a, cell.b
+            f = hermite(corners, a, b, self.spacing, _F)
+            slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
+            return f, slopes, bilinear(corners, a, b, _VALID) > 0.5
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
-            if self.data:
-                self._onto_surface(si, ray, hit)  # a close start for gshade's own Newton
-                return (
-                    Color3f(0.0),
-                    hit,
-                    [
-                        dr.select(hit, si.uv.x, 0.0),
-                        dr.select(hit, si.uv.y, 0.0),
-                        dr.select(hit, Float(1.0), Float(0.0)),
-                    ],
-                )
             si.compute_uv_partials(ray)
             self._onto_surface(si, ray, hit)
             f, (f_s, f_t), defined = self._shape_value(si, hit, self.values)
@@ -282,4 +275,28 @@ def _define(mi, dr):
             colour = dr.select(hit, colour, Color3f(0.0))
             return colour, hit, [dr.select(hit, f, 0.0)]
 
-    return GshadeIntegrator
+    class DataIntegrator(AtlasIntegrator):
+        """AOVs x, y, hit: the atlas coordinates of the surface point on each ray, a close
+        start for gshade's own exact Newton step (:mod:`gshade.rendering.surface_hits`)."""
+
+        def configure(self, settings, geometry):
+            self.configure_atlas(settings, geometry)
+
+        def aov_names(self):
+            return list(DATA_FILM[4:])
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            si = scene.ray_intersect(ray, active)
+            hit = active & si.is_valid()
+            self._onto_surface(si, ray, hit)
+            return (
+                Color3f(0.0),
+                hit,
+                [
+                    dr.select(hit, si.uv.x, 0.0),
+                    dr.select(hit, si.uv.y, 0.0),
+                    dr.select(hit, Float(1.0), Float(0.0)),
+                ],
+            )
+
+    return ShapeIntegrator, DataIntegrator

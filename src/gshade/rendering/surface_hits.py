@@ -3,15 +3,14 @@
 The render's data pass gives, per pixel, the patch and its parameters from one float32
 Newton step on the Hermite-interpolated surface (about 1e-6 relative).  One more Newton step
 on p(u, v) - o - t d = 0 in float64, on the exact patch, reaches round-off:
-[p_u p_v -d] (du, dv, dt) = o + t d - p, solved by Cramer's rule.  Points whose step does not
-settle (a silhouette pixel whose centre ray misses the patch) keep their start values.
+[p_u p_v -d] (du, dv, dt) = o + t d - p, solved by Cramer's rule
+(:func:`gshade.rendering.newton.newton_step`).  Points whose step does not settle (a
+silhouette pixel whose centre ray misses the patch) keep their start values.
 
-Two implementations of the same step: polynomial Bézier patches of one degree are done all
-at once in one Dr.Jit float64 kernel (their control points gathered per point, the Bernstein
-bases in closed form), every other patch by numpy through its own ``derivatives``.  They
-agree to round-off (tested); the kernel saves the per-patch work (measured warm: the
-teapot's 275,000 pixels in 0.07 s instead of 0.24 s; 10,000 patches' exact channels in
-0.5-0.6 s instead of 5.8 s).
+The same step runs two ways: polynomial Bézier patches of one degree all at once in one
+Dr.Jit float64 kernel (their control points gathered per point, the Bernstein bases in closed
+form), every other patch by numpy through its own ``derivatives``.  They agree to round-off
+(tested); the kernel saves the per-patch work (benchmarks/bench_render.py measures it).
 """
 
 from __future__ import annotations
@@ -24,29 +23,25 @@ from numpy.typing import NDArray
 
 from ..geometry import BezierPatch, Patch
 from ..geometry.patch_groups import bezier_groups, domain_spans
+from ..runtime.backend import NUMPY, drjit_ops
 from ..shape.kernels import backend
+from .newton import newton_step, ray_residual
 
 __all__ = ["surface_hits"]
 
 #: A Newton step has settled when |p - o - t d| <= SETTLED * |p - o|.
 SETTLED = 1e-7
+#: Rays this close to the tangent plane (|det [p_u p_v -d]| at most this) take no step.
+TINY = 1e-300
 
 
 def _newton_numpy(patch: Patch, u, v, origin, direction):
     """One float64 Newton step on one patch; (u, v, derivatives (2, 2, N, 3), settled)."""
     (u0, u1), (v0, v1) = patch.domain
     d = patch.derivatives(u, v, 1)
-    t = np.einsum("ij,ij->i", d[0, 0] - origin, direction)
+    t, r = ray_residual(d[0, 0], origin, direction, NUMPY)
     scale = np.linalg.norm(d[0, 0] - origin, axis=1)
-    r = origin + t[:, None] * direction - d[0, 0]  # [p_u p_v -d] (du, dv, dt) = r
-    pu, pv, c = d[1, 0], d[0, 1], -direction
-    pv_c = np.cross(pv, c)
-    det = np.einsum("ij,ij->i", pu, pv_c)
-    ok = np.abs(det) > 1e-300
-    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    du = np.einsum("ij,ij->i", r, pv_c) * inv
-    dv = np.einsum("ij,ij->i", pu, np.cross(r, c)) * inv
-    dt = np.einsum("ij,ij->i", pu, np.cross(pv, r)) * inv
+    du, dv, dt, _ = newton_step(d[1, 0], d[0, 1], direction, r, NUMPY, TINY)
     uu = np.clip(u + du, u0, u1)
     vv = np.clip(v + dv, v0, v1)
     t = t + dt
@@ -79,8 +74,9 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
 
     ``local`` (N,) indexes ``patches``; returns what :func:`_newton_numpy` does."""
     import drjit as dr
-    from drjit.llvm import Float64, UInt32
+    from drjit.llvm import Array3f64, Float64, UInt32
 
+    ops = drjit_ops(fused=False)  # products written out, as the numpy path's
     m, n = patches[0].degree
     stride = (m + 1) * (n + 1) * 3
     nets = Float64(np.concatenate([p.points.ravel() for p in patches]))
@@ -89,12 +85,12 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
     base = UInt32(local.astype(np.uint32) * stride)
     su, sv = Float64(span[local, 0]), Float64(span[local, 1])
     ou, ov = Float64(lo[local, 0]), Float64(lo[local, 1])
-    o = [Float64(np.ascontiguousarray(origin[:, c])) for c in range(3)]
-    w = [Float64(np.ascontiguousarray(direction[:, c])) for c in range(3)]
+    o = Array3f64(*(Float64(np.ascontiguousarray(origin[:, c])) for c in range(3)))
+    w = Array3f64(*(Float64(np.ascontiguousarray(direction[:, c])) for c in range(3)))
     u0, v0 = Float64(u), Float64(v)
 
     def evaluate(uu, vv):
-        """p, p_u, p_v at (uu, vv): lists of 3 coordinates."""
+        """p, p_u, p_v at (uu, vv)."""
         bu, du = _bernstein(m, (uu - ou) / su)
         bv, dv = _bernstein(n, (vv - ov) / sv)
         p, pu, pv = [0.0] * 3, [0.0] * 3, [0.0] * 3
@@ -105,26 +101,12 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
                     p[c] = p[c] + (bu[i] * bv[j]) * x
                     pu[c] = pu[c] + (du[i] * bv[j]) * x
                     pv[c] = pv[c] + (bu[i] * dv[j]) * x
-        return p, [x / su for x in pu], [x / sv for x in pv]
-
-    def dot(a, b):
-        return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-    def cross(a, b):
-        return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        return Array3f64(*p), Array3f64(*(x / su for x in pu)), Array3f64(*(x / sv for x in pv))
 
     p, pu, pv = evaluate(u0, v0)
-    q = [p[c] - o[c] for c in range(3)]
-    t = dot(q, w)
-    scale = dr.sqrt(dot(q, q))
-    r = [o[c] + t * w[c] - p[c] for c in range(3)]
-    c_ = [-x for x in w]
-    pv_c = cross(pv, c_)
-    det = dot(pu, pv_c)
-    inv = dr.select(dr.abs(det) > 1e-300, 1.0 / det, 0.0)
-    du = dot(r, pv_c) * inv
-    dv = dot(pu, cross(r, c_)) * inv
-    dt = dot(pu, cross(pv, r)) * inv
+    t, r = ray_residual(p, o, w, ops)
+    scale = dr.sqrt(ops.dot(p - o, p - o))
+    du, dv, dt, _ = newton_step(pu, pv, w, r, ops, TINY)
 
     def clamp(x, a, b):
         return dr.select(x < a, a, dr.select(x > b, b, x))
@@ -133,8 +115,8 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
     v1 = clamp(v0 + dv, ov, ov + sv)
     t = t + dt
     p1, pu1, pv1 = evaluate(u1, v1)
-    res = [p1[c] - o[c] - t * w[c] for c in range(3)]
-    settled = dr.sqrt(dot(res, res)) <= SETTLED * scale
+    res = p1 - o - t * w
+    settled = dr.sqrt(ops.dot(res, res)) <= SETTLED * scale
     # unsettled points keep their start values
     out = [
         dr.select(settled, a, b)

@@ -3,12 +3,11 @@
 Each patch gets a T x T tile of texels whose centres sit on the grid s_k = k / (T - 1) of its
 normalised parameters, holding (f, f_s, f_t): the shape function's value and its exact
 derivatives in the normalised parameters (from the surface gradient: f_s = <grad_S f, p_s>).
-The renderer interpolates them bilinearly at each sample's (s, t) and applies the stripe or
+The renderer interpolates them (bicubic Hermite) at each sample's (s, t) and applies the stripe or
 colour mapping per sample, so stripes stay sharp and anti-aliased whatever the mesh.
 
-Texel (row r, column c) has its centre at atlas coordinates ((c + 0.5) / W, (r + 0.5) / H);
-patch k's tile starts at column (k mod cols) T and row (k div cols) T, and its parameter s
-maps to column c0 + s (T - 1), t to row r0 + t (T - 1).
+The atlas layout (where patch k's tile lies, which texel holds which (s, t)) is
+:class:`gshade.rendering.atlas.Atlas`'s.
 """
 
 from __future__ import annotations
@@ -21,53 +20,9 @@ from numpy.typing import NDArray
 from ..geometry import Patch, irregular_mask, regularised_derivatives
 from ..geometry.patch_groups import domain_spans, grid_derivatives, patch_grid
 from ..shape import ShapeFunction, evaluate
+from .atlas import Atlas
 
 __all__ = ["Atlas", "ShapeTextures", "shape_textures"]
-
-
-@dataclass(frozen=True)
-class Atlas:
-    """Layout of T x T tiles, one per patch, in a grid of ``cols`` x ``rows`` tiles."""
-
-    tile: int
-    cols: int
-    rows: int
-
-    @classmethod
-    def for_patches(cls, n_patches: int, tile: int) -> Atlas:
-        cols = int(np.ceil(np.sqrt(n_patches)))
-        return cls(int(tile), cols, int(np.ceil(n_patches / cols)))
-
-    @property
-    def width(self) -> int:
-        return self.cols * self.tile
-
-    @property
-    def height(self) -> int:
-        return self.rows * self.tile
-
-    @property
-    def scale(self) -> tuple[float, float]:
-        """d(s, t) / d(atlas x, y): converts atlas-coordinate derivatives to parameter ones."""
-        return self.width / (self.tile - 1), self.height / (self.tile - 1)
-
-    def texcoords(self, patch: NDArray, st: NDArray) -> NDArray[np.float64]:
-        """Atlas coordinates of normalised parameters ``st`` (N, 2) on patches ``patch`` (N,)."""
-        c0 = (patch % self.cols) * self.tile
-        r0 = (patch // self.cols) * self.tile
-        x = (c0 + 0.5 + st[:, 0] * (self.tile - 1)) / self.width
-        y = (r0 + 0.5 + st[:, 1] * (self.tile - 1)) / self.height
-        return np.stack([x, y], -1)
-
-    def locate(self, xy: NDArray) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        """Patch index and normalised parameters of atlas coordinates ``xy`` (..., 2)."""
-        cx = xy[..., 0] * self.width - 0.5
-        ry = xy[..., 1] * self.height - 0.5
-        col = np.clip(np.floor((cx + 0.5) / self.tile), 0, self.cols - 1).astype(np.int64)
-        row = np.clip(np.floor((ry + 0.5) / self.tile), 0, self.rows - 1).astype(np.int64)
-        s = np.clip((cx - col * self.tile) / (self.tile - 1), 0.0, 1.0)
-        t = np.clip((ry - row * self.tile) / (self.tile - 1), 0.0, 1.0)
-        return row * self.cols + col, np.stack([s, t], -1)
 
 
 @dataclass(frozen=True)
@@ -90,6 +45,26 @@ class ShapeTextures:
     tangent_s: NDArray[np.float32]
     tangent_t: NDArray[np.float32]
     twist_st: NDArray[np.float32]
+
+    def geometry(self) -> dict[str, NDArray[np.float32]]:
+        """The surface's images by quantity (see :data:`gshade.rendering.atlas.GEOMETRY`)."""
+        return {
+            "p": self.position,
+            "p_s": self.tangent_s,
+            "p_t": self.tangent_t,
+            "p_st": self.twist_st,
+        }
+
+    def function(self, k: int) -> dict[str, NDArray[np.float32]]:
+        """The k-th function's images by quantity (see :data:`gshade.rendering.atlas.SHAPE`)."""
+        values = self.values[k]
+        return {
+            "f": values[..., 0],
+            "f_s": values[..., 1],
+            "f_t": values[..., 2],
+            "f_st": self.twist[k],
+            "valid": self.valid[k],
+        }
 
 
 #: Texels per shape-function call: small tiles are evaluated many patches at a time (one
@@ -157,8 +132,7 @@ def shape_textures(
                 f_t[irr] = np.gradient(res.f, h, axis=2)[irr]
             shaped.append((res, f_s, f_t))
         for c, k in enumerate(chunk):
-            r0, c0 = (k // atlas.cols) * T, (k % atlas.cols) * T
-            tile = (slice(r0, r0 + T), slice(c0, c0 + T))
+            tile = atlas.tile_slices(k)
             # rows follow t (v), columns follow s (u): a tile is the transpose of the grid
             for image, field in zip(geometry, (d[0, 0, c], p_s[c], p_t[c], p_st[c]), strict=True):
                 image[tile] = field.transpose(1, 0, 2)

@@ -7,16 +7,15 @@ round-off — no finite differences).
 
 The components are arrays of one *backend*: numpy, or Dr.Jit's LLVM arrays, where the whole
 formula is traced lazily and compiled into one vectorised, multithreaded kernel (and cached on
-disk).  :class:`Backend` holds the few elementary functions the formulas need; everything
-else is operator arithmetic, which both array types share.  A vector is a tuple of three jets.
+disk).  :class:`Backend` (gshade's one protocol of array operations,
+:class:`gshade.runtime.backend.ArrayOps`) holds the few elementary functions the formulas
+need; everything else is operator arithmetic, which both array types share.  A vector is a
+tuple of three jets.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
-
-import numpy as np
+from ..runtime.backend import NUMPY, ArrayOps
 
 __all__ = [
     "NUMPY",
@@ -31,27 +30,8 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
-class Backend:
-    """The elementary functions of one array type (numpy or Dr.Jit)."""
-
-    name: str
-    sqrt: Any
-    acos: Any
-    atan2: Any
-    abs: Any
-    isfinite: Any
-    select: Any  # select(mask, a, b): a where mask, b elsewhere
-
-    def maximum(self, a, b):
-        # a select, not dr.maximum: LLVM < 17 cannot lower fmaximum (see gshade.runtime.llvm)
-        return self.select(a > b, a, b)
-
-    def minimum(self, a, b):
-        return self.select(a < b, a, b)
-
-
-NUMPY = Backend("numpy", np.sqrt, np.arccos, np.arctan2, np.abs, np.isfinite, np.where)
+#: the array operations of one backend (numpy or Dr.Jit): gshade's one protocol for them
+Backend = ArrayOps
 
 
 class Jet:

@@ -1,0 +1,262 @@
+"""The texture atlas: one T x T tile of texels per patch, its addressing and its lookups.
+
+Written once, for numpy arrays (the textures, the exact channels) and Dr.Jit arrays (the
+integrator), through :class:`gshade.runtime.backend.ArrayOps`.
+
+Layout.  Patch k's tile starts at texel column c0 = (k mod cols) T and row r0 = (k div cols) T
+of an atlas of W = cols T by H = rows T texels.  Texel (row r, column c) has its centre at
+atlas coordinates ((c + 0.5) / W, (r + 0.5) / H), and the texel centres of a tile sit on the
+grid s_i = i / (T - 1) of the patch's normalised parameters: s maps to the continuous texel
+column X = c0 + s (T - 1), t to the row Y = r0 + t (T - 1).
+
+Lookups.  A point's cell is the square of four texel centres around it inside its own tile
+(never reading a neighbouring patch's texels); within it, a value with its s, t and st
+derivatives is interpolated bicubically (Hermite: exact for bicubic polynomials, error
+O(h^4)), a slope bilinearly.
+
+Packed textures.  The integrator fetches all a texel's channels at once: :data:`GEOMETRY`
+and :data:`SHAPE` name the channels of its two kinds of packed texture.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..runtime.backend import NUMPY, ArrayOps
+
+__all__ = [
+    "GEOMETRY",
+    "SHAPE",
+    "Atlas",
+    "Cell",
+    "Packing",
+    "atlas_coordinate",
+    "bilinear",
+    "cell_centre",
+    "hermite",
+    "locate_cell",
+    "texel_coordinate",
+    "tile_bounds",
+    "tile_index",
+]
+
+
+def atlas_coordinate(start, s, tile: int, size: int):
+    """Atlas coordinate of normalised parameter ``s`` in [0, 1] of a tile whose first texel
+    is ``start``: (start + 0.5 + s (T - 1)) / size."""
+    return (start + 0.5 + s * (tile - 1)) / size
+
+
+def texel_coordinate(x, size: int):
+    """Continuous texel coordinate of atlas coordinate x: X = x size - 0.5 (texel centres at
+    whole numbers)."""
+    return x * size - 0.5
+
+
+def tile_index(X, tile: int, ops: ArrayOps):
+    """The tile (column or row of tiles) that texel coordinate X lies in: floor((X + 0.5) / T)."""
+    return ops.floor((X + 0.5) / tile)
+
+
+def tile_bounds(start, tile: int, size: int) -> tuple[Any, Any]:
+    """Atlas coordinates of a tile's first and last texel centres (s = 0 and s = 1)."""
+    return atlas_coordinate(start, 0.0, tile, size), atlas_coordinate(start, 1.0, tile, size)
+
+
+def cell_centre(i, size: int):
+    """Atlas coordinate halfway between texels i and i + 1: a bilinear lookup there reads
+    exactly those two texels (along each axis)."""
+    return (i + 1.0) / size
+
+
+class Cell(NamedTuple):
+    """The cell around a point: its first texel (column i, row j), the point's position
+    (a, b) in [0, 1]^2 within it, and the first texel (c0, r0) of its tile."""
+
+    i: Any
+    j: Any
+    a: Any
+    b: Any
+    c0: Any
+    r0: Any
+
+
+def locate_cell(x, y, width: int, height: int, tile: int, ops: ArrayOps) -> Cell:
+    """The cell of atlas coordinates (x, y) in an atlas of ``width`` x ``height`` texels:
+    i = clip(floor(X), c0, c0 + T - 2), a = clip(X - i, 0, 1) with X the texel coordinate and
+    c0 its tile's first column (rows likewise)."""
+    X = texel_coordinate(x, width)
+    Y = texel_coordinate(y, height)
+    c0 = tile_index(X, tile, ops) * tile
+    r0 = tile_index(Y, tile, ops) * tile
+    i = ops.clip(ops.floor(X), c0, c0 + tile - 2)
+    j = ops.clip(ops.floor(Y), r0, r0 + tile - 2)
+    a = ops.clip(X - i, 0.0, 1.0)
+    b = ops.clip(Y - j, 0.0, 1.0)
+    return Cell(i, j, a, b, c0, r0)
+
+
+#: the corners of a cell, in the order its texels are fetched: (i, j), (i+1, j), (i, j+1),
+#: (i+1, j+1)
+CORNERS = ((0, 0), (1, 0), (0, 1), (1, 1))
+
+
+def hermite(corners: Sequence, a, b, spacing: float, channels: Sequence[int]):
+    """Bicubic Hermite interpolation at (a, b) of a cell from the value, d/ds, d/dt and
+    d2/dsdt at its corners (``channels`` of each corner texel, in that order), with
+    ``spacing`` = 1 / (T - 1) the texel spacing in the normalised parameters:
+    sum over the corners of H0 H0' value + H1 H0' d/ds + H0 H1' d/dt + H1 H1' d2/dsdt, with
+    the cubic Hermite bases H0(a) = 1 - a^2 (3 - 2a) (or a^2 (3 - 2a)) and H1(a) =
+    a (1 - a)^2 h (or -a^2 (1 - a) h)."""
+    h = spacing
+    va = (1 - a * a * (3 - 2 * a), a * a * (3 - 2 * a))
+    da = (a * (1 - a) * (1 - a) * h, -a * a * (1 - a) * h)
+    vb = (1 - b * b * (3 - 2 * b), b * b * (3 - 2 * b))
+    db = (b * (1 - b) * (1 - b) * h, -b * b * (1 - b) * h)
+    total = 0.0
+    for texel, (di, dj) in zip(corners, CORNERS, strict=True):
+        weights = (va[di] * vb[dj], da[di] * vb[dj], va[di] * db[dj], da[di] * db[dj])
+        for w, channel in zip(weights, channels, strict=True):
+            total = total + w * texel[channel]
+    return total
+
+
+def bilinear(corners: Sequence, a, b, channel: int):
+    """Bilinear interpolation at (a, b) of one channel of a cell's corner texels."""
+    c = [texel[channel] for texel in corners]
+    return (c[0] * (1 - a) + c[1] * a) * (1 - b) + (c[2] * (1 - a) + c[3] * a) * b
+
+
+@dataclass(frozen=True)
+class Packing:
+    """Named quantities side by side in the channels of one packed texture: ``fields`` are
+    (name, number of channels).  A quantity q with derivatives has them as q_s, q_t, q_st."""
+
+    fields: tuple[tuple[str, int], ...]
+
+    @property
+    def size(self) -> int:
+        """Channels per texel."""
+        return sum(n for _, n in self.fields)
+
+    def channel(self, name: str, component: int = 0) -> int:
+        """The channel of one component of a quantity."""
+        at = 0
+        for field, n in self.fields:
+            if field == name:
+                if not 0 <= component < n:
+                    raise IndexError(f"Packing: {name} has {n} components, not {component + 1}")
+                return at + component
+            at += n
+        raise KeyError(f"Packing: no quantity {name!r}")
+
+    def hermite_channels(self, name: str, component: int = 0) -> tuple[int, int, int, int]:
+        """The channels of q, q_s, q_t and q_st for :func:`hermite`."""
+        names = (name, f"{name}_s", f"{name}_t", f"{name}_st")
+        a, b, c, d = (self.channel(q, component) for q in names)
+        return a, b, c, d
+
+    def pack(self, arrays: Mapping[str, NDArray]) -> NDArray[np.float32]:
+        """One (H, W, channels) float32 image of the quantities' (H, W) or (H, W, n) images."""
+        parts = []
+        for name, n in self.fields:
+            array = arrays[name]
+            array = array[..., None] if array.ndim == 2 else array
+            if array.shape[-1] != n:
+                raise ValueError(f"Packing: {name} has {array.shape[-1]} channels, expected {n}")
+            parts.append(array)
+        return np.ascontiguousarray(np.concatenate(parts, -1), dtype=np.float32)
+
+
+#: the surface: p, p_s, p_t, p_st (3 coordinates each; s, t the normalised parameters)
+GEOMETRY = Packing((("p", 3), ("p_s", 3), ("p_t", 3), ("p_st", 3)))
+#: a shape function: f, f_s, f_t, f_st and its validity (1 where f is defined, else 0)
+SHAPE = Packing((("f", 1), ("f_s", 1), ("f_t", 1), ("f_st", 1), ("valid", 1)))
+
+
+@dataclass(frozen=True)
+class Atlas:
+    """Layout of T x T tiles, one per patch, in a grid of ``cols`` x ``rows`` tiles."""
+
+    tile: int
+    cols: int
+    rows: int
+
+    @classmethod
+    def for_patches(cls, n_patches: int, tile: int) -> Atlas:
+        """The squarest layout for ``n_patches`` tiles of ``tile`` x ``tile`` texels."""
+        cols = int(np.ceil(np.sqrt(n_patches)))
+        return cls(int(tile), cols, int(np.ceil(n_patches / cols)))
+
+    @property
+    def width(self) -> int:
+        return self.cols * self.tile
+
+    @property
+    def height(self) -> int:
+        return self.rows * self.tile
+
+    @property
+    def spacing(self) -> float:
+        """The texel spacing in the normalised parameters: h = 1 / (T - 1)."""
+        return 1.0 / (self.tile - 1)
+
+    @property
+    def scale(self) -> tuple[float, float]:
+        """d(s, t) / d(atlas x, y): converts atlas-coordinate derivatives to parameter ones."""
+        return self.width / (self.tile - 1), self.height / (self.tile - 1)
+
+    def tile_start(self, patch: NDArray | int) -> tuple[Any, Any]:
+        """First texel row r0 and column c0 of the tiles of patches ``patch``."""
+        return (patch // self.cols) * self.tile, (patch % self.cols) * self.tile
+
+    def tile_slices(self, patch: int) -> tuple[slice, slice]:
+        """The rows and columns of patch ``patch``'s tile in an atlas image."""
+        r0, c0 = self.tile_start(patch)
+        return slice(r0, r0 + self.tile), slice(c0, c0 + self.tile)
+
+    def texcoords(self, patch: NDArray, st: NDArray) -> NDArray[np.float64]:
+        """Atlas coordinates of normalised parameters ``st`` (N, 2) on patches ``patch`` (N,)."""
+        r0, c0 = self.tile_start(patch)
+        x = atlas_coordinate(c0, st[:, 0], self.tile, self.width)
+        y = atlas_coordinate(r0, st[:, 1], self.tile, self.height)
+        return np.stack([x, y], -1)
+
+    def locate(self, xy: NDArray) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Patch index and normalised parameters of atlas coordinates ``xy`` (..., 2)."""
+        cx = texel_coordinate(xy[..., 0], self.width)
+        ry = texel_coordinate(xy[..., 1], self.height)
+        col = np.clip(tile_index(cx, self.tile, NUMPY), 0, self.cols - 1).astype(np.int64)
+        row = np.clip(tile_index(ry, self.tile, NUMPY), 0, self.rows - 1).astype(np.int64)
+        s = np.clip((cx - col * self.tile) / (self.tile - 1), 0.0, 1.0)
+        t = np.clip((ry - row * self.tile) / (self.tile - 1), 0.0, 1.0)
+        return row * self.cols + col, np.stack([s, t], -1)
+
+    def cell(self, xy: NDArray) -> Cell:
+        """The cells of atlas coordinates ``xy`` (N, 2) (numpy)."""
+        return locate_cell(xy[:, 0], xy[:, 1], self.width, self.height, self.tile, NUMPY)
+
+    def corners(self, image: NDArray, cell: Cell) -> list[NDArray]:
+        """The four corner texels of the cells (in :data:`CORNERS` order) of an
+        (H, W, channels) image, each as an array (channels, N)."""
+        i, j = cell.i.astype(np.int64), cell.j.astype(np.int64)
+        return [np.moveaxis(image[j + dj, i + di], -1, 0) for di, dj in CORNERS]
+
+    def interpolate(
+        self, image: NDArray, packing: Packing, name: str, xy: NDArray, component: int = 0
+    ) -> NDArray[np.float64]:
+        """One quantity of a packed image at atlas coordinates ``xy`` (N, 2), bicubically
+        (:func:`hermite`) where the packing holds its derivatives, else bilinearly (numpy,
+        float64: the integrator's lookup in double precision)."""
+        cell = self.cell(xy)
+        corners = self.corners(np.asarray(image, dtype=np.float64), cell)
+        try:
+            channels = packing.hermite_channels(name, component)
+        except KeyError:
+            return bilinear(corners, cell.a, cell.b, packing.channel(name, component))
+        return hermite(corners, cell.a, cell.b, self.spacing, channels)

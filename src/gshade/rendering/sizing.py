@@ -1,0 +1,154 @@
+"""How fine a render is: the framing box, the mesh resolution, the texture tile, and the
+checks that the surfaces' scale and the render's memory are within reach.
+
+The mesh follows the chord-error tolerance: the smaller of ``chord_tolerance`` times the
+bounding-box diagonal and half a pixel at the nearest point.  The tiles give about one texel
+every three pixels of a patch's projected size.  Both stay within a budget of samples that
+grows with the image (a camera close to or inside the surfaces asks for more than a small
+image can show).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+from ..geometry.patch_groups import grid_derivatives
+from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_limit, render_memory
+from .camera import View, frame_view
+from .tessellate import max_chord_resolution
+
+__all__ = [
+    "MAX_ATLAS_TEXELS",
+    "MAX_TILE",
+    "MAX_VERTICES",
+    "MIN_EXTENT",
+    "MIN_TILE",
+    "NEAREST_FRACTION",
+    "Framing",
+    "check_memory",
+    "frame",
+    "mesh_resolution",
+    "tile_size",
+]
+
+#: Smallest bounding-box diagonal rendered: the curvatures of smaller surfaces (1/length²)
+#: and their gradients leave single precision.
+MIN_EXTENT = 1e-9
+#: Nearest depth, as a fraction of the bounding-box diagonal, that sets the tessellation's
+#: and the textures' resolution: a camera inside the surfaces (or touching them) must not
+#: ask for the finest mesh and atlas everywhere.
+NEAREST_FRACTION = 1e-2
+#: Bounds on the texels per patch side, and on the whole atlas.
+MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
+#: The most mesh vertices of an automatic tessellation.
+MAX_VERTICES = 4_000_000
+
+
+def _budget(pixels: int, most: int) -> int:
+    """Automatic mesh vertices or atlas texels for an image: 16 per pixel (at least 2^18,
+    at most ``most``); a camera close to or inside the surfaces asks for more than a small
+    image can show."""
+    return int(np.clip(16 * pixels, 2**18, most))
+
+
+@dataclass(frozen=True)
+class Framing:
+    """The surfaces' bounding box (corners ``lo``, ``hi``, diagonal ``diag``) and the view."""
+
+    lo: NDArray
+    hi: NDArray
+    diag: float
+    view: View
+
+
+def frame(scene, settings, where: str) -> Framing:
+    """The bounding box of the patches (sampled on a 17 x 17 grid each), checked to be
+    renderable in single precision, and the resolved camera."""
+    box = grid_derivatives(scene.patches, np.linspace(0.0, 1.0, 17))[:, 0, 0].reshape(-1, 3)
+    lo, hi = box.min(axis=0), box.max(axis=0)
+    diag = _check_scale(where, lo, hi)
+    view = frame_view(scene.camera, box, settings.width, settings.height)
+    return Framing(lo, hi, diag, view)
+
+
+def _nearest_distance(view: View, lo: NDArray, hi: NDArray) -> float:
+    """Distance from the eye to the nearest point of the bounding box along the view axis."""
+    corners = np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
+    depth = (corners - view.origin) @ view.forward
+    return float(max(depth.min(), NEAREST_FRACTION * np.linalg.norm(hi - lo)))
+
+
+def mesh_resolution(scene, settings, framing: Framing) -> int:
+    """Vertices per patch side: ``tessellation`` if set, else the coarsest grid within the
+    chord tolerance (no finer than single precision resolves, and within the budget)."""
+    if settings.tessellation:
+        return int(settings.tessellation)
+    view, lo, hi, diag = framing.view, framing.lo, framing.hi, framing.diag
+    patches = scene.patches
+    tol = settings.chord_tolerance * diag
+    if scene.camera.type == "perspective" or view.width is not None:
+        tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
+    # no finer than single precision resolves (a tiny view must not ask for more)
+    resolution = max_chord_resolution(patches, max(tol, MIN_CHORD_TOLERANCE * diag))
+    # keep the mesh within what the image can show (a few million vertices at most)
+    budget = _budget(settings.width * settings.height, MAX_VERTICES)
+    return min(resolution, max(2, int(np.sqrt(budget / len(patches)))))
+
+
+def tile_size(scene, framing: Framing) -> int:
+    """Texels per tile side: ``texture_resolution`` if set, else about one texel every three
+    pixels of the largest patch's projected size, within the atlas budget."""
+    if scene.render.texture_resolution:
+        return int(np.clip(scene.render.texture_resolution, 2, MAX_TILE))
+    view, lo, hi = framing.view, framing.lo, framing.hi
+    patches = scene.patches
+    size = 0.0
+    for p in patches:
+        pts = p.points.reshape(-1, 3) if hasattr(p, "points") else p(*p.parameter_grid(5, 5))
+        pts = pts.reshape(-1, 3)
+        extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
+        depth = float((pts.mean(axis=0) - view.origin) @ view.forward)
+        depth = max(depth, NEAREST_FRACTION * float(np.linalg.norm(hi - lo)))
+        size = max(size, extent / view.pixel_size(depth))
+    # f is smooth and interpolated bicubically from exact values and derivatives: a texel
+    # every three pixels leaves errors far below what a picture (or a 1e-3 diff) shows
+    tile = int(np.clip(np.ceil(size / 3) + 1, MIN_TILE, MAX_TILE))
+    pixels = scene.render.width * scene.render.height
+    cap = int(np.sqrt(_budget(pixels, MAX_ATLAS_TEXELS) / len(patches)))
+    return max(2, min(tile, cap))
+
+
+def _check_scale(where: str, lo: NDArray, hi: NDArray) -> float:
+    """The bounding box's diagonal, checked to be renderable in single precision: Mitsuba
+    stores positions, and gshade's textures the shape function's values, as float32."""
+    diag = float(np.linalg.norm(hi - lo))
+    size = float(np.abs(np.concatenate([lo, hi])).max())
+    if not np.isfinite(diag) or diag < MIN_EXTENT:
+        raise GshadeError(
+            f"{where}: the surfaces span {diag:.3g} (bounding-box diagonal): expected at least "
+            f"{MIN_EXTENT:g}, so that curvatures stay within single precision"
+        )
+    if diag < 1e-6 * size:
+        raise GshadeError(
+            f"{where}: the surfaces span {diag:.3g} at a distance {size:.3g} from the origin: "
+            "expected a span of at least 1e-6 of that distance (single-precision positions)"
+        )
+    return diag
+
+
+def check_memory(where: str, settings, vertices: int, texels: int) -> None:
+    """Refuse a render whose estimated peak memory exceeds :func:`gshade.limits.memory_limit`."""
+    pixels = settings.width * settings.height
+    need, limit = render_memory(pixels, vertices, texels), memory_limit()
+    if need > limit:
+        raise GshadeError(
+            f"{where}: the render would need about {gigabytes(need)} ({settings.width} x "
+            f"{settings.height} pixels, {vertices} mesh vertices, {texels} texels); the limit is "
+            f"{gigabytes(limit)} (GSHADE_MEMORY_LIMIT, default 3/4 of this machine's memory)"
+        )

@@ -1,0 +1,92 @@
+"""How a render shows f: which functions, the colour range, the stripe period, the colour
+map, and the legend that says so.
+
+The stripes' period is ``period``, or the span of the striped function over the atlas divided
+by ``stripes``; the colour range is ``range``, or robust percentiles of the colour-mapped
+function (symmetric about 0 for signed functions), see :func:`gshade.display.auto_range`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..display import Legend, auto_range
+from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
+from .textures import ShapeTextures
+
+__all__ = ["UNITS", "DisplayStyle", "display_style", "legend", "shape_functions"]
+
+#: Units of each function's values, for legends.
+UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
+
+
+def _units(function: str, params: dict) -> str:
+    if function in UNITS:
+        return UNITS[function]
+    if SHAPE_FUNCTIONS[function].order == 2:
+        return "1/length"
+    if function == "isophotes":
+        return "rad" if params.get("form") == "angle" else ""
+    if function == "reflection_lines" and params.get("form") == "infinity":
+        return "rad"
+    return "length"
+
+
+def shape_functions(shape) -> tuple[list[tuple[ShapeFunction, dict]], str]:
+    """The functions to evaluate with their parameters (the striped or primary one first,
+    then for ``display = "both"`` the colour-mapped one) and the colour-mapped one's name."""
+    functions = [(get_shape_function(shape.function), shape.params_for(shape.function))]
+    mapped = shape.function
+    if shape.display == "both":
+        mapped = shape.colour_function or shape.function
+        functions.append((get_shape_function(mapped), shape.params_for(mapped)))
+    return functions, mapped
+
+
+@dataclass(frozen=True)
+class DisplayStyle:
+    """The colour-mapped function ``mapped`` (``signed`` or not) over ``value_range``, with
+    ``colormap`` and its linear-RGB table ``lut`` (None for stripes alone), and the stripe
+    ``period`` in units of the striped function."""
+
+    mapped: str
+    signed: bool
+    value_range: tuple[float, float]
+    period: float
+    colormap: str | None
+    lut: np.ndarray | None
+
+
+def display_style(shape, mapped: str, tex: ShapeTextures) -> DisplayStyle:
+    """The range, period and colour map of a scene's ``[shape]`` for its textures."""
+    cvals, cvalid = tex.values[-1][..., 0], tex.valid[-1] > 0
+    signed = SHAPE_FUNCTIONS[mapped].signed
+    value_range = shape.value_range or auto_range(cvals, cvalid, signed=signed)
+    f_lo, f_hi = auto_range(tex.values[0][..., 0], tex.valid[0] > 0, percentiles=(0.0, 100.0))
+    period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
+    lut = colormap = None
+    if shape.display != "stripes":
+        import matplotlib
+
+        from ..display.colour import _srgb_to_linear
+
+        colormap = shape.colormap or ("coolwarm" if signed else "viridis")
+        lut = _srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
+    return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
+
+
+def legend(shape, style: DisplayStyle) -> Legend:
+    """The legend of a render: the function, its colour map and range, its stripes."""
+    return Legend(
+        function=shape.function,
+        order=get_shape_function(shape.function).order,
+        display=shape.display,
+        value_range=None if shape.display == "stripes" else style.value_range,
+        colormap=style.colormap,
+        period=None if shape.display == "colormap" else float(style.period),
+        duty=None if shape.display == "colormap" else shape.duty,
+        stripe_function=shape.function if shape.display == "both" else None,
+        units=_units(style.mapped, shape.params_for(style.mapped)),
+    )
