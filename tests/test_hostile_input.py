@@ -334,14 +334,14 @@ def test_render_limits_in_python_and_memory(tmp_path, monkeypatch):
 def test_a_render_with_non_finite_values_is_refused(tmp_path, monkeypatch):
     from gshade.rendering import pipeline
 
-    real = pipeline._channels
+    real = pipeline.exact_channels
 
     def poisoned(*args):
         channels = real(*args)
         channels["f"][0, 0] = np.nan
         return channels
 
-    monkeypatch.setattr(pipeline, "_channels", poisoned)
+    monkeypatch.setattr(pipeline, "exact_channels", poisoned)
     with pytest.raises(GshadeError, match=r"non-finite values \(1 pixels of f\)"):
         render(load_scene(_write(tmp_path, SPHERE + SMALL)))
 
