@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from gshade.analysis.continuity import continuity_report
-from gshade.geometry import BezierPatch, BSplinePatch
+from gshade.geometry import BezierPatch, BSplineCurve, BSplinePatch
 from gshade.io import read_newell
 
 from .conftest import ROOT, TEAPOT
@@ -293,3 +293,25 @@ def test_batched_measures_equal_the_per_junction_oracle():
             assert classify(got, tol) == classify(expected, tol), (name, junction)
         total += len(junctions)
     assert total > 1000
+
+
+@pytest.mark.parametrize(("major", "minor"), [(3.0, 1.0), (3.0, 0.5), (5.0, 4.0)])
+def test_measures_of_a_torus_meeting_its_tangent_plane_match_closed_forms(major, minor):
+    """The torus's top circle (tube angle phi = pi/2) joins the plane z = r tangentially: G1.
+    There k = 1/r across the junction and 0 along it on the torus, 0 on the plane, so the
+    curvature jump is 1/r; |grad K| = 1/(r^2 R) and |grad H| = 1/(2 r R) on the torus
+    (K = cos phi / (r (R + r cos phi)), do Carmo §3-3), 0 on the plane: the gradient jump
+    is the larger one (grad K for r < 2, grad H for r = 4, R = 5)."""
+    from gshade.geometry import revolve
+
+    s = np.sqrt(0.5)
+    R, r = major, minor
+    quarter = BSplineCurve([[R + r, 0.0], [R + r, r], [R, r]], 2, [0, 0, 0, 1, 1, 1], [1, s, 1])
+    annulus = BSplineCurve([[R, r], [R - 0.8 * r, r]], 1, [0, 0, 1, 1])
+    report = continuity_report([revolve(quarter), revolve(annulus)], pairs=[(0, "u1", 1, "u0")])
+    (junction,) = report
+    assert junction.gap < 1e-12 and junction.normal_angle_deg < 1e-9
+    assert junction.curvature_jump == pytest.approx(1 / r, rel=1e-12)
+    expected = max(1 / (r * r * R), 1 / (2 * r * R))
+    assert junction.curvature_gradient_jump == pytest.approx(expected, rel=1e-12)
+    assert junction.cls == "G1"

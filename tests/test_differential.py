@@ -1,4 +1,5 @@
-"""Normals and curvatures against analytic surfaces (sphere, cylinder, torus, saddle)."""
+"""Normals and curvatures against analytic surfaces (sphere, cylinder, torus, saddle), and
+the formulas themselves on plain arrays and on jets against closed forms."""
 
 import numpy as np
 import pytest
@@ -18,8 +19,18 @@ from gshade.geometry import (
     torus,
     unit_normal,
 )
+from gshade.geometry.differential import (
+    fundamental_forms,
+    gaussian_from_forms,
+    mean_from_forms,
+    normal_curvature,
+    principal_half_gap,
+)
 from gshade.io import read_newell
+from gshade.shape.jets import NUMPY, Jet
+from gshade.shape.jets import sqrt as jet_sqrt
 
+from . import curvature_oracles
 from .conftest import TEAPOT
 
 REL = 1e-9
@@ -159,3 +170,74 @@ def test_curvatures_never_nan_on_raw_irregular_points():
     pc = principal_curvatures(d)
     for x in (K, H, pc.k1, pc.k2, pc.e1, pc.e2, unit_normal(d).n):
         assert np.all(np.isfinite(x))
+
+
+# --------------------------------------------------------------------------- the formulas, once
+
+
+def xyz(a):
+    return tuple(a[..., c] for c in range(3))
+
+
+def jet_vector(d, i, j):
+    """The jets (value, d/ds, d/dt) of d^(i+j) p / ds^i dt^j."""
+    return tuple(Jet(d[i, j, :, c], d[i + 1, j, :, c], d[i, j + 1, :, c]) for c in range(3))
+
+
+FORMS_AT = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+
+
+def curvatures(forms, sqrt):
+    with np.errstate(divide="ignore"):  # the jets' sqrt at 0 (umbilics): slope 0
+        H = mean_from_forms(forms, sqrt(forms.W2))
+        return gaussian_from_forms(forms), H, principal_half_gap(forms, sqrt)
+
+
+@pytest.mark.parametrize("name", ["sphere", "cylinder", "torus"])
+def test_the_generic_formulas_on_plain_arrays_and_on_jets_match_closed_forms(name):
+    """fundamental_forms and K, H, (k1 - k2) / 2 from them, on numpy arrays and on jets
+    (whose derivative parts must be the closed-form d/ds = 0 and d/dt = d/dphi)."""
+    o = curvature_oracles.surface(name)
+    plain = fundamental_forms(*(xyz(o.d[i, j]) for i, j in FORMS_AT))
+    on_arrays = curvatures(plain, lambda x: np.sqrt(np.maximum(x, 0)))
+    jets = fundamental_forms(*(jet_vector(o.d, i, j) for i, j in FORMS_AT))
+    K_jet, H_jet, half_gap_jet = curvatures(jets, lambda x: jet_sqrt(x, NUMPY))
+    for K, H, half_gap in (on_arrays, (K_jet.f, H_jet.f, half_gap_jet.f)):
+        np.testing.assert_allclose(K, o.K, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(H, o.H, rtol=1e-12)
+        np.testing.assert_allclose(half_gap, o.half_gap, atol=1e-12)
+    np.testing.assert_allclose(K_jet.u, 0, atol=1e-12)
+    np.testing.assert_allclose(K_jet.v, o.dK_dphi, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(H_jet.u, 0, atol=1e-12)
+    np.testing.assert_allclose(H_jet.v, o.dH_dphi, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["sphere", "cylinder", "torus"])
+def test_the_numpy_curvature_functions_match_closed_forms(name):
+    o = curvature_oracles.surface(name)
+    for K, H in (gaussian_and_mean_curvature(o.d), (gaussian_curvature(o.d), mean_curvature(o.d))):
+        np.testing.assert_allclose(K, o.K, rtol=1e-12, atol=1e-13)
+        np.testing.assert_allclose(H, o.H, rtol=1e-12)
+    pc = principal_curvatures(o.d)
+    np.testing.assert_allclose(pc.k1, np.maximum(o.k_around, o.k_along), atol=1e-12)
+    np.testing.assert_allclose(pc.k2, np.minimum(o.k_around, o.k_along), atol=1e-12)
+    E, F, _ = first_fundamental_form(o.d)
+    rho2 = np.sum(o.d[0, 0][..., :2] ** 2, -1)  # E = rho^2, F = SHEAR E here
+    np.testing.assert_allclose(E, rho2, rtol=1e-12)
+    np.testing.assert_allclose(F, curvature_oracles.SHEAR * rho2, rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["sphere", "cylinder", "torus"])
+def test_normal_curvature_follows_euler_s_formula(name):
+    """k(e) = k_around cos^2 t + k_along sin^2 t for e = cos t p_theta/|p_theta| + sin t
+    p_phi/|p_phi| (do Carmo §3-2), w.r.t. the unit normal given."""
+    o = curvature_oracles.surface(name)
+    n = unit_normal(o.d).n
+    along_theta = o.p_theta / np.linalg.norm(o.p_theta, axis=-1, keepdims=True)
+    along_phi = o.p_phi / np.linalg.norm(o.p_phi, axis=-1, keepdims=True)
+    for t in np.linspace(0, np.pi, 7):
+        e = np.cos(t) * along_theta + np.sin(t) * along_phi
+        expected = o.k_around * np.cos(t) ** 2 + o.k_along * np.sin(t) ** 2
+        np.testing.assert_allclose(normal_curvature(o.d, n, e), expected, rtol=1e-12, atol=1e-12)
+    # a normal of the other side turns every normal curvature over
+    np.testing.assert_allclose(normal_curvature(o.d, -n, along_phi), -o.k_along, atol=1e-12)

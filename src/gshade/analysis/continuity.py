@@ -10,6 +10,9 @@ is sampled along it, and at each sample both patches' exact derivatives give:
 - ``curvature_gradient_jump``: the largest jump of the surface gradients of the mean and
   Gaussian curvature (G3).
 
+The curvature formulas are :mod:`gshade.geometry.differential`'s (normal curvature) and the
+shape functions' ``mean`` and ``gaussian`` (their exact surface gradients).
+
 A junction's class is the highest of G0, G1, G2, G3 whose measures all lie below their
 tolerances (``none`` if even the gap is larger).
 """
@@ -23,13 +26,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry import Patch, regularised_derivatives, unit_normal
-from ..geometry.differential import (
-    IRREGULAR_TOL,
-    _cross,
-    _dot,
-    first_fundamental_form,
-    second_fundamental_form,
-)
+from ..geometry.differential import IRREGULAR_TOL, _cross, _dot, normal_curvature
 from ..geometry.patch import unit_to_domain
 from ..shape import evaluate
 
@@ -223,21 +220,6 @@ def _geometry(patch: Patch, side: str, t: NDArray):
     return d, n, mean, gauss
 
 
-def _normal_curvature(d: NDArray, n: NDArray, e: NDArray) -> NDArray:
-    """k(e) = II(a) / I(a) for the tangent vector e = a_u p_u + a_v p_v (least squares)."""
-    pu, pv = d[1, 0], d[0, 1]
-    E, F, G = first_fundamental_form(d)
-    L, M, N = second_fundamental_form(d, n)
-    # solve [p_u p_v] a = e via the normal equations
-    b1, b2 = np.sum(pu * e, -1), np.sum(pv * e, -1)
-    det = E * G - F * F
-    det = np.where(det > 0, det, 1.0)
-    au, av = (G * b1 - F * b2) / det, (E * b2 - F * b1) / det
-    first = E * au * au + 2 * F * au * av + G * av * av
-    second = L * au * au + 2 * M * au * av + N * av * av
-    return second / np.where(first > 0, first, 1.0)
-
-
 def measure(patches, junction, samples: int = 32, directions: int = 8) -> dict:
     """The four measures along one junction."""
     i, si, j, sj, rev = junction
@@ -259,8 +241,8 @@ def measure(patches, junction, samples: int = 32, directions: int = 8) -> dict:
     jump = 0.0
     for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
         e = np.cos(theta) * along + np.sin(theta) * across
-        k_i = _normal_curvature(di, ni, e)
-        k_j = _normal_curvature(dj, nj, e) * sign[:, 0]
+        k_i = normal_curvature(di, ni, e)
+        k_j = normal_curvature(dj, nj, e) * sign[:, 0]
         jump = max(jump, float(np.abs(k_i - k_j).max()))
     grad_h = np.linalg.norm(hi.gradient - sign * hj.gradient, axis=-1)
     grad_k = np.linalg.norm(ki.gradient - kj.gradient, axis=-1)
@@ -353,8 +335,8 @@ def measure_all(patches, junctions, samples: int = 32, directions: int = 8) -> l
         jump = np.zeros(len(part))
         for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
             e = np.cos(theta) * along + np.sin(theta) * across
-            k_i = _normal_curvature(di, ni, e)
-            k_j = _normal_curvature(dj, nj, e) * sign[..., 0]
+            k_i = normal_curvature(di, ni, e)
+            k_j = normal_curvature(dj, nj, e) * sign[..., 0]
             worst = np.abs(k_i - k_j).max(axis=-1)
             jump = _pick(jump, worst)
         grad_h = np.linalg.norm(hi - sign * hj, axis=-1).max(axis=-1)

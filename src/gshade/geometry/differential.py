@@ -1,7 +1,13 @@
-"""Differential geometry of a patch from its exact derivatives (Kiciak, Appendix A.10).
+"""Differential geometry of a patch from its exact derivatives (Kiciak, Appendix A.10;
+do Carmo, *Differential Geometry of Curves and Surfaces*, §3-2 and §3-3).
 
-All functions take a derivatives array ``d`` as returned by ``Patch.derivatives`` (shape
-``(order + 1, order + 1, ..., 3)``) and work on any number of points at once.
+The formulas are written once, in the first section below, generic over the number type:
+numpy or Dr.Jit arrays, or jets (:mod:`gshade.shape.jets`, values carrying their u and v
+derivatives through +, -, * and /).  The numpy functions of this module, the shape
+functions' curvatures and surface gradients (:mod:`gshade.shape`) and the junction measures
+(:mod:`gshade.analysis.continuity`) all call them.  The numpy functions take a derivatives
+array ``d`` as returned by ``Patch.derivatives`` (shape ``(order + 1, order + 1, ..., 3)``)
+and work on any number of points at once.
 
 Conventions: N = p_u x p_v, n = N / |N|; E = <p_u, p_u>, F = <p_u, p_v>, G = <p_v, p_v>;
 L = <p_uu, n>, M = <p_uv, n>, N = <p_vv, n>;
@@ -17,7 +23,7 @@ derivatives were regularised first (:func:`gshade.geometry.regularised_derivativ
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,13 +31,27 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import GshadeError
 
 __all__ = [
+    "Forms",
     "PrincipalCurvatures",
+    "cross",
+    "dot",
+    "first_form",
+    "first_form_det",
     "first_fundamental_form",
+    "form_at",
+    "fundamental_forms",
     "gaussian_curvature",
+    "gaussian_from_forms",
     "irregular_mask",
     "mean_curvature",
+    "mean_from_forms",
+    "normal_curvature",
     "principal_curvatures",
+    "principal_half_gap",
+    "principal_terms",
+    "second_form",
     "second_fundamental_form",
+    "solve_first_form",
     "unit_normal",
 ]
 
@@ -39,6 +59,125 @@ __all__ = [
 IRREGULAR_TOL = 1e-8
 #: Points per chunk in the curvature formulas (temporaries stay in cache).
 _CHUNK = 1 << 14
+#: The least |p_u x p_v|^2 the numpy curvatures divide by (finite, never NaN).
+_TINY = np.finfo(np.float64).tiny ** 0.25
+
+#: a number of the generic formulas: a numpy or Dr.Jit array, a float, or a jet
+Num = Any
+
+# --------------------------------------------------------------------------- the formulas
+# Generic over the number type (only +, -, * and /, and a ``sqrt`` where one is passed);
+# vectors are sequences of three components.  Jets divide by multiplying with 1 / b, numpy
+# arrays divide exactly: the same formula rounds alike on each type, not across types.
+
+
+def dot(a, b) -> Num:
+    """Scalar product <a, b> = a_x b_x + a_y b_y + a_z b_z."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a, b) -> tuple[Num, Num, Num]:
+    """Vector product a x b = (a_y b_z - a_z b_y, a_z b_x - a_x b_z, a_x b_y - a_y b_x)."""
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )
+
+
+def first_form(pu, pv) -> tuple[Num, Num, Num]:
+    """First fundamental form E = <p_u, p_u>, F = <p_u, p_v>, G = <p_v, p_v> (Kiciak A.10)."""
+    return dot(pu, pu), dot(pu, pv), dot(pv, pv)
+
+
+def first_form_det(E: Num, F: Num, G: Num) -> Num:
+    """det I = EG - F^2, which equals |p_u x p_v|^2 (Lagrange's identity)."""
+    return E * G - F * F
+
+
+def second_form(puu, puv, pvv, n) -> tuple[Num, Num, Num]:
+    """Second fundamental form L = <p_uu, n>, M = <p_uv, n>, N = <p_vv, n> w.r.t. the normal
+    n, unit or not (Kiciak A.10; do Carmo §3-3)."""
+    return dot(puu, n), dot(puv, n), dot(pvv, n)
+
+
+class Forms(NamedTuple):
+    """Both fundamental forms: E, F, G; L, M, N w.r.t. a normal of length w (1 or |N|);
+    W2 = det I = EG - F^2."""
+
+    E: Num
+    F: Num
+    G: Num
+    L: Num
+    M: Num
+    N: Num
+    W2: Num
+
+
+def fundamental_forms(pu, pv, puu, puv, pvv) -> Forms:
+    """Both forms, the second w.r.t. the unnormalised N = p_u x p_v (w = |N|), W2 = <N, N>."""
+    normal = cross(pu, pv)
+    W2 = dot(normal, normal)
+    E, F, G = first_form(pu, pv)
+    L, M, N = second_form(puu, puv, pvv, normal)
+    return Forms(E, F, G, L, M, N, W2)
+
+
+def gaussian_from_forms(f: Forms) -> Num:
+    """Gaussian curvature K = (LN - M^2) / (EG - F^2) (do Carmo §3-3).
+
+    ``f`` is w.r.t. N = p_u x p_v (:func:`fundamental_forms`), so K = (L'N' - M'^2) / W^4,
+    computed as (L'N' - M'^2) (1 / W2)^2.
+    """
+    inv2 = 1.0 / f.W2
+    return (f.L * f.N - f.M * f.M) * (inv2 * inv2)
+
+
+def mean_from_forms(f: Forms, w: Num | None = None) -> Num:
+    """Mean curvature H = (EN - 2FM + GL) / (2 (EG - F^2) w) (do Carmo §3-3).
+
+    Signed w.r.t. the normal of L, M, N; ``w`` is that normal's length: |N| = sqrt(W2) for
+    :func:`fundamental_forms`, None for a unit normal.
+    """
+    return (f.E * f.N - 2.0 * (f.F * f.M) + f.G * f.L) / (2.0 * (f.W2 if w is None else f.W2 * w))
+
+
+def principal_terms(f: Forms) -> tuple[Num, Num]:
+    """gap = GL - EN and twist = (GM - FN)(EM - FL), the shape operator's parts.
+
+    S = I^-1 II has S11 - S22 = gap / (W2 w) and S12 S21 = twist / (W2 w)^2, and
+    ((k1 - k2) / 2)^2 = ((S11 - S22) / 2)^2 + S12 S21: no cancellation near umbilics, unlike
+    H^2 - K (do Carmo §3-3).
+    """
+    return f.G * f.L - f.E * f.N, (f.G * f.M - f.F * f.N) * (f.E * f.M - f.F * f.L)
+
+
+def principal_half_gap(f: Forms, sqrt) -> Num:
+    """(k1 - k2) / 2 = sqrt((gap^2 / 4 + twist) / W2^3) for forms w.r.t. N = p_u x p_v.
+
+    The principal curvatures are k1,2 = H ± it (:func:`principal_terms`); ``sqrt`` is the
+    number type's, taking negative round-off to 0.
+    """
+    gap, twist = principal_terms(f)
+    inv2 = 1.0 / f.W2
+    return sqrt((0.25 * (gap * gap) + twist) * ((inv2 * inv2) * inv2))
+
+
+def solve_first_form(E: Num, F: Num, G: Num, det: Num, x: Num, y: Num) -> tuple[Num, Num]:
+    """(a, b) with I (a, b) = (x, y): ((G x - F y) / det, (E y - F x) / det), det = EG - F^2.
+
+    With (x, y) = (f_u, f_v), a p_u + b p_v is the surface gradient of f (Kiciak ch. 6); with
+    (x, y) = (<p_u, e>, <p_v, e>), (a, b) are the parameters of the tangent vector e.
+    """
+    return (G * x - F * y) / det, (E * y - F * x) / det
+
+
+def form_at(A: Num, B: Num, C: Num, a: Num, b: Num) -> Num:
+    """A quadratic form at (a, b): A a^2 + 2 B a b + C b^2 (I(a, b) or II(a, b))."""
+    return A * a * a + 2 * B * a * b + C * b * b
+
+
+# --------------------------------------------------------------------------- numpy arrays
 
 
 def _order_of(d: NDArray, needed: int, what: str) -> None:
@@ -50,8 +189,14 @@ def _order_of(d: NDArray, needed: int, what: str) -> None:
         )
 
 
+def _xyz(a: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """The components of vectors along the last axis, as the formulas take them."""
+    return a[..., 0], a[..., 1], a[..., 2]
+
+
 def _cross(a: NDArray, b: NDArray) -> NDArray:
-    """Cross product over the last axis, written component-wise (fast on strided views)."""
+    """:func:`cross` of (..., 3) arrays into one (..., 3) array, written in place: on large
+    arrays the generic form's temporaries (one per product, then a stack) cost more."""
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
     ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
     bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
@@ -65,10 +210,8 @@ def _cross(a: NDArray, b: NDArray) -> NDArray:
 
 
 def _dot(a: NDArray, b: NDArray) -> NDArray:
-    out = a[..., 0] * b[..., 0]
-    out += a[..., 1] * b[..., 1]
-    out += a[..., 2] * b[..., 2]
-    return out
+    """:func:`dot` of (..., 3) arrays."""
+    return dot(_xyz(a), _xyz(b))
 
 
 def derivative_scale(d: NDArray) -> float:
@@ -180,11 +323,10 @@ def unit_normal(
 
 
 def first_fundamental_form(d: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
-    """E = <p_u, p_u>, F = <p_u, p_v>, G = <p_v, p_v>."""
+    """E = <p_u, p_u>, F = <p_u, p_v>, G = <p_v, p_v> (:func:`first_form`)."""
     d = np.asarray(d)
     _order_of(d, 1, "the first fundamental form")
-    pu, pv = d[1, 0], d[0, 1]
-    return _dot(pu, pu), _dot(pu, pv), _dot(pv, pv)
+    return first_form(_xyz(d[1, 0]), _xyz(d[0, 1]))
 
 
 def second_fundamental_form(
@@ -194,80 +336,53 @@ def second_fundamental_form(
     d = np.asarray(d)
     _order_of(d, 2, "the second fundamental form")
     normal = unit_normal(d).n if n is None else np.asarray(n)
-    return _dot(d[2, 0], normal), _dot(d[1, 1], normal), _dot(d[0, 2], normal)
-
-
-def _curvature_terms(d: NDArray):
-    """E, F, G, the unnormalised L', M', N' and |N|^2 (guarded against zero)."""
-    pu, pv = d[1, 0], d[0, 1]
-    N = _cross(pu, pv)
-    E, F, G = _dot(pu, pu), _dot(pu, pv), _dot(pv, pv)
-    L_, M_, N_ = _dot(d[2, 0], N), _dot(d[1, 1], N), _dot(d[0, 2], N)
-    W2 = _dot(N, N)
-    tiny = np.finfo(np.float64).tiny ** 0.25
-    np.maximum(W2, tiny, out=W2)
-    return E, F, G, L_, M_, N_, W2
+    return second_form(_xyz(d[2, 0]), _xyz(d[1, 1]), _xyz(d[0, 2]), _xyz(normal))
 
 
 def _finite(x: NDArray) -> NDArray:
     return np.nan_to_num(x, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
 
 
+def _curvatures(d: ArrayLike, what: str, gaussian: bool, mean: bool) -> list[NDArray]:
+    """K and/or H (:func:`gaussian_from_forms`, :func:`mean_from_forms`) of every point.
+
+    Works through the points in cache-sized chunks, so that the temporaries of the
+    formulas stay in cache and are reused; |N|^2 is at least ``_TINY`` (finite values).
+    """
+    d = np.asarray(d)
+    _order_of(d, 2, what)
+    shape = d.shape[2:-1]
+    flat = d[:3, :3].reshape(3, 3, -1, 3)
+    n = flat.shape[2]
+    out = [np.empty(n) for _ in range(gaussian + mean)]
+    for start in range(0, n, _CHUNK):
+        part = flat[:, :, start : start + _CHUNK]
+        f = fundamental_forms(
+            *(_xyz(part[i, j]) for i, j in ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
+        )
+        f = f._replace(W2=np.maximum(f.W2, _TINY))
+        values = [gaussian_from_forms(f)] if gaussian else []
+        if mean:
+            values.append(mean_from_forms(f, np.sqrt(f.W2)))
+        for o, x in zip(out, values, strict=True):
+            o[start : start + _CHUNK] = x
+    return [_finite(o).reshape(shape) for o in out]
+
+
 def gaussian_curvature(d: ArrayLike) -> NDArray[np.float64]:
     """Gaussian curvature K = (LN - M^2) / (EG - F^2)."""
-    d = np.asarray(d)
-    _order_of(d, 2, "Gaussian curvature")
-    _, _, _, L_, M_, N_, W2 = _curvature_terms(d)
-    L_ *= N_
-    M_ *= M_
-    L_ -= M_
-    W2 *= W2
-    L_ /= W2
-    return _finite(L_)
+    return _curvatures(d, "Gaussian curvature", True, False)[0]
 
 
 def mean_curvature(d: ArrayLike) -> NDArray[np.float64]:
     """Mean curvature H = (EN - 2FM + GL) / (2 (EG - F^2)), signed w.r.t. n = p_u x p_v."""
-    d = np.asarray(d)
-    _order_of(d, 2, "mean curvature")
-    E, F, G, L_, M_, N_, W2 = _curvature_terms(d)
-    return _mean_from_terms(E, F, G, L_, M_, N_, W2)
-
-
-def _mean_from_terms(E, F, G, L_, M_, N_, W2):
-    E *= N_
-    F *= M_
-    F *= 2.0
-    E -= F
-    G *= L_
-    E += G
-    W2 = np.sqrt(W2) * W2
-    W2 *= 2.0
-    E /= W2
-    return _finite(E)
+    return _curvatures(d, "mean curvature", False, True)[0]
 
 
 def gaussian_and_mean_curvature(d: ArrayLike) -> tuple[NDArray, NDArray]:
-    """K and H together, sharing the common terms (faster than two calls).
-
-    Works through the points in cache-sized chunks, so that the temporaries of the
-    formula stay in cache and are reused.
-    """
-    d = np.asarray(d)
-    _order_of(d, 2, "curvature")
-    shape = d.shape[2:-1]
-    flat = d[:3, :3].reshape(3, 3, -1, 3)
-    n = flat.shape[2]
-    K, H = np.empty(n), np.empty(n)
-    for start in range(0, n, _CHUNK):
-        sl = slice(start, start + _CHUNK)
-        E, F, G, L_, M_, N_, W2 = _curvature_terms(flat[:, :, sl])
-        k = L_ * N_
-        k -= M_ * M_
-        k /= W2 * W2
-        K[sl] = k
-        H[sl] = _mean_from_terms(E, F, G, L_, M_, N_, W2)
-    return _finite(K).reshape(shape), _finite(H).reshape(shape)
+    """K and H together, sharing the fundamental forms (faster than two calls)."""
+    K, H = _curvatures(d, "curvature", True, True)
+    return K, H
 
 
 class PrincipalCurvatures(NamedTuple):
@@ -280,11 +395,12 @@ class PrincipalCurvatures(NamedTuple):
 
 
 def principal_curvatures(d: ArrayLike) -> PrincipalCurvatures:
-    """Principal curvatures k1,2 = H ± sqrt(H^2 - K) and principal directions.
+    """Principal curvatures k1,2 = H ± sqrt(H^2 - K) and principal directions (do Carmo §3-2).
 
-    The directions are eigenvectors of the shape operator I^-1 II mapped to R^3 by
-    (du, dv) -> du p_u + dv p_v; e2 = n x e1, so (e1, e2, n) is right-handed.  At umbilics
-    every direction is principal and e1 is along p_u.
+    The root comes from :func:`principal_terms` (exact near umbilics).  The directions are
+    eigenvectors of the shape operator I^-1 II mapped to R^3 by (du, dv) -> du p_u + dv p_v;
+    e2 = n x e1, so (e1, e2, n) is right-handed.  At umbilics every direction is principal
+    and e1 is along p_u.
     """
     d = np.asarray(d)
     _order_of(d, 2, "principal curvatures")
@@ -292,12 +408,13 @@ def principal_curvatures(d: ArrayLike) -> PrincipalCurvatures:
     n = unit_normal(d).n
     E, F, G = first_fundamental_form(d)
     L, M, N = second_fundamental_form(d, n)
-    W2 = np.maximum(E * G - F * F, np.finfo(np.float64).tiny ** 0.25)
-    H = _finite((E * N - 2 * F * M + G * L) / (2 * W2))
-    # ((k1 - k2) / 2)^2 from the shape operator S = I^-1 II as ((S11 - S22) / 2)^2 + S12 S21
-    # rather than H^2 - K, which loses half the digits near umbilics.
-    half_gap = (G * L - E * N) / (2 * W2)
-    disc = _finite(half_gap * half_gap + (G * M - F * N) * (E * M - F * L) / (W2 * W2))
+    f = Forms(E, F, G, L, M, N, np.maximum(first_form_det(E, F, G), _TINY))
+    H = _finite(mean_from_forms(f))
+    # ((k1 - k2) / 2)^2 from principal_terms, here divided before squaring (unlike
+    # principal_half_gap): the directions near umbilics depend on this rounding, kept as it was
+    gap, twist = principal_terms(f)
+    half_gap = gap / (2 * f.W2)
+    disc = _finite(half_gap * half_gap + twist / (f.W2 * f.W2))
     root = np.sqrt(np.maximum(disc, 0.0))
     k1, k2 = H + root, H - root
     # (II - k1 I) x = 0: two candidate null vectors; take the better conditioned one.
@@ -315,3 +432,22 @@ def principal_curvatures(d: ArrayLike) -> PrincipalCurvatures:
     e1 = e1 / np.where(length > 0, length, 1.0)[..., None]
     e2 = _cross(n, e1)
     return PrincipalCurvatures(k1, k2, e1, e2)
+
+
+def normal_curvature(d: ArrayLike, n: ArrayLike, e: ArrayLike) -> NDArray[np.float64]:
+    """Normal curvature k(e) = II(a) / I(a) in the tangent direction e (do Carmo §3-2).
+
+    e = a_u p_u + a_v p_v by least squares (:func:`solve_first_form`); II w.r.t. the unit
+    normal n.  Shapes: d (order + 1, order + 1, ..., 3) with order >= 2, n and e (..., 3).
+    """
+    d, e = np.asarray(d), np.asarray(e)
+    _order_of(d, 2, "normal curvature")
+    pu, pv = d[1, 0], d[0, 1]
+    E, F, G = first_fundamental_form(d)
+    L, M, N = second_fundamental_form(d, n)
+    det = first_form_det(E, F, G)
+    au, av = solve_first_form(
+        E, F, G, np.where(det > 0, det, 1.0), np.sum(pu * e, -1), np.sum(pv * e, -1)
+    )
+    first = form_at(E, F, G, au, av)
+    return form_at(L, M, N, au, av) / np.where(first > 0, first, 1.0)

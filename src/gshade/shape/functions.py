@@ -10,8 +10,9 @@ Conventions: N = p_u x p_v, n = N / |N|; vectors given as parameters need not be
 
 Each function is declared once, in its own section below: its formula, the
 :class:`~gshade.shape.kernels.Layout` of its packed parameters (per form where the forms
-differ), its ``pack`` and its ``_register`` call.  To add one, add a section here and nothing
-else:
+differ), its ``pack`` and its :func:`~gshade.shape.registry.register` call.  To add one, add
+a section here and nothing else (:mod:`gshade.shape.registry` holds the machinery: the
+table, parameter checking, :func:`~gshade.shape.registry.evaluate`):
 
 1. ``_MINE = Layout(("light", 3), ("scale", 1))``: the numbers the formula needs, by name and
    length (every layout ends with ``irregular``, the threshold ``evaluate`` sets);
@@ -20,7 +21,7 @@ else:
    None); ``vec(i, j)`` is the jet vector of d^(i+j) p / du^i dv^j;
 3. ``def _pack_mine(fn, kw)``: from the checked parameters ``kw`` to
    ``(form, _MINE, {"light": ..., "scale": ...})`` (raise :class:`GshadeError` for bad ones);
-4. ``_register("mine", order, summary, _mine, _pack_mine, light=Parameter(...), ...)``.
+4. ``register("mine", order, summary, _mine, _pack_mine, light=Parameter(...), ...)``.
 
 Nothing is placed by offset: ``Layout.pack`` builds the vector and ``Layout.read`` gives the
 formula each field by name; Dr.Jit still receives each number as an opaque value.  The README's
@@ -29,144 +30,42 @@ list of functions is documentation to update by hand.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, NamedTuple
-
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry.differential import IRREGULAR_TOL
-from ..geometry.differential import derivative_scale as _derivative_scale
-from . import kernels
+from ..geometry.differential import (
+    first_form,
+    fundamental_forms,
+    gaussian_from_forms,
+    mean_from_forms,
+    principal_half_gap,
+)
 from .jets import arccos, arctan2, cross, dot, jabs, sqrt
 from .kernels import Formula, Layout
+from .registry import (
+    SHAPE_FUNCTIONS,
+    Parameter,
+    ShapeFunction,
+    ShapeValues,
+    evaluate,
+    get_shape_function,
+    register,
+)
+from .registry import (
+    _check_params as _check_params,  # tests pack parameters through it
+)
 
 __all__ = [
     "SHAPE_FUNCTIONS",
+    "Parameter",
     "ShapeFunction",
     "ShapeValues",
     "evaluate",
     "get_shape_function",
 ]
 
-
-class ShapeValues(NamedTuple):
-    """Values f (shape (...)), surface gradient (shape (..., 3), or None), validity, and
-    the parametric partials (f_u, f_v) (shape (..., 2), or None).
-
-    ``valid`` is False where the function is undefined (e.g. the reflected ray misses the
-    light plane, or the point is irregular); values there are finite (never NaN).
-    """
-
-    f: NDArray[np.float64]
-    gradient: NDArray[np.float64] | None
-    valid: NDArray[np.bool_]
-    partials: NDArray[np.float64] | None = None
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """A shape function's parameter: its kind ('vector', 'choice', 'number') and default."""
-
-    kind: str
-    default: Any
-    help: str
-    choices: tuple[str, ...] = ()
-
-
-#: what a shape function's ``pack`` returns: its form (the formula's option, "" if none), the
-#: layout of its parameters and their values by field name
-Packed = tuple[str, Layout, dict[str, Any]]
-
-_NO_PARAMETERS = Layout()
-
-
-def _no_parameters(fn: str, kw: dict[str, Any]) -> Packed:
-    return "", _NO_PARAMETERS, {}
-
-
-@dataclass(frozen=True)
-class ShapeFunction:
-    """A registered shape function.
-
-    ``order``: the highest derivative order it uses; ``eye_dependent``: whether it changes
-    with the eye point; ``signed``: whether its values have a meaningful sign (a diverging
-    colour map centred on 0 suits it); ``parameters``: name -> :class:`Parameter`.
-    """
-
-    name: str
-    order: int
-    eye_dependent: bool
-    signed: bool
-    summary: str
-    parameters: dict[str, Parameter] = field(default_factory=dict)
-    #: the formula (see :data:`gshade.shape.kernels.Formula`)
-    formula: Formula | None = field(default=None, repr=False)
-    #: (name, checked parameters) -> (form, layout, the values of its fields)
-    pack: Callable[[str, dict[str, Any]], Packed] = field(default=_no_parameters, repr=False)
-
-    def __call__(self, d: ArrayLike, *, gradient: bool = True, **params) -> ShapeValues:
-        return evaluate(self, d, gradient=gradient, **params)
-
-
-SHAPE_FUNCTIONS: dict[str, ShapeFunction] = {}
-
-
-def get_shape_function(name: str) -> ShapeFunction:
-    """Look a shape function up by name."""
-    try:
-        return SHAPE_FUNCTIONS[name]
-    except (KeyError, TypeError):
-        raise GshadeError(
-            f"function: expected one of {', '.join(SHAPE_FUNCTIONS)}, got {name!r}"
-        ) from None
-
-
-# --------------------------------------------------------------------------- parameters
-
-
-def _vector(fn: str, name: str, x: Any, *, nonzero: bool = True, unit: bool = False) -> NDArray:
-    try:
-        v = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        v = None
-    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise GshadeError(f"{fn}: {name}: expected 3 finite numbers [x, y, z], got {x!r}")
-    length = float(np.linalg.norm(v))
-    if nonzero and length == 0:
-        raise GshadeError(f"{fn}: {name}: expected a non-zero direction, got {x!r}")
-    return v / length if unit else v
-
-
-def _check_params(fn: ShapeFunction, params: dict) -> dict:
-    unknown = sorted(set(params) - set(fn.parameters))
-    if unknown:
-        known = ", ".join(fn.parameters) or "none"
-        raise GshadeError(f"{fn.name}: unknown parameter {unknown[0]!r}; expected one of: {known}")
-    out: dict[str, Any] = {}
-    for name, spec in fn.parameters.items():
-        x = params.get(name, spec.default)
-        if spec.kind == "choice":
-            if x not in spec.choices:
-                raise GshadeError(
-                    f"{fn.name}: {name}: expected one of {', '.join(spec.choices)}, got {x!r}"
-                )
-        elif spec.kind in ("direction", "point", "vector"):
-            if x is None:
-                out[name] = None
-                continue
-            x = _vector(
-                fn.name, name, x, nonzero=spec.kind != "point", unit=spec.kind == "direction"
-            )
-        elif spec.kind == "number":
-            try:
-                x = float(x)
-            except (TypeError, ValueError):
-                raise GshadeError(f"{fn.name}: {name}: expected a number, got {x!r}") from None
-        out[name] = x
-    return out
+# --------------------------------------------------------------------------- light-line frames
 
 
 def _frame(fn: str, a1: NDArray, a2: NDArray) -> NDArray:
@@ -186,25 +85,6 @@ def _perpendicular(a: NDArray) -> NDArray:
     return w / np.linalg.norm(w)
 
 
-# --------------------------------------------------------------------------- registry
-
-
-def _register(
-    name: str,
-    order: int,
-    summary: str,
-    formula: Formula,
-    pack: Callable[[str, dict[str, Any]], Packed] | None = None,
-    *,
-    eye: bool = False,
-    signed: bool = False,
-    **parameters: Parameter,
-) -> None:
-    SHAPE_FUNCTIONS[name] = ShapeFunction(
-        name, order, eye, signed, summary, dict(parameters), formula, pack or _no_parameters
-    )
-
-
 # --------------------------------------------------------------------------- planar sections
 
 _PLANAR = Layout(("direction", 3))
@@ -218,7 +98,7 @@ def _pack_planar(fn, kw):
     return "", _PLANAR, {"direction": kw["direction"]}
 
 
-_register(
+register(
     "planar_sections",
     0,
     "f = <p, v>: sections by the planes perpendicular to v (contour lines)",
@@ -243,7 +123,7 @@ def _pack_isophotes(fn, kw):
     return kw["form"], _ISOPHOTES, {"light": kw["light"]}
 
 
-_register(
+register(
     "isophotes",
     1,
     "f = <n, l> (form 'cos') or the angle arccos <n, l> (form 'angle', evenly spaced)",
@@ -301,7 +181,7 @@ def _pack_reflection(fn, kw):
     return "infinity", _REFLECTION_INFINITY, values
 
 
-_register(
+register(
     "reflection_lines",
     1,
     "reflections of light lines seen from the eye: lines in a plane (Kiciak: f = s of the hit "
@@ -354,7 +234,7 @@ def _pack_highlight(fn, kw):
     return "distance", _HIGHLIGHT_DISTANCE, values
 
 
-_register(
+register(
     "highlight_lines",
     1,
     "light lines hit by the surface normal lines (Beier–Chen; independent of the eye): plane "
@@ -378,14 +258,13 @@ _register(
 
 
 def _parametrisation_quality(vec, p, form, xp):
-    pu, pv = vec(1, 0), vec(0, 1)
-    E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
+    E, F, G = first_form(vec(1, 0), vec(0, 1))
     s = E + G
     dEG = E - G
     return (dEG * dEG + 4.0 * (F * F)) / (s * s), s.f > 0.0, None
 
 
-_register(
+register(
     "parametrisation_quality",
     1,
     "q = ((E - G)^2 + 4F^2) / (E + G)^2: 0 where the parametrisation is conformal",
@@ -397,27 +276,18 @@ _register(
 
 def _curvature(which: str) -> Formula:
     def formula(vec, p, form, xp):
-        """K = (L'N' - M'^2)/W^4, H = (E N' - 2F M' + G L')/(2 W^3), W = |N|, L' = <p_uu, N>,
-        ...; ((k1 - k2)/2)^2 = ((G L' - E N')^2 / 4 + (G M' - F N')(E M' - F L')) / W^6."""
-        pu, pv = vec(1, 0), vec(0, 1)
-        N = cross(pu, pv)
-        W2 = dot(N, N)
-        valid = W2.f > p.irregular * p.irregular
-        E, F, G = dot(pu, pu), dot(pu, pv), dot(pv, pv)
-        L, M, Nn = dot(vec(2, 0), N), dot(vec(1, 1), N), dot(vec(0, 2), N)
-        inv2 = 1.0 / W2
-        inv4 = inv2 * inv2
-        K = (L * Nn - M * M) * inv4
+        """K, H and k1,2 = H +- (k1 - k2) / 2 of the forms w.r.t. N = p_u x p_v
+        (:mod:`gshade.geometry.differential`); rms = sqrt(2 H^2 - K)."""
+        f = fundamental_forms(vec(1, 0), vec(0, 1), vec(2, 0), vec(1, 1), vec(0, 2))
+        valid = f.W2.f > p.irregular * p.irregular
         if which == "gaussian":
-            return K, valid, None
-        H = (E * Nn - 2.0 * (F * M) + G * L) / (2.0 * (W2 * sqrt(W2, xp)))
+            return gaussian_from_forms(f), valid, None
+        H = mean_from_forms(f, sqrt(f.W2, xp))
         if which == "mean":
             return H, valid, None
         if which == "rms":
-            return sqrt(2.0 * (H * H) - K, xp), valid, None
-        gap = G * L - E * Nn
-        disc = 0.25 * (gap * gap) + (G * M - F * Nn) * (E * M - F * L)
-        root = sqrt(disc * (inv4 * inv2), xp)
+            return sqrt(2.0 * (H * H) - gaussian_from_forms(f), xp), valid, None
+        root = principal_half_gap(f, lambda x: sqrt(x, xp))
         if which == "max_principal":
             return H + root, valid, None
         if which == "min_principal":
@@ -427,110 +297,32 @@ def _curvature(which: str) -> Formula:
     return formula
 
 
-_register("gaussian", 2, "Gaussian curvature K = k1 k2", _curvature("gaussian"), signed=True)
-_register(
+register("gaussian", 2, "Gaussian curvature K = k1 k2", _curvature("gaussian"), signed=True)
+register(
     "mean",
     2,
     "mean curvature H = (k1 + k2) / 2, signed w.r.t. n = p_u x p_v",
     _curvature("mean"),
     signed=True,
 )
-_register(
+register(
     "max_principal",
     2,
     "the larger principal curvature k1 = H + sqrt(H^2 - K)",
     _curvature("max_principal"),
     signed=True,
 )
-_register(
+register(
     "min_principal",
     2,
     "the smaller principal curvature k2 = H - sqrt(H^2 - K)",
     _curvature("min_principal"),
     signed=True,
 )
-_register("absolute", 2, "absolute curvature |k1| + |k2|", _curvature("absolute"))
-_register(
+register("absolute", 2, "absolute curvature |k1| + |k2|", _curvature("absolute"))
+register(
     "rms",
     2,
     "root mean square curvature sqrt((k1^2 + k2^2) / 2) = sqrt(2H^2 - K)",
     _curvature("rms"),
 )
-
-
-# --------------------------------------------------------------------------- evaluation
-
-
-def evaluate(
-    function: str | ShapeFunction,
-    d: ArrayLike,
-    *,
-    gradient: bool = True,
-    partials: bool = False,
-    backend: str = "auto",
-    **params,
-) -> ShapeValues:
-    """Evaluate a shape function on a derivatives array.
-
-    Parameters
-    ----------
-    function : str or ShapeFunction
-        Name (see :data:`SHAPE_FUNCTIONS`) or the function itself.
-    d : ndarray, shape (order + 1, order + 1, ..., 3)
-        Derivatives from ``Patch.derivatives`` (regularised at irregular points, if any:
-        :func:`gshade.geometry.regularised_derivatives`).  The function's order is needed
-        for f, one more for the gradient.
-    gradient : bool
-        Whether to compute the surface gradient grad_S f = [f_u f_v] I^-1 [p_u; p_v].
-    partials : bool
-        Whether to return the parametric partial derivatives (f_u, f_v) too (they need the
-        same extra derivative order as the gradient).
-    backend : {"auto", "drjit", "numpy"}
-        Where the formula runs: Dr.Jit's LLVM backend (one compiled, multithreaded kernel;
-        "auto" picks it wherever a libLLVM >= 17 is available) or numpy.
-    **params
-        The function's parameters (``SHAPE_FUNCTIONS[name].parameters``).
-
-    Returns
-    -------
-    ShapeValues
-        ``f`` (shape (...)), ``gradient`` (shape (..., 3) or None), ``valid`` (bool).
-    """
-    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
-    kw = _check_params(fn, params)
-    form, layout, values = fn.pack(fn.name, kw)
-    d = np.asarray(d, dtype=np.float64)
-    if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
-        raise GshadeError(f"derivatives: expected shape (order+1, order+1, ..., 3), got {d.shape}")
-    need = fn.order + (1 if gradient or partials else 0)
-    if d.shape[0] - 1 < need:
-        raise GshadeError(
-            f"{fn.name}: needs derivatives of order {need} (order {fn.order}"
-            f"{' + 1 for the gradient' if gradient or partials else ''}), got order "
-            f"{d.shape[0] - 1}"
-        )
-    shape = d.shape[2:-1]
-    flat = d.reshape(d.shape[0], d.shape[1], -1, 3)
-    if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
-        values = {**values, "irregular": IRREGULAR_TOL * _derivative_scale(flat) ** 2}
-    if fn.formula is None:
-        raise GshadeError(f"{fn.name}: has no formula")
-    f, grad, valid, eye, fuv = kernels.run(
-        fn.formula,
-        form,
-        layout,
-        layout.pack(**values),
-        flat,
-        gradient,
-        backend,
-        with_partials=partials,
-    )
-    if eye.any():
-        raise GshadeError(
-            f"{fn.name}: eye_point: expected a point off the surface, got "
-            f"{kw['eye_point'].tolist()}, which lies on it"
-        )
-    # kernels.run returns the gradient and the partials exactly when they were asked for
-    gradient_out = None if grad is None else np.moveaxis(grad, 0, -1).reshape((*shape, 3))
-    partials_out = None if fuv is None else np.moveaxis(fuv, 0, -1).reshape((*shape, 2))
-    return ShapeValues(f.reshape(shape), gradient_out, valid.reshape(shape), partials_out)

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from ..geometry.differential import first_form, first_form_det, solve_first_form
 from ..runtime.llvm import drjit_llvm_ready
 from .jets import NUMPY, Backend, Jet
 
@@ -123,7 +124,8 @@ def run(
 
     Returns f (n,), the gradient (3, n) or None, valid (n,), eye (n,): points where the
     eye lies on the surface (reflection lines), and the partials (f_u, f_v) (2, n) or None.
-    The gradient is ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2); f, the gradient
+    The gradient is ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2)
+    (:func:`~gshade.geometry.differential.solve_first_form`); f, the gradient
     and the partials are 0 where f is undefined (or not finite).  Derivatives beyond d's
     order are taken as zero.
     """
@@ -176,13 +178,11 @@ def run(
         if with_gradient:
             pu = [component(1, 0, c) for c in range(3)]
             pv = [component(0, 1, c) for c in range(3)]
-            E = pu[0] * pu[0] + pu[1] * pu[1] + pu[2] * pu[2]
-            F = pu[0] * pv[0] + pu[1] * pv[1] + pu[2] * pv[2]
-            G = pv[0] * pv[0] + pv[1] * pv[1] + pv[2] * pv[2]
-            det = E * G - F * F
+            E, F, G = first_form(pu, pv)
+            det = first_form_det(E, F, G)
             ok = valid & (det > 0.0)
-            a = xp.select(ok, (G * jet.u - F * jet.v) / det, 0.0)
-            b = xp.select(ok, (E * jet.v - F * jet.u) / det, 0.0)
+            a, b = solve_first_form(E, F, G, det, jet.u, jet.v)
+            a, b = xp.select(ok, a, 0.0), xp.select(ok, b, 0.0)
             outputs["gradient"] = [a * pu[c] + b * pv[c] for c in range(3)]
         if with_partials:
             outputs["partials"] = [xp.select(valid, jet.u, 0.0), xp.select(valid, jet.v, 0.0)]

@@ -1,0 +1,247 @@
+"""The shape-function registry: what a shape function is (:class:`ShapeFunction`, its
+:class:`Parameter`), the table of them (:data:`SHAPE_FUNCTIONS`, filled by
+:mod:`gshade.shape.functions`, where each is declared once with :func:`register`), the
+checking of parameters, and :func:`evaluate`, which runs one on a derivatives array.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import GshadeError
+from ..geometry.differential import IRREGULAR_TOL
+from ..geometry.differential import derivative_scale as _derivative_scale
+from . import kernels
+from .kernels import Formula, Layout
+
+__all__ = [
+    "SHAPE_FUNCTIONS",
+    "Packed",
+    "Parameter",
+    "ShapeFunction",
+    "ShapeValues",
+    "evaluate",
+    "get_shape_function",
+    "register",
+]
+
+
+class ShapeValues(NamedTuple):
+    """Values f (shape (...)), surface gradient (shape (..., 3), or None), validity, and
+    the parametric partials (f_u, f_v) (shape (..., 2), or None).
+
+    ``valid`` is False where the function is undefined (e.g. the reflected ray misses the
+    light plane, or the point is irregular); values there are finite (never NaN).
+    """
+
+    f: NDArray[np.float64]
+    gradient: NDArray[np.float64] | None
+    valid: NDArray[np.bool_]
+    partials: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A shape function's parameter: its kind ('vector', 'choice', 'number') and default."""
+
+    kind: str
+    default: Any
+    help: str
+    choices: tuple[str, ...] = ()
+
+
+#: what a shape function's ``pack`` returns: its form (the formula's option, "" if none), the
+#: layout of its parameters and their values by field name
+Packed = tuple[str, Layout, dict[str, Any]]
+
+_NO_PARAMETERS = Layout()
+
+
+def _no_parameters(fn: str, kw: dict[str, Any]) -> Packed:
+    return "", _NO_PARAMETERS, {}
+
+
+@dataclass(frozen=True)
+class ShapeFunction:
+    """A registered shape function.
+
+    ``order``: the highest derivative order it uses; ``eye_dependent``: whether it changes
+    with the eye point; ``signed``: whether its values have a meaningful sign (a diverging
+    colour map centred on 0 suits it); ``parameters``: name -> :class:`Parameter`.
+    """
+
+    name: str
+    order: int
+    eye_dependent: bool
+    signed: bool
+    summary: str
+    parameters: dict[str, Parameter] = field(default_factory=dict)
+    #: the formula (see :data:`gshade.shape.kernels.Formula`)
+    formula: Formula | None = field(default=None, repr=False)
+    #: (name, checked parameters) -> (form, layout, the values of its fields)
+    pack: Callable[[str, dict[str, Any]], Packed] = field(default=_no_parameters, repr=False)
+
+    def __call__(self, d: ArrayLike, *, gradient: bool = True, **params) -> ShapeValues:
+        return evaluate(self, d, gradient=gradient, **params)
+
+
+SHAPE_FUNCTIONS: dict[str, ShapeFunction] = {}
+
+
+def get_shape_function(name: str) -> ShapeFunction:
+    """Look a shape function up by name."""
+    try:
+        return SHAPE_FUNCTIONS[name]
+    except (KeyError, TypeError):
+        raise GshadeError(
+            f"function: expected one of {', '.join(SHAPE_FUNCTIONS)}, got {name!r}"
+        ) from None
+
+
+# --------------------------------------------------------------------------- parameters
+
+
+def _vector(fn: str, name: str, x: Any, *, nonzero: bool = True, unit: bool = False) -> NDArray:
+    try:
+        v = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        v = None
+    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise GshadeError(f"{fn}: {name}: expected 3 finite numbers [x, y, z], got {x!r}")
+    length = float(np.linalg.norm(v))
+    if nonzero and length == 0:
+        raise GshadeError(f"{fn}: {name}: expected a non-zero direction, got {x!r}")
+    return v / length if unit else v
+
+
+def _check_params(fn: ShapeFunction, params: dict) -> dict:
+    unknown = sorted(set(params) - set(fn.parameters))
+    if unknown:
+        known = ", ".join(fn.parameters) or "none"
+        raise GshadeError(f"{fn.name}: unknown parameter {unknown[0]!r}; expected one of: {known}")
+    out: dict[str, Any] = {}
+    for name, spec in fn.parameters.items():
+        x = params.get(name, spec.default)
+        if spec.kind == "choice":
+            if x not in spec.choices:
+                raise GshadeError(
+                    f"{fn.name}: {name}: expected one of {', '.join(spec.choices)}, got {x!r}"
+                )
+        elif spec.kind in ("direction", "point", "vector"):
+            if x is None:
+                out[name] = None
+                continue
+            x = _vector(
+                fn.name, name, x, nonzero=spec.kind != "point", unit=spec.kind == "direction"
+            )
+        elif spec.kind == "number":
+            try:
+                x = float(x)
+            except (TypeError, ValueError):
+                raise GshadeError(f"{fn.name}: {name}: expected a number, got {x!r}") from None
+        out[name] = x
+    return out
+
+
+# --------------------------------------------------------------------------- registry
+
+
+def register(
+    name: str,
+    order: int,
+    summary: str,
+    formula: Formula,
+    pack: Callable[[str, dict[str, Any]], Packed] | None = None,
+    *,
+    eye: bool = False,
+    signed: bool = False,
+    **parameters: Parameter,
+) -> None:
+    """Declare a shape function: the one place its name, order, summary, formula, parameters
+    and properties are given."""
+    SHAPE_FUNCTIONS[name] = ShapeFunction(
+        name, order, eye, signed, summary, dict(parameters), formula, pack or _no_parameters
+    )
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+def evaluate(
+    function: str | ShapeFunction,
+    d: ArrayLike,
+    *,
+    gradient: bool = True,
+    partials: bool = False,
+    backend: str = "auto",
+    **params,
+) -> ShapeValues:
+    """Evaluate a shape function on a derivatives array.
+
+    Parameters
+    ----------
+    function : str or ShapeFunction
+        Name (see :data:`SHAPE_FUNCTIONS`) or the function itself.
+    d : ndarray, shape (order + 1, order + 1, ..., 3)
+        Derivatives from ``Patch.derivatives`` (regularised at irregular points, if any:
+        :func:`gshade.geometry.regularised_derivatives`).  The function's order is needed
+        for f, one more for the gradient.
+    gradient : bool
+        Whether to compute the surface gradient grad_S f = [f_u f_v] I^-1 [p_u; p_v].
+    partials : bool
+        Whether to return the parametric partial derivatives (f_u, f_v) too (they need the
+        same extra derivative order as the gradient).
+    backend : {"auto", "drjit", "numpy"}
+        Where the formula runs: Dr.Jit's LLVM backend (one compiled, multithreaded kernel;
+        "auto" picks it wherever a libLLVM >= 17 is available) or numpy.
+    **params
+        The function's parameters (``SHAPE_FUNCTIONS[name].parameters``).
+
+    Returns
+    -------
+    ShapeValues
+        ``f`` (shape (...)), ``gradient`` (shape (..., 3) or None), ``valid`` (bool).
+    """
+    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
+    kw = _check_params(fn, params)
+    form, layout, values = fn.pack(fn.name, kw)
+    d = np.asarray(d, dtype=np.float64)
+    if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
+        raise GshadeError(f"derivatives: expected shape (order+1, order+1, ..., 3), got {d.shape}")
+    need = fn.order + (1 if gradient or partials else 0)
+    if d.shape[0] - 1 < need:
+        raise GshadeError(
+            f"{fn.name}: needs derivatives of order {need} (order {fn.order}"
+            f"{' + 1 for the gradient' if gradient or partials else ''}), got order "
+            f"{d.shape[0] - 1}"
+        )
+    shape = d.shape[2:-1]
+    flat = d.reshape(d.shape[0], d.shape[1], -1, 3)
+    if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
+        values = {**values, "irregular": IRREGULAR_TOL * _derivative_scale(flat) ** 2}
+    if fn.formula is None:
+        raise GshadeError(f"{fn.name}: has no formula")
+    f, grad, valid, eye, fuv = kernels.run(
+        fn.formula,
+        form,
+        layout,
+        layout.pack(**values),
+        flat,
+        gradient,
+        backend,
+        with_partials=partials,
+    )
+    if eye.any():
+        raise GshadeError(
+            f"{fn.name}: eye_point: expected a point off the surface, got "
+            f"{kw['eye_point'].tolist()}, which lies on it"
+        )
+    # kernels.run returns the gradient and the partials exactly when they were asked for
+    gradient_out = None if grad is None else np.moveaxis(grad, 0, -1).reshape((*shape, 3))
+    partials_out = None if fuv is None else np.moveaxis(fuv, 0, -1).reshape((*shape, 2))
+    return ShapeValues(f.reshape(shape), gradient_out, valid.reshape(shape), partials_out)
