@@ -220,13 +220,15 @@ def test_scene_type_nuspline(tmp_path):
 BAD_SCENES = {
     "nu_v length": (
         'type = "nuspline"\nnu_v = [1, 2, 3]\n',
-        r"nu_v: expected a number >= 0 or a list of 6 numbers >= 0 \(one per knot: 6 points "
-        r"per row\), got \[1, 2, 3\] \(3 numbers\)",
+        r"nu_v: expected numbers >= 0: one number or a list of 6 \(one per knot\), got 3 numbers",
     ),
-    "nu_u negative": ('type = "nuspline"\nnu_u = -1\n', r"nu_u: expected a number >= 0"),
+    "nu_u negative": (
+        'type = "nuspline"\nnu_u = -1\n',
+        r"nu_u: expected numbers >= 0 \(tensions\), got -1.0",
+    ),
     "nuspline ends": (
         'type = "nuspline"\nends = "open"\n',
-        r'ends: expected one of "natural", "closed" or a pair \[u, v\] of them, got "open"',
+        r'ends: expected one of "natural", "closed" or a pair \[u, v\] of them, got \'open\'',
     ),
     "nuspline knots": (
         'type = "nuspline"\nknots_u = [0, 1, 2]\n',

@@ -631,7 +631,8 @@ BAD = {
     ),
     "nuspline ends unknown": (
         NUSPLINE + 'ends = "open"\n',
-        r"\(nuspline\): ends: expected one of natural, closed, got 'open'$",
+        r"\(nuspline\): ends: expected one of \"natural\", \"closed\" or a pair \[u, v\] of them, "
+        r"got 'open'$",
     ),
     "nuspline ends numbers": (
         NUSPLINE + "ends = [1, 2]\n",

@@ -226,7 +226,10 @@ class NuSplinePatch(BSplinePatch):
         end_u, end_v = value_pair(ends, "ends")
         for e in (end_u, end_v):
             if e not in ENDS:
-                raise GshadeError(f"ends: expected one of {', '.join(ENDS)}, got {e!r}")
+                names = ", ".join(f'"{name}"' for name in ENDS)
+                raise GshadeError(
+                    f"ends: expected one of {names} or a pair [u, v] of them, got {e!r}"
+                )
         closed = (end_u == "closed", end_v == "closed")
         A = check_points(points, 2, "ν-spline patch", min_count=2)
         m, n = A.shape[0] - 1, A.shape[1] - 1
