@@ -10,7 +10,7 @@ C   The command line end to end: ``gshade render scenes/teapot-isophotes.toml -o
     (``--quick``: 2), the runs interleaved (lit, flat, and the stage runs of S, in turn).
     Peak memory: the child's ``ru_maxrss`` (``os.wait4``).
 S   Where the time goes.  A fresh Python process does what the command does, in process:
-    import ``gshade.io.scene`` and ``gshade.rendering``, ``load_scene``, ``render``,
+    import ``gshade.scene`` and ``gshade.rendering``, ``load_scene``, ``render``,
     ``write_exr``, and reports the stage times of ``RenderedImage.timings`` (``setup``:
     variant selection and Mitsuba's import, ``tessellate``, ``textures``, ``scene``:
     Mitsuba scene construction, ``render``: Mitsuba's render call, ``render_data``: the
@@ -20,7 +20,7 @@ S   Where the time goes.  A fresh Python process does what the command does, in 
     time and S's first-render (fresh process, as in the command) medians of the two Mitsuba
     calls; the share of the in-process ``render()`` call is given for comparison.
 I   Import and start-up time of the command's dependencies: ``python -c CODE`` for
-    ``pass``, ``import gshade.app.cli``, ``import gshade.io.scene, gshade.rendering``, ``+
+    ``pass``, ``import gshade.app.cli``, ``import gshade.scene, gshade.rendering``, ``+
     mitsuba``, and ``+ select_variant("auto")`` (Mitsuba's ``llvm_ad_rgb`` variant set),
     median of 5 runs each; and ``python -X importtime`` of the last, top-level modules by
     cumulative time.
@@ -135,9 +135,9 @@ STAGE_CHILD = textwrap.dedent(
 IMPORT_CODES = {
     "python -c pass": "pass",
     "import gshade.app.cli": "import gshade.app.cli",
-    "import gshade.io.scene, gshade.rendering": "import gshade.io.scene, gshade.rendering",
-    "... + mitsuba": "import gshade.io.scene, gshade.rendering, mitsuba",
-    '... + select_variant("auto")': "import gshade.io.scene, gshade.rendering, mitsuba\n"
+    "import gshade.scene, gshade.rendering": "import gshade.scene, gshade.rendering",
+    "... + mitsuba": "import gshade.scene, gshade.rendering, mitsuba",
+    '... + select_variant("auto")': "import gshade.scene, gshade.rendering, mitsuba\n"
     "from gshade.runtime.variant import select_variant\nselect_variant('auto')",
 }
 
@@ -545,7 +545,7 @@ def s_rows(cases: list[EndToEnd]) -> list[list[str]]:
 
     rows = [
         process_row("process start (interpreter, site)", "startup"),
-        process_row("imports (gshade.io.scene, gshade.rendering)", "imports"),
+        process_row("imports (gshade.scene, gshade.rendering)", "imports"),
         process_row("load_scene", "load_scene"),
     ]
     for key in STAGES:

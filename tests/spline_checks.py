@@ -43,11 +43,18 @@ NET_7x6 = [[[i, j, 0.1 * ((i * j) % 3)] for j in range(6)] for i in range(7)]
 
 
 def load(tmp_path, body):
-    from gshade.io import load_scene
+    from gshade.scene import load_scene
 
     path = tmp_path / "scene.toml"
     path.write_text(f'[[surface]]\ntype = "sphere"\n[[surface]]\n{body}', encoding="utf-8")
     return path, load_scene(path)
+
+
+def check_one_line_error(make, message):
+    """``make()`` raises a one-line GshadeError matching ``message``."""
+    with pytest.raises(GshadeError, match=message) as info:
+        make()
+    assert "\n" not in str(info.value)
 
 
 def check_bad_scene(tmp_path, body, message):
@@ -80,7 +87,7 @@ WRONG_VALUES = [
 def check_wrong_values(scene, key):
     """Every value of WRONG_VALUES for surface 1's ``key`` in ``scenes/<scene>.toml`` loads
     or fails with a one-line GshadeError naming the surface and the key."""
-    from gshade.io import load_scene
+    from gshade.scene import load_scene
 
     path = ROOT / "scenes" / f"{scene}.toml"
     load_scene(path)

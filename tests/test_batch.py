@@ -16,12 +16,12 @@ import pytest
 
 from gshade import GshadeError
 from gshade.app.batch import (
-    check_job,
-    check_options,
     expand_scenes,
+    job_status,
     parse_sweeps,
     plan_jobs,
     run_batch,
+    validate_batch_options,
 )
 from gshade.io.image import read_exr
 from gshade.io.outputs import HOST
@@ -154,7 +154,7 @@ def test_sweep_table_in_the_scene_file(scenes, tmp_path):
     jobs = plan_jobs([path], parse_sweeps(["shape.form=angle"]))
     assert [dict(j.overrides)["shape.form"] for j in jobs] == ["angle", "angle"]
     path.write_text('[[surface]]\ntype = "sphere"\n[sweep]\nfunction = ["mean"]\n')
-    from gshade.io import load_scene
+    from gshade.scene import load_scene
 
     with pytest.raises(GshadeError, match="expected a dotted scene key"):
         load_scene(path)
@@ -205,8 +205,8 @@ def test_an_interrupted_batch_leaves_no_partial_files(scenes, tmp_path):
     import signal
     import time
 
-    for k in range(6):
-        (scenes / f"more{k}.toml").write_text(
+    for k in range(24):  # enough work that the batch cannot end between the first output
+        (scenes / f"more{k}.toml").write_text(  # and the signal
             f'name = "more{k}"\n[[surface]]\ntype = "torus"\n'
             + SMALL.replace("width = 48", "width = 400").replace("height = 36", "height = 300")
         )
@@ -368,10 +368,10 @@ def test_any_exception_of_the_scene_reader_fails_that_scene_alone(tmp_path, monk
     jobs = plan_jobs([a, b], [])
     assert jobs[0].error == f"{a}: RecursionError: maximum recursion depth exceeded"
     assert not jobs[1].error
-    result = check_job(jobs[0], str(tmp_path / "out"), force=False)
+    result = job_status(jobs[0], str(tmp_path / "out"), force=False)
     assert result.status == "failed" and result.message == jobs[0].error
     assert "Traceback" in Path(result.log).read_text()
-    assert check_job(jobs[1], str(tmp_path / "out"), force=False).status == "todo"
+    assert job_status(jobs[1], str(tmp_path / "out"), force=False).status == "todo"
 
 
 def test_sigterm_stops_the_workers_and_the_manifest_shows_progress(scenes, tmp_path):
@@ -474,7 +474,7 @@ def test_scheduler_addresses_are_checked(scenes, tmp_path):
         ("tcp://", "expected a tcp:// or tls:// address"),
     ):
         with pytest.raises(GshadeError, match=message):
-            check_options(1, 60, address)
+            validate_batch_options(1, 60, address)
     result = cli(scenes, "-o", tmp_path / "o", "--scheduler", "")
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert not (tmp_path / "o").exists()

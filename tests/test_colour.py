@@ -78,7 +78,7 @@ def test_the_renderer_draws_a_tiny_footprint_stripe_as_it_is(tmp_path):
     """Planar sections of a sphere with period 1e8 and phase 0.4: s = 0.4 +- 1e-8 on the
     whole sphere, one dark stripe (the integrator uses the same formula in Dr.Jit)."""
     import gshade
-    from gshade.io import parse_scene
+    from gshade.scene import parse_scene
 
     scene = parse_scene(
         '[[surface]]\ntype = "sphere"\n[shape]\nfunction = "planar_sections"\n'

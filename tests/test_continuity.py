@@ -176,7 +176,7 @@ def brute_force_junctions(patches, tolerance, probes=5):
 
 
 def scene_patch_sets():
-    from gshade.io import load_scene
+    from gshade.scene import load_scene
 
     seen = {}
     for path in sorted((ROOT / "scenes").glob("*.toml")):

@@ -88,7 +88,7 @@ def test_library_errors_name_parameters_and_the_cli_its_flags(capsys):
     """The library speaks of its parameters (samples, workers, scheduler); only the command
     line turns them into its flags (--samples, -j, --scheduler)."""
     from gshade.analysis.continuity import continuity_report
-    from gshade.app.batch import check_options, parse_sweeps
+    from gshade.app.batch import parse_sweeps, validate_batch_options
     from gshade.app.cli import main
     from gshade.geometry import sphere
     from gshade.regression.comparison import Thresholds
@@ -97,8 +97,8 @@ def test_library_errors_name_parameters_and_the_cli_its_flags(capsys):
     teapot = str(ROOT / "scenes" / "teapot-isophotes.toml")
     for call, library in [
         (lambda: continuity_report([sphere(1.0)], samples=0), "samples: expected 1 to"),
-        (lambda: check_options(0, 10.0), "workers: expected at least 1"),
-        (lambda: check_options(1, 10.0, "ftp://x"), "scheduler: expected a tcp://"),
+        (lambda: validate_batch_options(0, 10.0), "workers: expected at least 1"),
+        (lambda: validate_batch_options(1, 10.0, "ftp://x"), "scheduler: expected a tcp://"),
         (lambda: parse_overrides(["shape.period"]), "override shape.period: expected key="),
         (lambda: load_scene(teapot, {"shape.x": 1}), f"{teapot}: override shape.x: unknown"),
         (lambda: parse_sweeps(["shape.function"]), "sweep 'shape.function': expected key="),

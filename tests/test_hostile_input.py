@@ -17,7 +17,6 @@ import pytest
 
 from gshade import GshadeError
 from gshade.app.cli import main
-from gshade.io import load_scene
 from gshade.io.outputs import (
     HOST,
     MAX_NAME_BYTES,
@@ -26,6 +25,7 @@ from gshade.io.outputs import (
     staged,
 )
 from gshade.rendering import render
+from gshade.scene import load_scene
 
 from .conftest import TEAPOT
 

@@ -47,7 +47,7 @@ def test_bad_junction_input():
 
 @pytest.mark.parametrize("continuity", ["G0", "G1", "G2", "G3"])
 def test_junction_scenes_show_their_class(continuity):
-    from gshade.io import load_scene
+    from gshade.scene import load_scene
 
     from .conftest import ROOT
 

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import gshade
-from gshade.io import parse_scene, read_exr
+from gshade.io import read_exr
+from gshade.scene import parse_scene
 
 SPHERE = """
 name = "sphere"

@@ -7,7 +7,7 @@ import pytest
 
 from gshade import GshadeError
 from gshade.geometry import BezierPatch, BSplinePatch, CoonsPatch
-from gshade.io import load_scene, parse_overrides, parse_scene
+from gshade.scene import load_scene, parse_overrides, parse_scene
 from gshade.shape import SHAPE_FUNCTIONS
 
 from .conftest import ROOT, TEAPOT

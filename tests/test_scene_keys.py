@@ -8,8 +8,7 @@ import math
 import re
 
 from gshade.app.cli import main
-from gshade.io import parse_scene
-from gshade.scene import SURFACE_TYPES
+from gshade.scene import SURFACE_TYPES, parse_scene
 from gshade.scene.keys import key_tables, scene_keys
 from gshade.scene.sections import CHECK_KEYS, SHAPE_KEYS
 from gshade.shape import SHAPE_FUNCTIONS

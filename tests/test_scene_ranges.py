@@ -17,7 +17,7 @@ import re
 import pytest
 
 from gshade import GshadeError
-from gshade.io import parse_scene
+from gshade.scene import parse_scene
 
 from .conftest import ROOT
 

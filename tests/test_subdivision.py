@@ -27,9 +27,10 @@ from gshade.geometry import (
     regularised_derivatives,
 )
 from gshade.geometry.catmull_clark import catmull_clark
-from gshade.geometry.quad_mesh import MeshTopology, check_mesh
+from gshade.geometry.quad_mesh import MeshTopology, validate_mesh
 from gshade.geometry.subdivision import StamPatch, subdivision_patches
-from gshade.io import load_scene, parse_obj, read_obj
+from gshade.io import parse_obj, read_obj
+from gshade.scene import load_scene
 from gshade.shape import evaluate
 
 from .conftest import ROOT
@@ -252,7 +253,7 @@ def obj_of(vertices, faces):
 
 def check_text(text):
     mesh = parse_obj(text, "bad.obj")
-    return check_mesh(mesh.vertices, mesh.faces, source="bad.obj", face_lines=mesh.face_lines)
+    return validate_mesh(mesh.vertices, mesh.faces, source="bad.obj", face_lines=mesh.face_lines)
 
 
 def test_mesh_errors_name_what_is_wrong():
@@ -290,9 +291,9 @@ def test_mesh_errors_name_what_is_wrong():
 
 def test_mesh_errors_with_0_based_names():
     with pytest.raises(GshadeError, match=r"face 1 has 3 vertices"):
-        check_mesh(np.zeros((5, 3)), [(0, 1, 2, 3), (0, 1, 2)])
+        validate_mesh(np.zeros((5, 3)), [(0, 1, 2, 3), (0, 1, 2)])
     with pytest.raises(GshadeError, match=r"face 0: expected vertex indices from 0 to 3, found 7"):
-        check_mesh(np.zeros((4, 3)), [(0, 1, 2, 7)])
+        validate_mesh(np.zeros((4, 3)), [(0, 1, 2, 7)])
     with pytest.raises(GshadeError, match=r"levels: expected an integer >= 0"):
         subdivision_patches(*read_obj(CUBE), levels=-1)
 
@@ -307,7 +308,7 @@ def test_refinement_keeps_limit_points_and_orientation(cube1):
     V1, F1 = catmull_clark(V, F)
     np.testing.assert_allclose(limit_positions(V1, F1)[: len(V)], limit_positions(V, F), atol=1e-14)
     assert len(V1) == len(V) + 60 + 30 and F1.shape == (120, 4)
-    check_mesh(V1, F1)  # still manifold and consistently oriented
+    validate_mesh(V1, F1)  # still manifold and consistently oriented
     Vo, Fo = grid_mesh(3, 2, lambda i, j: (i, j, i * j))
     Vr, Fr = catmull_clark(Vo, Fo)
     np.testing.assert_allclose(

@@ -42,7 +42,7 @@ except GshadeError as exc:
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     import gshade
-    from gshade.io import parse_scene
+    from gshade.scene import parse_scene
     scene = parse_scene('''
 [[surface]]
 type = "sphere"
@@ -76,7 +76,7 @@ import warnings
 import drjit as dr
 loaded = dr.detail.llvm_version()[0]  # Dr.Jit picks its LLVM before gshade can help
 import gshade
-from gshade.io import parse_scene
+from gshade.scene import parse_scene
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     image = gshade.render(parse_scene('[[surface]]\\ntype = "sphere"\\n'), width=8, height=6,

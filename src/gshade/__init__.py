@@ -3,9 +3,13 @@
 The public API mirrors the command line: ``gshade.load_scene(path)``,
 ``gshade.render(scene, **overrides)`` (an image with the EXR channels, ``.write_exr`` and
 ``.write_png``) and ``gshade.compare(test, reference, ...)`` (metrics and an idiff verdict).
-Building blocks live in ``gshade.geometry`` (patches and their differential geometry),
-``gshade.shape`` (shape functions and colours), ``gshade.io`` (scene files, surface data,
-images), ``gshade.rendering``, ``gshade.regression.comparison`` and ``gshade.regression.check``.
+The packages follow the pipeline, data flowing one way: ``gshade.scene`` (scene files) →
+``gshade.geometry`` (exact patches and their differential geometry) → ``gshade.shape`` (shape
+functions) → ``gshade.display`` (stripes, colour maps) → ``gshade.rendering`` (tessellation,
+textures, Mitsuba, exact channels); beside them ``gshade.analysis`` (continuity at
+junctions), ``gshade.regression`` (comparisons and reference checks), ``gshade.io`` (surface
+data, images, outputs), ``gshade.runtime`` (LLVM, Mitsuba variant, array backends) and
+``gshade.app`` (the command line, batch, figures).
 """
 
 __version__ = "0.2.0"

@@ -43,13 +43,13 @@ __all__ = [
     "DEFAULT_TIMEOUT",
     "Job",
     "JobResult",
-    "check_job",
-    "check_options",
     "expand_scenes",
+    "job_status",
     "parse_sweeps",
     "plan_jobs",
     "render_job",
     "run_batch",
+    "validate_batch_options",
 ]
 
 #: Default time limit of one job, in seconds.
@@ -70,17 +70,17 @@ class JobResult:
     log: str | None = None
 
 
-def check_options(workers: int, timeout: float, scheduler: str | None = None) -> None:
+def validate_batch_options(workers: int, timeout: float, scheduler: str | None = None) -> None:
     """Refuse fewer than 1 worker, a time limit not above 0 and a scheduler address that is
     empty or not ``tcp://`` / ``tls://`` (a :class:`GshadeError`, one line)."""
-    from .worker_pool import check_address
+    from .worker_pool import validate_address
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise GshadeError(f"workers: expected at least 1 worker, got {workers}")
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise GshadeError(f"timeout: expected a number of seconds above 0, got {timeout}")
     if scheduler is not None:
-        check_address(scheduler)
+        validate_address(scheduler)
 
 
 # ----------------------------------------------------------------- one job
@@ -150,7 +150,7 @@ def _fail(result: JobResult, out: Path, job: Job, message: str, detail: str = ""
     return result
 
 
-def check_job(job: Job, folder: str, force: bool) -> JobResult:
+def job_status(job: Job, folder: str, force: bool) -> JobResult:
     """Whether a job's outputs are up to date (status "up to date") or not ("todo");
     "failed" if it cannot run (see :class:`Job`) or its scene does not load.  Cheap:
     nothing is rendered."""
@@ -302,14 +302,14 @@ def run_batch(
     from ..io.outputs import remove_stale_temporaries
     from .worker_pool import DaskPool, WorkerPool
 
-    check_options(workers, timeout, scheduler)
+    validate_batch_options(workers, timeout, scheduler)
     out = _output_folder(folder)
     remove_stale_temporaries(out)  # those a killed run left
     state = _Progress(out, jobs, progress if progress is not None else os.isatty(2))
     todo: list[int] = []
     try:
         for k, job in enumerate(jobs):  # up-to-date outputs are found without any worker
-            result = check_job(job, str(out), force)
+            result = job_status(job, str(out), force)
             if result.status == "todo":
                 state.expect(k, result)
                 todo.append(k)

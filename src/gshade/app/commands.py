@@ -290,9 +290,11 @@ def check(args: argparse.Namespace) -> int:
 def batch(args: argparse.Namespace) -> int:
     """``gshade batch``: every job's outputs, the failures on stderr, then the counts; 2 if
     any job failed."""
-    from .batch import check_options, expand_scenes, parse_sweeps, plan_jobs, run_batch
+    from .batch import expand_scenes, parse_sweeps, plan_jobs, run_batch, validate_batch_options
 
-    check_options(args.jobs, args.timeout, args.scheduler)  # before anything is read or made
+    validate_batch_options(
+        args.jobs, args.timeout, args.scheduler
+    )  # before anything is read or made
     jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
     results = run_batch(
         jobs,

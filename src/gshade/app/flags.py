@@ -19,7 +19,7 @@ FLAGS = {
     "samples": "--samples",
     "pairs": "--pair",
     **{f"tolerance {order}": f"--tol-{order}" for order in ("g0", "g1", "g2", "g3")},
-    # run_batch, check_options
+    # run_batch, validate_batch_options
     "workers": "-j",
     "timeout": "--timeout",
     "scheduler": "--scheduler",

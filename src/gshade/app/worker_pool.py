@@ -39,7 +39,7 @@ from typing import Any
 
 from ..errors import GshadeError
 
-__all__ = ["DaskPool", "Outcome", "WorkerPool", "check_address", "dask_client", "describe_exit"]
+__all__ = ["DaskPool", "Outcome", "WorkerPool", "dask_client", "describe_exit", "validate_address"]
 
 #: Seconds a worker is given to end after SIGTERM (or after being asked to stop) before
 #: it is killed.
@@ -341,7 +341,7 @@ class DaskPool:
             return Outcome(index, error=f"the Dask task failed ({reason})", detail=str(exc))
 
 
-def check_address(address: str) -> str:
+def validate_address(address: str) -> str:
     """``address`` if it is a ``tcp://`` or ``tls://`` address, else a :class:`GshadeError`."""
     if not address.strip():
         raise GshadeError(
@@ -360,7 +360,7 @@ def dask_client(address: str) -> Any:
     """A Dask client for the scheduler at ``address``; one clear line (a
     :class:`GshadeError`) if Dask is missing, TLS is asked for but Dask's configuration has
     no credentials, or the scheduler cannot be reached."""
-    check_address(address)
+    validate_address(address)
     try:
         from distributed import Client, Security
     except ImportError:

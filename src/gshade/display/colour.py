@@ -152,7 +152,7 @@ def stripe_period(
     if count is not None and period is None:
         if not (np.isfinite(count) and count > 0):
             raise GshadeError(f"stripes: expected a positive stripe count, got {count!r}")
-        lo, hi = _check_range(value_range)
+        lo, hi = _validate_range(value_range)
         return (hi - lo) / float(count)
     raise GshadeError("stripes: expected exactly one of period or count (stripes)")
 
@@ -198,7 +198,7 @@ def stripes(
     return rgb, cov
 
 
-def _check_range(value_range) -> tuple[float, float]:
+def _validate_range(value_range) -> tuple[float, float]:
     try:
         lo, hi = (float(x) for x in value_range)
     except (TypeError, ValueError):
@@ -269,7 +269,9 @@ def colour_map(
 
     f = np.asarray(f, dtype=np.float64)
     ok = np.isfinite(f) if valid is None else (np.asarray(valid, bool) & np.isfinite(f))
-    lo, hi = auto_range(f, ok, signed=signed) if value_range is None else _check_range(value_range)
+    lo, hi = (
+        auto_range(f, ok, signed=signed) if value_range is None else _validate_range(value_range)
+    )
     name = cmap or ("coolwarm" if signed else "viridis")
     try:
         colours = matplotlib.colormaps[name]

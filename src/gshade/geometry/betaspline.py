@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bspline import BSplineCurve, BSplinePatch
-from .patch import BasisCurve, TensorProductPatch, check_points, show_value, value_pair
+from .patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 
 __all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch"]
 
@@ -279,7 +279,7 @@ class BetaSplineCurve(BasisCurve):
     """
 
     def __init__(self, points: ArrayLike, beta1=1.0, beta2=0.0) -> None:
-        P = check_points(points, 1, "β-spline curve", min_count=4)
+        P = validate_points(points, 1, "β-spline curve", min_count=4)
         basis = BetaSplineBasis(P.shape[0], beta1, beta2)
         self.domain = basis.interval
         self.beta1, self.beta2 = basis.beta1, basis.beta2
@@ -324,7 +324,7 @@ class BetaSplinePatch(TensorProductPatch):
         beta1_v=None,
         beta2_v=None,
     ) -> None:
-        P = check_points(points, 2, "β-spline patch", min_count=4)
+        P = validate_points(points, 2, "β-spline patch", min_count=4)
         given = {"beta1": value_pair(beta1, "beta1"), "beta2": value_pair(beta2, "beta2")}
         per = {"beta1_u": beta1_u, "beta2_u": beta2_u, "beta1_v": beta1_v, "beta2_v": beta2_v}
         bases = []

@@ -11,12 +11,12 @@ from numpy.typing import ArrayLike
 
 from ..errors import GshadeError
 from .bernstein import elevate_degree
-from .patch import BasisCurve, BernsteinBasis, TensorProductPatch, check_points, check_weights
+from .patch import BasisCurve, BernsteinBasis, TensorProductPatch, validate_points, validate_weights
 
 __all__ = ["BezierCurve", "BezierPatch"]
 
 
-def _check_interval(interval, name: str) -> tuple[float, float]:
+def _validate_interval(interval, name: str) -> tuple[float, float]:
     try:
         a, b = (float(x) for x in interval)
     except (TypeError, ValueError):
@@ -40,9 +40,9 @@ class BezierCurve(BasisCurve):
     """
 
     def __init__(self, points: ArrayLike, weights: ArrayLike | None = None, domain=(0.0, 1.0)):
-        P = check_points(points, 1, "Bézier curve")
-        w = check_weights(weights, P.shape[:1], "Bézier curve")
-        self.domain = _check_interval(domain, "domain")
+        P = validate_points(points, 1, "Bézier curve")
+        w = validate_weights(weights, P.shape[:1], "Bézier curve")
+        self.domain = _validate_interval(domain, "domain")
         super().__init__(BernsteinBasis(P.shape[0] - 1, self.domain), P, w)
 
     @property
@@ -78,13 +78,13 @@ class BezierPatch(TensorProductPatch):
         weights: ArrayLike | None = None,
         domain=((0.0, 1.0), (0.0, 1.0)),
     ):
-        P = check_points(points, 2, "Bézier patch")
-        w = check_weights(weights, P.shape[:2], "Bézier patch")
+        P = validate_points(points, 2, "Bézier patch")
+        w = validate_weights(weights, P.shape[:2], "Bézier patch")
         try:
             du, dv = domain
         except (TypeError, ValueError):
             raise GshadeError(f"domain: expected ((u0, u1), (v0, v1)), got {domain!r}") from None
-        self.domain = (_check_interval(du, "domain u"), _check_interval(dv, "domain v"))
+        self.domain = (_validate_interval(du, "domain u"), _validate_interval(dv, "domain v"))
         m, n = P.shape[0] - 1, P.shape[1] - 1
         super().__init__(BernsteinBasis(m, self.domain[0]), BernsteinBasis(n, self.domain[1]), P, w)
 

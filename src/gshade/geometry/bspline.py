@@ -11,8 +11,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bezier import BezierCurve, BezierPatch
-from .knots import check_knots, domain, insert_knot, refine_to_bezier
-from .patch import BasisCurve, BSplineBasis, TensorProductPatch, check_points, check_weights
+from .knots import domain, insert_knot, refine_to_bezier, validate_knots
+from .patch import BasisCurve, BSplineBasis, TensorProductPatch, validate_points, validate_weights
 
 __all__ = ["BSplineCurve", "BSplinePatch"]
 
@@ -38,9 +38,9 @@ class BSplineCurve(BasisCurve):
     """
 
     def __init__(self, points: ArrayLike, degree: int, knots: ArrayLike, weights=None):
-        P = check_points(points, 1, "B-spline curve")
-        U = check_knots(knots, degree, P.shape[0], "knots")
-        w = check_weights(weights, P.shape[:1], "B-spline curve")
+        P = validate_points(points, 1, "B-spline curve")
+        U = validate_knots(knots, degree, P.shape[0], "knots")
+        w = validate_weights(weights, P.shape[:1], "B-spline curve")
         self.degree = int(degree)
         self.knots = U
         self.domain = domain(U, self.degree)
@@ -77,7 +77,7 @@ class BSplinePatch(TensorProductPatch):
     """
 
     def __init__(self, points: ArrayLike, degree, knots, weights: ArrayLike | None = None):
-        P = check_points(points, 2, "B-spline patch")
+        P = validate_points(points, 2, "B-spline patch")
         try:
             p, q = degree
             U_in, V_in = knots
@@ -86,9 +86,9 @@ class BSplinePatch(TensorProductPatch):
                 f"degree, knots: expected pairs (p, q) and (U, V), got {degree!r} and "
                 f"a {type(knots).__name__}"
             ) from None
-        U = check_knots(U_in, p, P.shape[0], "knots_u")
-        V = check_knots(V_in, q, P.shape[1], "knots_v")
-        w = check_weights(weights, P.shape[:2], "B-spline patch")
+        U = validate_knots(U_in, p, P.shape[0], "knots_u")
+        V = validate_knots(V_in, q, P.shape[1], "knots_v")
+        w = validate_weights(weights, P.shape[:2], "B-spline patch")
         self.degree = (int(p), int(q))
         self.knots = (U, V)
         self.domain = (domain(U, self.degree[0]), domain(V, self.degree[1]))

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .bezier import BezierPatch
-from .quad_mesh import MeshTopology, check_mesh
+from .quad_mesh import MeshTopology, validate_mesh
 
 __all__ = ["catmull_clark"]
 
@@ -136,9 +136,9 @@ def catmull_clark(
     ------
     SurfaceDataError
         For meshes that are not manifold, consistently oriented quad meshes
-        (:func:`check_mesh`).
+        (:func:`validate_mesh`).
     """
-    V, F = check_mesh(vertices, faces)
+    V, F = validate_mesh(vertices, faces)
     return refine(V, MeshTopology(F, len(V)))
 
 

@@ -16,15 +16,15 @@ from ..errors import GshadeError, ParameterDomainError
 __all__ = [
     "basis_functions",
     "basis_matrix",
-    "check_knots",
     "domain",
     "find_spans",
     "insert_knot",
     "refine_to_bezier",
+    "validate_knots",
 ]
 
 
-def check_knots(knots: ArrayLike, degree: int, n_points: int, name: str = "knots") -> NDArray:
+def validate_knots(knots: ArrayLike, degree: int, n_points: int, name: str = "knots") -> NDArray:
     """Validate a knot vector for ``n_points`` control points of the given degree.
 
     Raises
@@ -76,7 +76,7 @@ def domain(knots: NDArray, degree: int) -> tuple[float, float]:
     return float(knots[degree]), float(knots[len(knots) - degree - 1])
 
 
-def check_parameters(t: ArrayLike, lo: float, hi: float, name: str = "t") -> NDArray:
+def validate_parameters(t: ArrayLike, lo: float, hi: float, name: str = "t") -> NDArray:
     """Return ``t`` as float array; raise if any value is outside [lo, hi] (beyond round-off).
 
     Values within 1e-12 of the domain's size outside it are clamped onto it.

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bspline import BSplineCurve, BSplinePatch
-from .patch import check_points, show_value, value_pair
+from .patch import show_value, validate_points, value_pair
 
 __all__ = ["ENDS", "NuSplinePatch", "nu_spline"]
 
@@ -156,7 +156,7 @@ def nu_spline(
         Degree 3 with triple interior knots: each arc is one Bézier segment
         (a_i, a_i + h_i b_i / 3, a_(i+1) - h_i b_(i+1) / 3, a_(i+1)).
     """
-    a = check_points(points, 1, "ν-spline", min_count=3 if closed else 2)
+    a = validate_points(points, 1, "ν-spline", min_count=3 if closed else 2)
     n = a.shape[0] - 1
     u = _knots(knots, n + 2 if closed else n + 1, "knots")
     v = _tensions(nu, n + 1, "nu")
@@ -231,7 +231,7 @@ class NuSplinePatch(BSplinePatch):
                     f"ends: expected one of {names} or a pair [u, v] of them, got {e!r}"
                 )
         closed = (end_u == "closed", end_v == "closed")
-        A = check_points(points, 2, "ν-spline patch", min_count=2)
+        A = validate_points(points, 2, "ν-spline patch", min_count=2)
         m, n = A.shape[0] - 1, A.shape[1] - 1
         for direction, count, wrap in (("u", m + 1, closed[0]), ("v", n + 1, closed[1])):
             if wrap and count < 3:

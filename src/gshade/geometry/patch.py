@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bernstein import bernstein_basis
-from .knots import basis_functions, basis_matrix, check_parameters
+from .knots import basis_functions, basis_matrix, validate_parameters
 from .rational import project_curve_derivatives, project_patch_derivatives
 
 __all__ = ["Curve", "Patch", "TensorProductPatch", "unit_to_domain"]
@@ -46,7 +46,7 @@ def unit_to_domain(
     return u0 + (u1 - u0) * np.asarray(s), v0 + (v1 - v0) * np.asarray(t)
 
 
-def check_order(order: int) -> int:
+def validate_order(order: int) -> int:
     if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
         raise GshadeError(f"order: expected an integer >= 0, got {order!r}")
     return int(order)
@@ -71,9 +71,9 @@ class Curve(ABC):
 
     def derivatives(self, t: ArrayLike, order: int = 0) -> NDArray[np.float64]:
         """Derivatives of order 0..order at t: shape (order + 1, *t.shape, dim)."""
-        order = check_order(order)
+        order = validate_order(order)
         lo, hi = self.domain
-        t = check_parameters(t, lo, hi, "t")
+        t = validate_parameters(t, lo, hi, "t")
         flat = t.ravel()
         out = np.empty((order + 1, self.dim, flat.size))
         for start in range(0, flat.size, _CHUNK):
@@ -118,10 +118,10 @@ class Patch(ABC):
         ndarray, shape (order + 1, order + 1, *broadcast(u, v).shape, 3)
             Entry ``[i, j]`` is d^(i+j)p / du^i dv^j for i + j <= order, zero otherwise.
         """
-        order = check_order(order)
+        order = validate_order(order)
         (u0, u1), (v0, v1) = self.domain
-        u = check_parameters(u, u0, u1, "u")
-        v = check_parameters(v, v0, v1, "v")
+        u = validate_parameters(u, u0, u1, "u")
+        v = validate_parameters(v, v0, v1, "v")
         axes = _grid_axes(u, v)
         if axes is not None:
             shape = (axes[0].size, axes[1].size)
@@ -258,7 +258,7 @@ def value_pair(value, name: str) -> tuple:
     return value[0], value[1]
 
 
-def check_points(points: ArrayLike, ndim: int, what: str, min_count: int = 2) -> NDArray:
+def validate_points(points: ArrayLike, ndim: int, what: str, min_count: int = 2) -> NDArray:
     """Validate a control net: shape (..., 3) with ``ndim`` index axes, finite values."""
     try:
         P = np.asarray(points, dtype=np.float64)
@@ -277,7 +277,9 @@ def check_points(points: ArrayLike, ndim: int, what: str, min_count: int = 2) ->
     return P
 
 
-def check_weights(weights: ArrayLike | None, shape: tuple[int, ...], what: str) -> NDArray | None:
+def validate_weights(
+    weights: ArrayLike | None, shape: tuple[int, ...], what: str
+) -> NDArray | None:
     """Validate weights: None, or positive finite numbers of the given shape."""
     if weights is None:
         return None

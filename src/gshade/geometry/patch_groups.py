@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from .bernstein import bernstein_basis
 from .bezier import BezierPatch
-from .patch import Patch, check_order, unit_to_domain
+from .patch import Patch, unit_to_domain, validate_order
 
 __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
 
@@ -68,7 +68,7 @@ def grid_derivatives(
         Entry ``[k, i, j, a, b]`` is d^(i+j)p_k / du^i dv^j at (s_a, s_b); zero for
         i + j > order.
     """
-    order = check_order(order)
+    order = validate_order(order)
     s = np.asarray(s, dtype=np.float64).ravel()
     n = s.size
     out = np.zeros((len(patches), order + 1, order + 1, n, n, 3))

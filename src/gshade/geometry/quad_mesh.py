@@ -18,11 +18,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SurfaceDataError
 
-__all__ = ["MeshTopology", "check_mesh"]
+__all__ = ["MeshTopology", "validate_mesh"]
 
 
 class MeshTopology:
-    """Half-edge connectivity of a quad mesh (no validation: see :func:`check_mesh`).
+    """Half-edge connectivity of a quad mesh (no validation: see :func:`validate_mesh`).
 
     Half-edge ``h = 4 f + k`` runs from ``faces[f, k]`` to ``faces[f, (k + 1) % 4]`` with
     its face on the left; ``twin[h]`` is the opposite half-edge, -1 on the boundary.
@@ -107,7 +107,7 @@ class _Names:
         return SurfaceDataError(self.prefix + message)
 
 
-def check_mesh(
+def validate_mesh(
     vertices: ArrayLike,
     faces: Iterable[Sequence[int] | NDArray[np.integer]],
     *,
@@ -207,7 +207,7 @@ def check_mesh(
             "edge once in each direction: flip one of them)"
         )
     topo = MeshTopology(F, n)
-    _check_fans(topo, names)
+    _validate_fans(topo, names)
     interior2 = np.nonzero(~topo.boundary_vertex & (topo.face_count == 2))[0]
     if interior2.size:
         raise names.error(
@@ -217,7 +217,7 @@ def check_mesh(
     return V, F
 
 
-def _check_fans(topo: MeshTopology, names: _Names) -> None:
+def _validate_fans(topo: MeshTopology, names: _Names) -> None:
     """Every vertex's faces must form one fan: a disk (interior) or a half-disk."""
     used = np.nonzero(topo.face_count > 0)[0]
     n_h = len(topo.origin)

@@ -15,7 +15,7 @@ mesh:
 - if a face has more than one extraordinary vertex the mesh is refined once first (after
   one step every face has at most one).
 
-Meshes must be valid quad meshes (:func:`~gshade.geometry.quad_mesh.check_mesh`), closed or
+Meshes must be valid quad meshes (:func:`~gshade.geometry.quad_mesh.validate_mesh`), closed or
 open; with faces counter-clockwise seen from outside, every patch's normal p_u x p_v points
 outward.
 
@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import GshadeError
 from .catmull_clark import NotRegular, net_index, net_points, refine, regular_patch
 from .patch import Patch
-from .quad_mesh import MeshTopology, check_mesh
+from .quad_mesh import MeshTopology, validate_mesh
 
 __all__ = ["StamPatch", "subdivision_patches"]
 
@@ -419,7 +419,7 @@ def subdivision_patches(
         Refinement steps before the patches are made (each multiplies the patch count by 4;
         the surface stays the same).
     source, face_lines
-        For messages (see :func:`check_mesh`).
+        For messages (see :func:`validate_mesh`).
 
     Returns
     -------
@@ -438,7 +438,7 @@ def subdivision_patches(
     """
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 0:
         raise GshadeError(f"levels: expected an integer >= 0, got {levels!r}")
-    P, F = check_mesh(vertices, faces, source=source, face_lines=face_lines)
+    P, F = validate_mesh(vertices, faces, source=source, face_lines=face_lines)
     topo = MeshTopology(F, len(P))
     for _ in range(int(levels)):
         P, F = refine(P, topo)

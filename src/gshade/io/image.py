@@ -63,7 +63,7 @@ _INT32 = (-(2**31), 2**31 - 1)
 # --------------------------------------------------------------------------- EXR
 
 
-def _check_channels(
+def _validate_channels(
     path: Path, channels: Mapping[str, ArrayLike], half: set[str] | None
 ) -> dict[str, NDArray]:
     if not isinstance(channels, Mapping) or not channels:
@@ -104,7 +104,7 @@ def _check_channels(
     return out
 
 
-def _check_header(path: Path, header: Mapping[str, object] | None) -> dict[str, object]:
+def _validate_header(path: Path, header: Mapping[str, object] | None) -> dict[str, object]:
     out: dict[str, object] = {}
     for key, value in (header or {}).items():
         if not isinstance(key, str) or not key:
@@ -148,8 +148,8 @@ def exr_writer(
 
     See :func:`write_exr` for the parameters."""
     target = Path(path)
-    data = _check_channels(target, channels, half)
-    attributes = _check_header(target, header)
+    data = _validate_channels(target, channels, half)
+    attributes = _validate_header(target, header)
     # lossless ZIP per scanline: read everywhere, and faster to write than 16-line ZIP
     attributes["compression"] = OpenEXR.ZIPS_COMPRESSION
     attributes["type"] = OpenEXR.scanlineimage

@@ -141,7 +141,7 @@ def _vector(value, name: str) -> NDArray:
 
 
 def frame_view(camera, points: NDArray, width: int, height: int) -> View:
-    """Resolve a scene's camera (a :class:`gshade.io.scene.Camera`) for surface points (N, 3)
+    """Resolve a scene's camera (a :class:`gshade.scene.Camera`) for surface points (N, 3)
     sampled densely enough to stand for the surfaces' extent."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = (lo + hi) / 2

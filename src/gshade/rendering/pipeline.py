@@ -39,7 +39,7 @@ from .camera import View
 from .channels import exact_channels, refuse_non_finite
 from .mitsuba_scene import mitsuba_scene, render_data, render_shape
 from .rendered_image import RenderedImage
-from .sizing import check_memory, frame, mesh_resolution, tile_size
+from .sizing import frame, mesh_resolution, tile_size, validate_memory
 from .style import display_style, legend, shape_functions
 from .tessellate import TriangleMesh, tessellate
 from .textures import shape_textures
@@ -62,7 +62,7 @@ class _Laps:
 
 
 def render(scene, **overrides) -> RenderedImage:
-    """Render a scene (a :class:`gshade.io.scene.Scene` or a path) to an image.
+    """Render a scene (a :class:`gshade.scene.Scene` or a path) to an image.
 
     Keyword overrides replace ``[render]`` settings (width, height, spp, lighting, variant,
     seed, tessellation, chord_tolerance, texture_resolution); with a path, ``set`` may hold
@@ -124,13 +124,13 @@ def _with_overrides(scene, overrides: dict):
     elif dotted:
         raise GshadeError("set: dotted overrides need a scene path, not a loaded Scene")
     if overrides:
-        from ..scene import check_render_settings
+        from ..scene import validate_render_settings
 
         try:
             settings = replace(scene.render, **overrides)
         except TypeError as exc:
             raise GshadeError(f"render: unknown setting ({exc})") from None
-        scene = replace(scene, render=check_render_settings(settings, "render()"))
+        scene = replace(scene, render=validate_render_settings(settings, "render()"))
     return scene
 
 
@@ -166,7 +166,7 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
     """The tessellation and the atlas layout, within the memory limit."""
     patches = scene.patches
     tile = tile_size(scene, framing)
-    check_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
+    validate_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
     mesh: TriangleMesh = tessellate(patches, resolution)
     if len(mesh.faces) == 0:
         raise GshadeError(

@@ -29,10 +29,10 @@ __all__ = [
     "MIN_TILE",
     "NEAREST_FRACTION",
     "Framing",
-    "check_memory",
     "frame",
     "mesh_resolution",
     "tile_size",
+    "validate_memory",
 ]
 
 #: Smallest bounding-box diagonal rendered: the curvatures of smaller surfaces (1/length²)
@@ -70,7 +70,7 @@ def frame(scene, settings, where: str) -> Framing:
     renderable in single precision, and the resolved camera."""
     box = grid_derivatives(scene.patches, np.linspace(0.0, 1.0, 17))[:, 0, 0].reshape(-1, 3)
     lo, hi = box.min(axis=0), box.max(axis=0)
-    diag = _check_scale(where, lo, hi)
+    diag = _validate_scale(where, lo, hi)
     view = frame_view(scene.camera, box, settings.width, settings.height)
     return Framing(lo, hi, diag, view)
 
@@ -124,7 +124,7 @@ def tile_size(scene, framing: Framing) -> int:
     return max(2, min(tile, cap))
 
 
-def _check_scale(where: str, lo: NDArray, hi: NDArray) -> float:
+def _validate_scale(where: str, lo: NDArray, hi: NDArray) -> float:
     """The bounding box's diagonal, checked to be renderable in single precision: Mitsuba
     stores positions, and gshade's textures the shape function's values, as float32."""
     diag = float(np.linalg.norm(hi - lo))
@@ -142,7 +142,7 @@ def _check_scale(where: str, lo: NDArray, hi: NDArray) -> float:
     return diag
 
 
-def check_memory(where: str, settings, vertices: int, texels: int) -> None:
+def validate_memory(where: str, settings, vertices: int, texels: int) -> None:
     """Refuse a render whose estimated peak memory exceeds :func:`gshade.limits.memory_limit`."""
     pixels = settings.width * settings.height
     need, limit = render_memory(pixels, vertices, texels), memory_limit()

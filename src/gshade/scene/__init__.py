@@ -29,7 +29,7 @@ from .model import (
     Surface,
 )
 from .overrides import parse_overrides
-from .sections import check_render_settings
+from .sections import validate_render_settings
 from .surfaces import SURFACE_TYPES
 
 __all__ = [
@@ -44,8 +44,8 @@ __all__ = [
     "Scene",
     "Shape",
     "Surface",
-    "check_render_settings",
     "load_scene",
     "parse_overrides",
     "parse_scene",
+    "validate_render_settings",
 ]

@@ -56,7 +56,7 @@ def _location(parts: Sequence[str | int], raw: dict[str, Any]) -> str:
     return (head + text).strip().rstrip(":") or "(top level)"
 
 
-def _check_values(file: str, raw: dict[str, Any]) -> None:
+def _validate_values(file: str, raw: dict[str, Any]) -> None:
     """Bounds every scene value must meet whatever its key: numbers finite and within
     ±MAX_MAGNITUDE (integers too: no overflow when they become floats), strings of at
     most MAX_STRING characters, keys short and printable, nesting at most MAX_NESTING
@@ -133,10 +133,10 @@ def _build(
 ) -> Scene:
     from ..io.outputs import output_name
 
-    _check_values(file, raw)
+    _validate_values(file, raw)
     if overrides:
         raw = apply_overrides(file, raw, dict(overrides))
-        _check_values(file, raw)
+        _validate_values(file, raw)
     top = Table(file, "", raw, TOP_KEYS)
     top.reject_unknown()
     if "name" in raw:

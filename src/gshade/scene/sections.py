@@ -29,7 +29,6 @@ __all__ = [
     "RENDER_KEYS",
     "SECTION_KEYS",
     "SHAPE_KEYS",
-    "check_render_settings",
     "function_names",
     "parse_camera",
     "parse_check",
@@ -37,6 +36,7 @@ __all__ = [
     "parse_shape",
     "parse_sweep",
     "shape_keys",
+    "validate_render_settings",
 ]
 
 _FUNCTIONS = "a name in `gshade shapes`"
@@ -264,7 +264,7 @@ def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
     )
 
 
-def check_render_settings(settings: RenderSettings, source: str = "render") -> RenderSettings:
+def validate_render_settings(settings: RenderSettings, source: str = "render") -> RenderSettings:
     """Render settings built in Python (``gshade.render(scene, width=...)``) checked as the
     ``[render]`` table is; ``source`` names them in messages."""
     return parse_render(source, {k: v for k, v in asdict(settings).items() if v is not None})

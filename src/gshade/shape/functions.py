@@ -53,7 +53,7 @@ from .registry import (
     register,
 )
 from .registry import (
-    _check_params as _check_params,  # tests pack parameters through it
+    _validate_params as _validate_params,  # tests pack parameters through it
 )
 
 __all__ = [

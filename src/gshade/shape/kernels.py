@@ -86,9 +86,9 @@ class Layout:
 
 @cache
 def _drjit() -> Backend:
-    import drjit as dr
+    from ..runtime.backend import drjit_ops
 
-    return Backend("drjit", dr.sqrt, dr.acos, dr.atan2, dr.abs, dr.isfinite, dr.select)
+    return drjit_ops()
 
 
 def backend(name: str = "auto") -> str:

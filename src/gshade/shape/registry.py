@@ -119,7 +119,7 @@ def _vector(fn: str, name: str, x: Any, *, nonzero: bool = True, unit: bool = Fa
     return v / length if unit else v
 
 
-def _check_params(fn: ShapeFunction, params: dict) -> dict:
+def _validate_params(fn: ShapeFunction, params: dict) -> dict:
     unknown = sorted(set(params) - set(fn.parameters))
     if unknown:
         known = ", ".join(fn.parameters) or "none"
@@ -208,7 +208,7 @@ def evaluate(
         ``f`` (shape (...)), ``gradient`` (shape (..., 3) or None), ``valid`` (bool).
     """
     fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
-    kw = _check_params(fn, params)
+    kw = _validate_params(fn, params)
     form, layout, values = fn.pack(fn.name, kw)
     d = np.asarray(d, dtype=np.float64)
     if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
