@@ -24,7 +24,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from report import machine_info, markdown_table, text_table, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
-GSHADE = [sys.executable, "-m", "gshade.app.cli"]
+GSHADE = [sys.executable, "-m", "gshade"]
 SIZE = ["--sweep", "render.width=512", "--sweep", "render.height=512"]
 
 

@@ -93,20 +93,27 @@ def _side_points(patch: Patch, side: str, t: NDArray) -> NDArray:
     return patch(*_side_params(patch, side, t))
 
 
+def _sides_params(patch: Patch, t: NDArray) -> tuple[NDArray, NDArray]:
+    """(u, v) of ``t`` along the four sides u0, u1, v0, v1 in turn (as :func:`_side_params`)."""
+    (u0, u1), (v0, v1) = patch.domain
+    u, v = unit_to_domain(patch.domain, t, t)
+    n = len(t)
+    return (
+        np.concatenate([np.full(n, float(u0)), np.full(n, float(u1)), u, u]),
+        np.concatenate([v, v, np.full(n, float(v0)), np.full(n, float(v1))]),
+    )
+
+
 def _probe_sides(patches, tolerance: float, probes: int) -> tuple[list, NDArray]:
     """Every boundary that is not collapsed: its (patch, side) and its probe points."""
     t = np.linspace(0.0, 1.0, probes)
-    names, points = [], []
+    points = np.empty((len(patches), len(SIDES), probes, 3))
     for i, patch in enumerate(patches):
-        params = [_side_params(patch, side, t) for side in SIDES]
-        u = np.concatenate([p[0] for p in params])
-        v = np.concatenate([p[1] for p in params])
-        pts = np.asarray(patch(u, v), dtype=float).reshape(len(SIDES), probes, 3)
-        for side, side_pts in zip(SIDES, pts, strict=True):
-            if np.ptp(side_pts, axis=0).max() > tolerance:  # collapsed edges join nothing
-                names.append((i, side))
-                points.append(side_pts)
-    return names, np.array(points).reshape(-1, probes, 3)
+        points[i] = np.asarray(patch(*_sides_params(patch, t)), float).reshape(-1, probes, 3)
+    spread = (points.max(axis=2) - points.min(axis=2)).max(axis=2)
+    kept = np.argwhere(spread > tolerance)  # collapsed edges join nothing
+    names = [(int(i), SIDES[k]) for i, k in kept]
+    return names, points[kept[:, 0], kept[:, 1]].reshape(-1, probes, 3)
 
 
 def _verified(points: NDArray, a: NDArray, b: NDArray, tolerance: float):
