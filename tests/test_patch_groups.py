@@ -117,3 +117,5 @@ def test_unit_to_domain_one_domain_and_an_array_of_them():
     domains = np.array([((0.0, 1.0), (0.0, 1.0)), ((2.0, 4.0), (-1.0, 1.0)), ((0, 8), (3, 5))])
     u, v = unit_to_domain(domains, s, t)  # each point into its own domain
     assert np.array_equal(u, [0.0, 2.5, 8.0]) and np.array_equal(v, [1.0, 0.0, 3.0])
+    u, v = unit_to_domain(domains, s, t, index=[2, 2, 1])  # point k into domain index[k]
+    assert np.array_equal(u, [0.0, 2.0, 4.0]) and np.array_equal(v, [5.0, 4.0, -1.0])

@@ -34,15 +34,19 @@ _CHUNK = 1 << 15
 
 
 def unit_to_domain(
-    domain: Domain | ArrayLike, s: ArrayLike, t: ArrayLike
+    domain: Domain | ArrayLike, s: ArrayLike, t: ArrayLike, index: ArrayLike | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Normalised parameters into a domain: u = u0 + (u1 - u0) s, v = v0 + (v1 - v0) t.
 
     ``domain`` is ((u0, u1), (v0, v1)), or an array of them of shape (..., 2, 2) that
-    broadcasts with ``s`` and ``t`` (each point into its own patch's domain).
+    broadcasts with ``s`` and ``t`` (each point into its own patch's domain); with
+    ``index``, an array (n, 2, 2) of which point k takes the domain ``index[k]``.
     """
     d = np.asarray(domain, dtype=np.float64)
     u0, u1, v0, v1 = d[..., 0, 0], d[..., 0, 1], d[..., 1, 0], d[..., 1, 1]
+    if index is not None:  # gathered per component: contiguous, not (n, 2, 2) strided
+        k = np.asarray(index, dtype=np.intp)
+        u0, u1, v0, v1 = (c[k] for c in (u0, u1, v0, v1))
     return u0 + (u1 - u0) * np.asarray(s), v0 + (v1 - v0) * np.asarray(t)
 
 

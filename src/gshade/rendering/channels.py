@@ -50,8 +50,8 @@ def exact_channels(
     hit = np.flatnonzero(data[..., hit_flag].ravel() > 0.5)
     xy = np.stack([data[..., x], data[..., y]], -1).reshape(-1, 2)
     patch_index, st = atlas.locate(xy[hit].astype(np.float64))
-    domains = np.array([p.domain for p in patches], dtype=np.float64)[patch_index]
-    u, v = unit_to_domain(domains, st[:, 0], st[:, 1])
+    domains = np.array([p.domain for p in patches], dtype=np.float64)
+    u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
     u, v, d, _ = surface_hits(patches, patch_index, u, v, *view.pixel_rays(hit // W, hit % W))
     normal = unit_normal(d)
     n = normal.n
