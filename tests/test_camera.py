@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from gshade import GshadeError
-from gshade.rendering.camera import MARGIN, frame_view
+from gshade.rendering.camera import AUTO_DIRECTION, MARGIN, frame_view
 from gshade.scene import Camera
 
 
@@ -71,8 +71,61 @@ def test_pixel_rays_pass_through_the_points_they_project_to(kind):
     assert np.all(miss <= 1e-9 * np.linalg.norm(rel, axis=1))
 
 
-def test_impossible_cameras_are_one_line_errors():
-    with pytest.raises(GshadeError, match="origin, target: expected two different points"):
-        frame_view(Camera("perspective", (1, 1, 1), (1, 1, 1), (0, 0, 1), 30.0, None), blob(), 8, 8)
-    with pytest.raises(GshadeError, match="up: expected a direction not parallel to the view"):
-        frame_view(Camera("perspective", (0, 0, 5), (0, 0, 0), (0, 0, 1), 30.0, None), blob(), 8, 8)
+@pytest.mark.parametrize(
+    ("origin", "target", "up", "message"),
+    [
+        ((1, 1, 1), (1, 1, 1), (0, 0, 1), r"^target: expected a point other than origin, got "),
+        (
+            (0, 0, 5),
+            (0, 0, 0),
+            (0, 0, 1),
+            r"^up: expected a direction not parallel to target - origin \[0.0, 0.0, -5.0\], "
+            r"got \[0, 0, 1\]$",
+        ),
+        ((0, 0, 5), (0, 0, 0), (0, 1e-12, -3), "^up: expected a direction not parallel"),
+        (None, None, (0, 0, 0), r"^up: expected a direction \[x, y, z\] of length at least 1e-12"),
+        (None, None, (9e-13, 0, 0), "^up: expected a direction .* at least 1e-12"),
+        ((0, 0), None, (0, 0, 1), r"^origin: expected 3 finite numbers \[x, y, z\], got \[0, 0\]"),
+        (None, (0, 0, np.nan), (0, 0, 1), "^target: expected 3 finite numbers"),
+        (None, None, "up", "^up: expected 3 finite numbers"),
+    ],
+)
+def test_impossible_cameras_cannot_be_made(origin, target, up, message):
+    """The camera's vectors are checked where a Camera is made (a scene file's too)."""
+    with pytest.raises(GshadeError, match=message) as info:
+        Camera("perspective", origin, target, up, 30.0, None)
+    assert "\n" not in str(info.value)
+
+
+def test_a_camera_keeps_its_vectors_as_floats():
+    camera = Camera("perspective", [1, 2, 3], np.array([4, 6, 3]), (0, 0, 1), 45.0, None)
+    assert camera.origin == (1.0, 2.0, 3.0) and camera.target == (4.0, 6.0, 3.0)
+    assert all(type(c) is float for v in (camera.origin, camera.target, camera.up) for c in v)
+
+
+def test_a_view_the_camera_chose_is_checked_as_a_given_one():
+    points = blob()
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    # the eye at the centre of the surfaces: the automatic target is the origin
+    at_centre = Camera("perspective", tuple(centre), None, (0, 0, 1), 30.0, None)
+    with pytest.raises(
+        GshadeError,
+        match=r"^\[camera\] \(target automatic: the centre of the surfaces\) target: expected a "
+        r"point other than origin",
+    ):
+        frame_view(at_centre, points, 8, 8)
+    # above the centre, looking down along up
+    above = Camera("perspective", tuple(centre + np.array([0, 0, 5])), None, (0, 0, 1), 30.0, None)
+    with pytest.raises(
+        GshadeError,
+        match=r"^\[camera\] \(target automatic.*\) up: expected a direction not parallel",
+    ):
+        frame_view(above, points, 8, 8)
+    # up along the automatic view direction (once a view of NaNs)
+    for target in (None, (0, 0, 0)):
+        along = Camera("perspective", None, target, tuple(AUTO_DIRECTION), 30.0, None)
+        with pytest.raises(
+            GshadeError,
+            match=r"^\[camera\] \(origin automatic\) up: expected a direction not parallel",
+        ):
+            frame_view(along, points, 8, 8)

@@ -163,9 +163,23 @@ def test_both_at_once_and_the_legend():
 @pytest.mark.parametrize(
     ("call", "message"),
     [
-        (lambda: colour_map(np.zeros(3), value_range=(1, 1)), "range: expected finite min < max"),
+        (
+            lambda: colour_map(np.zeros(3), value_range=(1, 1)),
+            r"^range: expected \[min, max\] with min < max, got \[1, 1\]$",
+        ),
         (lambda: colour_map(np.zeros(3), value_range=(2, 1)), "min < max"),
-        (lambda: colour_map(np.zeros(3), cmap="nope"), "colormap: expected a matplotlib"),
+        (
+            lambda: colour_map(np.zeros(3), value_range=(0, np.inf)),
+            r"^range: expected \[min, max\], two finite numbers, got \[0, inf\]$",
+        ),
+        (lambda: colour_map(np.zeros(3), value_range=(0,)), r"range: expected \[min, max\], two"),
+        (lambda: stripe_period(None, 10, (1, 1)), r"range: expected \[min, max\] with min < max"),
+        (
+            lambda: colour_map(np.zeros(3), cmap="nope"),
+            r'^colormap: expected the name of a matplotlib colour map \(e.g. "viridis"\), '
+            r'got "nope"',
+        ),
+        (lambda: colour_map(np.zeros(3), cmap="viridus"), 'got "viridus"; did you mean "viridis"'),
         (lambda: stripe_coverage(0.5, duty=1.5), "duty: expected a number in"),
         (lambda: stripes(np.zeros(2), 0.0), "period: expected a positive number"),
         (lambda: stripe_period(None, None, None), "exactly one of period or count"),

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from gshade import GshadeError
+from gshade.display import validate_colormap, validate_range
 from gshade.geometry import BezierPatch, BSplinePatch, CoonsPatch
-from gshade.scene import load_scene, parse_overrides, parse_scene
-from gshade.shape import SHAPE_FUNCTIONS
+from gshade.scene import Camera, load_scene, parse_overrides, parse_scene
+from gshade.shape import SHAPE_FUNCTIONS, validate_parameter
 
 from .conftest import ROOT, TEAPOT
 
@@ -671,6 +672,63 @@ def test_bad_input(tmp_path, case):
     assert text.startswith(f"{path}: "), text
     assert "\n" not in text
     assert isinstance(info.value, ValueError)
+
+
+def _toml(value) -> str:
+    return repr(value).replace("'", '"').replace("(", "[").replace(")", "]")
+
+
+#: (table, keys and values written to the scene, the library's check of the same values):
+#: rules written once, in the library, that the scene applies to its values
+ONE_RULE = [
+    *(
+        ("shape", {"range": r}, lambda r=r: validate_range(r))
+        for r in ([1, 1], [2, 1], [0.0, -0.0], [0, 5e-324], [-1.5, 2])
+    ),
+    *(
+        ("shape", {"colormap": c}, lambda c=c: validate_colormap(c))
+        for c in ("viridis", "viridus", "Viridis", "coolwarm")
+    ),
+    *(
+        ("shape", {"function": fn, key: v}, lambda f=fn, k=key, v=v: validate_parameter(f, k, v))
+        for fn, key, values in (
+            ("isophotes", "light", ([0, 0, 0], [1e-13, 0, 0], [0, 1e-12, 0], [0, 0, 1])),
+            ("isophotes", "form", ("cos", "sine", "Angle")),
+            ("planar_sections", "direction", ([0, 0, 0], [0, 0, 9.9e-13], [1, 2, 3])),
+        )
+        for v in values
+    ),
+    *(
+        (
+            "camera",
+            {"origin": o, "target": t, "up": u},
+            lambda o=o, t=t, u=u: Camera("perspective", o, t, u, 30.0, None),
+        )
+        for o, t, u in (
+            ([1, 1, 1], [1, 1, 1], [0, 0, 1]),
+            ([0, 0, 5], [0, 0, 0], [0, 0, 1]),
+            ([0, 0, 5], [0, 0, 0], [0, 1e-12, 1]),
+            ([0, 0, 5], [0, 0, 0], [0, 0, 0]),
+            ([0, 0, 5], [0, 0, 0], [0, 9e-13, 0]),
+            ([0, -5, 0], [0, 0, 0], [0, 0, 1]),
+        )
+    ),
+]
+
+
+@pytest.mark.parametrize(("table", "values", "library"), ONE_RULE)
+def test_the_scene_refuses_what_the_library_refuses_with_its_message(table, values, library):
+    """One rule: the scene passes its values to the library's check and names its file and
+    table before the library's message."""
+    text = SPHERE + f"[{table}]\n" + "".join(f"{k} = {_toml(v)}\n" for k, v in values.items())
+    try:
+        library()
+    except GshadeError as exc:
+        with pytest.raises(GshadeError) as info:
+            parse_scene(text)
+        assert str(info.value) == f"<string>: [{table}] {exc}"
+    else:
+        parse_scene(text)
 
 
 def test_newell_file_missing(tmp_path):

@@ -17,7 +17,7 @@ from gshade.geometry import (
     unit_normal,
 )
 from gshade.io import read_newell
-from gshade.shape import SHAPE_FUNCTIONS, evaluate
+from gshade.shape import SHAPE_FUNCTIONS, evaluate, validate_parameter
 
 from . import curvature_oracles
 from .conftest import TEAPOT
@@ -368,9 +368,18 @@ def test_order_theorem_mean_curvature_jumps_at_g1_and_is_continuous_at_g2():
 @pytest.mark.parametrize(
     ("name", "params", "message"),
     [
-        ("isophotes", {"light": [0, 0, 0]}, "isophotes: light: expected a non-zero direction"),
+        (
+            "isophotes",
+            {"light": [0, 0, 0]},
+            r"^isophotes: light: expected a direction \[x, y, z\] of length at least 1e-12, "
+            r"got \[0, 0, 0\]$",
+        ),
+        # the shortest direction accepted is that of the scene files' (1e-12), not just nonzero
+        ("isophotes", {"light": (1e-13, 0, 0)}, r"light: .* at least 1e-12, got \[1e-13, 0, 0\]"),
+        ("reflection_lines", {"a1": np.zeros(3)}, r"a1: .* at least 1e-12, got \[0.0, 0.0, 0.0\]"),
         ("isophotes", {"light": [1, 2]}, r"light: expected 3 finite numbers \[x, y, z\]"),
-        ("isophotes", {"form": "sine"}, "form: expected one of cos, angle, got 'sine'"),
+        ("isophotes", {"form": "sine"}, 'form: expected one of "cos", "angle", got "sine"'),
+        ("isophotes", {"form": 1}, 'form: expected one of "cos", "angle", got 1$'),
         ("isophotes", {"lihgt": [0, 0, 1]}, "unknown parameter 'lihgt'"),
         (
             "reflection_lines",
@@ -383,7 +392,7 @@ def test_order_theorem_mean_curvature_jumps_at_g1_and_is_continuous_at_g2():
             {"form": "infinity", "axis": [0, 0, 1], "reference": [0, 0, 2]},
             "reference: expected a direction not parallel",
         ),
-        ("planar_sections", {"direction": [0, 0, 0]}, "direction: expected a non-zero"),
+        ("planar_sections", {"direction": [0, 0, 0]}, "direction: expected a direction"),
         ("curvature", {}, "function: expected one of planar_sections, isophotes"),
     ],
 )
@@ -391,6 +400,21 @@ def test_bad_parameters_name_the_parameter(name, params, message):
     d = plane_patch().derivatives(0.5, 0.5, 3)
     with pytest.raises(GshadeError, match=message):
         evaluate(name, d, **params)
+
+
+def test_one_parameter_is_checked_by_its_declaration():
+    """validate_parameter (what a scene file's [shape] keys go through) names the parameter;
+    evaluate names the function too."""
+    assert validate_parameter("isophotes", "form", "angle") == "angle"
+    np.testing.assert_array_equal(validate_parameter("isophotes", "light", [0, 0, 2]), [0, 0, 1])
+    np.testing.assert_array_equal(
+        validate_parameter("reflection_lines", "a1", [0, 2, 0]), [0, 2, 0]
+    )
+    np.testing.assert_array_equal(validate_parameter("reflection_lines", "eye_point", [0] * 3), 0)
+    with pytest.raises(GshadeError, match=r"^light: expected a direction \[x, y, z\] of length"):
+        validate_parameter("isophotes", "light", [0, 1e-13, 0])
+    with pytest.raises(GshadeError, match=r"^isophotes: unknown parameter 'lihgt'"):
+        validate_parameter("isophotes", "lihgt", [0, 0, 1])
 
 
 def test_eye_on_the_surface_and_missing_orders():

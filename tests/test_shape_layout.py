@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from gshade.geometry import regularised_derivatives, torus
-from gshade.shape import SHAPE_FUNCTIONS, evaluate
-from gshade.shape.functions import _validate_params
+from gshade.shape import SHAPE_FUNCTIONS, evaluate, validate_parameters
 from gshade.shape.kernels import Layout, backend
 
 
@@ -45,7 +44,7 @@ def test_every_form_packs_into_its_layout(name):
     fn = SHAPE_FUNCTIONS[name]
     forms = fn.parameters.get("form")
     for form in forms.choices if forms else (None,):
-        kw = _validate_params(fn, {"form": form} if form else {})
+        kw = validate_parameters(fn, {"form": form} if form else {})
         got, layout, values = fn.pack(fn.name, kw)
         assert got == (form or "")
         assert layout.pack(**values).shape == (layout.size,)

@@ -1,12 +1,27 @@
-"""Errors raised by gshade.
+"""Errors raised by gshade, and the helpers that write their messages.
 
 Every error that bad input can cause is a :class:`GshadeError`, a subclass of
-:class:`ValueError` whose message says what was expected and what was given.
+:class:`ValueError` whose message says what was expected and what was given.  The value
+given is written by :func:`show` (as it would look in TOML), the choices by :func:`one_of`
+and a likely intended choice by :func:`suggest`, so that a rule checked in the library
+reads the same whether a Python caller or a scene file broke it.
 """
 
 from __future__ import annotations
 
-__all__ = ["GshadeError", "ParameterDomainError", "SurfaceDataError"]
+import difflib
+import json
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = [
+    "GshadeError",
+    "ParameterDomainError",
+    "SurfaceDataError",
+    "one_of",
+    "show",
+    "suggest",
+]
 
 
 class GshadeError(ValueError):
@@ -19,3 +34,41 @@ class ParameterDomainError(GshadeError):
 
 class SurfaceDataError(GshadeError):
     """A surface data file (e.g. Newell's teapot format) could not be read."""
+
+
+def show(value: Any, limit: int = 60) -> str:
+    """A value as it would look in TOML, shortened to ``limit`` characters: tuples and numpy
+    arrays as lists, numpy scalars as plain numbers; a long list is read only as far as
+    is shown."""
+    if getattr(value, "ndim", None) == 0 and hasattr(value, "tolist"):
+        value = value.tolist()  # a numpy scalar
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str):
+        text = json.dumps(value, ensure_ascii=False)
+    elif isinstance(value, (int, float)):
+        text = repr(value)
+    elif isinstance(value, (list, tuple)) or getattr(value, "ndim", 0) >= 1:
+        parts, length = [], -1  # the length of "[" and the parts so far, joined
+        for item in value:
+            parts.append(show(item, limit))
+            length += len(parts[-1]) + 2
+            if length > limit:  # shortened whatever follows
+                break
+        text = "[" + ", ".join(parts) + "]"
+    elif isinstance(value, dict):
+        text = "a table {" + ", ".join(value) + "}"
+    else:
+        text = f"{value} ({type(value).__name__})"
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def one_of(choices: Sequence[str]) -> str:
+    """Choices for a message: ``"cos", "angle"``."""
+    return ", ".join(json.dumps(c) for c in choices)
+
+
+def suggest(word: str, candidates: Sequence[str]) -> str:
+    """``; did you mean "x"?`` for the candidate closest to ``word``, or nothing."""
+    close = difflib.get_close_matches(word, list(candidates), n=1)
+    return f"; did you mean {json.dumps(close[0])}?" if close else ""

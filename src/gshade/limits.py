@@ -32,6 +32,7 @@ __all__ = [
     "MAX_TESSELLATION",
     "MAX_TEXTURE_RESOLUTION",
     "MIN_CHORD_TOLERANCE",
+    "MIN_DIRECTION",
     "gigabytes",
     "memory_limit",
     "render_memory",
@@ -60,6 +61,9 @@ MAX_SEED = 2**32 - 1
 MAX_TESSELLATION = 1024
 MAX_TEXTURE_RESOLUTION = 512
 MIN_CHORD_TOLERANCE = 1e-9
+#: Shortest direction accepted (a shape function's light or axis, the camera's up):
+#: normalising it stays exact.
+MIN_DIRECTION = 1e-12
 
 #: Surfaces: the highest polynomial degree in u or v, the most patches of a scene, and the
 #: most refinement steps of a subdivision surface (each multiplies the patches by 4).

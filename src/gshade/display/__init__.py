@@ -10,6 +10,8 @@ from .colour import (
     stripe_coverage,
     stripe_period,
     stripes,
+    validate_colormap,
+    validate_range,
 )
 
 __all__ = [
@@ -21,4 +23,6 @@ __all__ = [
     "stripe_coverage",
     "stripe_period",
     "stripes",
+    "validate_colormap",
+    "validate_range",
 ]

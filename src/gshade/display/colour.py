@@ -15,11 +15,12 @@ a diverging map symmetric about 0 (coolwarm) for signed ones such as curvature.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import GshadeError
+from ..errors import GshadeError, show, suggest
 from ..runtime.backend import NUMPY_NAN, ArrayOps
 
 __all__ = [
@@ -31,6 +32,8 @@ __all__ = [
     "stripe_coverage",
     "stripe_period",
     "stripes",
+    "validate_colormap",
+    "validate_range",
 ]
 
 DARK = (0.04, 0.04, 0.05)
@@ -152,7 +155,7 @@ def stripe_period(
     if count is not None and period is None:
         if not (np.isfinite(count) and count > 0):
             raise GshadeError(f"stripes: expected a positive stripe count, got {count!r}")
-        lo, hi = _validate_range(value_range)
+        lo, hi = validate_range(value_range)
         return (hi - lo) / float(count)
     raise GshadeError("stripes: expected exactly one of period or count (stripes)")
 
@@ -198,14 +201,46 @@ def stripes(
     return rgb, cov
 
 
-def _validate_range(value_range) -> tuple[float, float]:
+def validate_range(value_range: Any) -> tuple[float, float]:
+    """A colour-map range ``[min, max]``: two finite numbers, min < max, as floats.
+
+    Raises
+    ------
+    GshadeError
+        ``range: expected [min, max] ...``, naming the range as given.
+    """
     try:
         lo, hi = (float(x) for x in value_range)
     except (TypeError, ValueError):
-        raise GshadeError(f"range: expected [min, max], got {value_range!r}") from None
-    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-        raise GshadeError(f"range: expected finite min < max, got [{lo!r}, {hi!r}]")
+        raise GshadeError(
+            f"range: expected [min, max], two numbers, got {show(value_range)}"
+        ) from None
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise GshadeError(
+            f"range: expected [min, max], two finite numbers, got {show(value_range)}"
+        )
+    if not lo < hi:
+        raise GshadeError(f"range: expected [min, max] with min < max, got {show(value_range)}")
     return lo, hi
+
+
+def validate_colormap(name: Any) -> str:
+    """The name of a matplotlib colour map, checked (with the nearest name when it is not one).
+
+    Raises
+    ------
+    GshadeError
+        ``colormap: expected the name of a matplotlib colour map ...``.
+    """
+    import matplotlib
+
+    if not (isinstance(name, str) and name in matplotlib.colormaps):
+        hint = suggest(name, list(matplotlib.colormaps)) if isinstance(name, str) else ""
+        raise GshadeError(
+            f'colormap: expected the name of a matplotlib colour map (e.g. "viridis"), got '
+            f"{show(name)}{hint}"
+        )
+    return name
 
 
 def auto_range(
@@ -270,15 +305,9 @@ def colour_map(
     f = np.asarray(f, dtype=np.float64)
     ok = np.isfinite(f) if valid is None else (np.asarray(valid, bool) & np.isfinite(f))
     lo, hi = (
-        auto_range(f, ok, signed=signed) if value_range is None else _validate_range(value_range)
+        auto_range(f, ok, signed=signed) if value_range is None else validate_range(value_range)
     )
-    name = cmap or ("coolwarm" if signed else "viridis")
-    try:
-        colours = matplotlib.colormaps[name]
-    except KeyError:
-        raise GshadeError(
-            f"colormap: expected a matplotlib colour map name, got {name!r}"
-        ) from None
+    colours = matplotlib.colormaps[validate_colormap(cmap or ("coolwarm" if signed else "viridis"))]
     t = (f - lo) / (hi - lo)
     below = int(np.count_nonzero(ok & (t < 0)))
     above = int(np.count_nonzero(ok & (t > 1)))

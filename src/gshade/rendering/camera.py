@@ -14,12 +14,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
+from ..scene import validate_view
+from ..scene.tables import reported
 
 __all__ = ["View", "frame_view"]
 
 #: Default viewing direction for automatic framing (from the target toward the eye).
 AUTO_DIRECTION = np.array([0.55, -0.75, 0.45])
 MARGIN = 1.08
+#: What a message about a view the camera chose says first.
+_AUTOMATIC_ORIGIN = "[camera] (origin automatic) "
+_AUTOMATIC_TARGET = "[camera] (target automatic: the centre of the surfaces) "
 
 
 @dataclass(frozen=True)
@@ -133,26 +138,24 @@ def _centre_in_view(points: NDArray, up: NDArray) -> NDArray:
     return centre + right * (x.max() + x.min()) / 2 + true_up * (y.max() + y.min()) / 2
 
 
-def _vector(value, name: str) -> NDArray:
-    v = np.asarray(value, dtype=np.float64)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise GshadeError(f"[camera] {name}: expected 3 finite numbers, got {value!r}")
-    return v
-
-
 def frame_view(camera, points: NDArray, width: int, height: int) -> View:
-    """Resolve a scene's camera (a :class:`gshade.scene.Camera`) for surface points (N, 3)
-    sampled densely enough to stand for the surfaces' extent."""
+    """Resolve a scene's camera (a :class:`gshade.scene.Camera`: its vectors are valid) for
+    surface points (N, 3) sampled densely enough to stand for the surfaces' extent.  The
+    view is checked as the Camera checks given vectors (:func:`gshade.scene.validate_view`)
+    where it chose the origin or the target."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = (lo + hi) / 2
     radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-9)
-    up = _vector(camera.up, "up")
+    up = np.asarray(camera.up, dtype=np.float64)
     aspect = width / height
-    target = centre if camera.target is None else _vector(camera.target, "target")
+    direction = AUTO_DIRECTION / np.linalg.norm(AUTO_DIRECTION)
+    if camera.origin is None:  # the automatic eye looks along -direction
+        with reported(_AUTOMATIC_ORIGIN):
+            validate_view(direction, np.zeros(3), up)
+    target = centre if camera.target is None else np.asarray(camera.target, dtype=np.float64)
     if camera.target is None and camera.origin is None:
         target = _centre_in_view(points, up)
     if camera.origin is None:
-        direction = AUTO_DIRECTION / np.linalg.norm(AUTO_DIRECTION)
         forward = -direction
         right = np.cross(forward, up)
         right /= np.linalg.norm(right)
@@ -174,12 +177,11 @@ def frame_view(camera, points: NDArray, width: int, height: int) -> View:
             )
         origin = target + distance * direction
     else:
-        origin = _vector(camera.origin, "origin")
-    if np.linalg.norm(target - origin) == 0:
-        raise GshadeError("[camera] origin, target: expected two different points")
+        origin = np.asarray(camera.origin, dtype=np.float64)
+    if camera.origin is None or camera.target is None:
+        with reported(_AUTOMATIC_ORIGIN if camera.origin is None else _AUTOMATIC_TARGET):
+            validate_view(origin, target, up)
     forward = (target - origin) / np.linalg.norm(target - origin)
-    if np.linalg.norm(np.cross(forward, up)) < 1e-9 * np.linalg.norm(up):
-        raise GshadeError(f"[camera] up: expected a direction not parallel to the view, got {up}")
     view_width = camera.width
     if camera.type == "orthographic" and view_width is None:
         right = np.cross(forward, up)

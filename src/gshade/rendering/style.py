@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..display import Legend, auto_range
+from ..display import Legend, auto_range, validate_colormap, validate_range
 from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
 from .textures import ShapeTextures
 
@@ -63,7 +63,11 @@ def display_style(shape, mapped: str, tex: ShapeTextures) -> DisplayStyle:
     """The range, period and colour map of a scene's ``[shape]`` for its textures."""
     cvals, cvalid = tex.values[-1][..., 0], tex.valid[-1] > 0
     signed = SHAPE_FUNCTIONS[mapped].signed
-    value_range = shape.value_range or auto_range(cvals, cvalid, signed=signed)
+    value_range = (
+        auto_range(cvals, cvalid, signed=signed)
+        if shape.value_range is None
+        else validate_range(shape.value_range)
+    )
     f_lo, f_hi = auto_range(tex.values[0][..., 0], tex.valid[0] > 0, percentiles=(0.0, 100.0))
     period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
     lut = colormap = None
@@ -72,7 +76,7 @@ def display_style(shape, mapped: str, tex: ShapeTextures) -> DisplayStyle:
 
         from ..display.colour import _srgb_to_linear
 
-        colormap = shape.colormap or ("coolwarm" if signed else "viridis")
+        colormap = validate_colormap(shape.colormap or ("coolwarm" if signed else "viridis"))
         lut = _srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
     return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
 

@@ -27,6 +27,7 @@ from .model import (
     Scene,
     Shape,
     Surface,
+    validate_view,
 )
 from .overrides import parse_overrides
 from .sections import validate_render_settings
@@ -48,4 +49,5 @@ __all__ = [
     "parse_overrides",
     "parse_scene",
     "validate_render_settings",
+    "validate_view",
 ]

@@ -3,11 +3,17 @@ its string keys."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError, show
 from ..geometry import Patch
+from ..limits import MIN_DIRECTION
 from ..runtime.variant import VARIANTS
 from ..shape.functions import SHAPE_FUNCTIONS
 
@@ -21,6 +27,7 @@ __all__ = [
     "Scene",
     "Shape",
     "Surface",
+    "validate_view",
 ]
 
 DISPLAYS = ("stripes", "colormap", "both")
@@ -67,9 +74,59 @@ class Shape:
         return {k: v for k, v in self.params.items() if k in names}
 
 
+def _point(name: str, value: Any) -> NDArray:
+    try:
+        v = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        v = None
+    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise GshadeError(f"{name}: expected 3 finite numbers [x, y, z], got {show(value)}")
+    return v
+
+
+def validate_view(origin: Any, target: Any, up: Any) -> None:
+    """A camera's vectors, the one place their rule is written: ``up`` a direction (of
+    length at least :data:`gshade.limits.MIN_DIRECTION`), ``target`` a point other than
+    ``origin``, and ``up`` not parallel to ``target - origin`` (the sine of the angle
+    between them above 1e-9).  ``origin`` and ``target`` None: not yet known (the renderer
+    frames the surfaces, then checks the view it chose).
+
+    Raises
+    ------
+    GshadeError
+        ``up: ...`` or ``target: ...``, showing the values as given.
+    """
+    u = _point("up", up)
+    o = None if origin is None else _point("origin", origin)
+    t = None if target is None else _point("target", target)
+    if not math.hypot(*u) >= MIN_DIRECTION:
+        raise GshadeError(
+            f"up: expected a direction [x, y, z] of length at least {MIN_DIRECTION:g}, "
+            f"got {show(up)}"
+        )
+    if o is None or t is None:
+        return
+    view = t - o
+    if not np.any(view):
+        raise GshadeError(f"target: expected a point other than origin, got {show(target)}")
+    if np.linalg.norm(np.cross(view, u)) <= 1e-9 * np.linalg.norm(view) * np.linalg.norm(u):
+        raise GshadeError(
+            f"up: expected a direction not parallel to target - origin {view.tolist()}, "
+            f"got {show(up)}"
+        )
+
+
+def _floats(v: Any) -> tuple[float, float, float] | None:
+    return None if v is None else (float(v[0]), float(v[1]), float(v[2]))
+
+
 @dataclass(frozen=True)
 class Camera:
-    """The ``[camera]`` table.  ``origin`` / ``target`` None: the renderer frames the scene."""
+    """The ``[camera]`` table.  ``origin`` / ``target`` None: the renderer frames the scene.
+
+    The vectors are checked on construction (:func:`validate_view`), so that a Camera is
+    valid however it was made, and kept as tuples of floats.
+    """
 
     type: str
     origin: tuple[float, float, float] | None
@@ -77,6 +134,11 @@ class Camera:
     up: tuple[float, float, float]
     fov: float
     width: float | None
+
+    def __post_init__(self) -> None:
+        validate_view(self.origin, self.target, self.up)
+        for name in ("origin", "target", "up"):
+            object.__setattr__(self, name, _floats(getattr(self, name)))
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,7 @@ import math
 from dataclasses import asdict
 from typing import Any
 
-import numpy as np
-
+from ..display import validate_colormap, validate_range
 from ..errors import GshadeError
 from ..limits import (
     MAX_IMAGE_SIDE,
@@ -19,9 +18,9 @@ from ..limits import (
     MAX_TEXTURE_RESOLUTION,
     MIN_CHORD_TOLERANCE,
 )
-from ..shape.functions import SHAPE_FUNCTIONS
+from ..shape import SHAPE_FUNCTIONS, validate_parameter
 from .model import CAMERA_TYPES, DISPLAYS, LIGHTINGS, VARIANTS, Camera, RenderSettings, Shape
-from .tables import Key, Table, alternatives, declare_keys, is_number, show, suggest
+from .tables import Key, Table, alternatives, declare_keys, is_number, show
 
 __all__ = [
     "CAMERA_KEYS",
@@ -61,7 +60,8 @@ CAMERA_KEYS = declare_keys(
     Key("type", alternatives(CAMERA_TYPES), "perspective", "the projection"),
     Key("origin", "[x, y, z]", None, "the eye point", "automatic (frames the surfaces)"),
     Key("target", "[x, y, z], not origin", None, "the point looked at", "automatic"),
-    Key("up", "direction [x, y, z]", (0.0, 0.0, 1.0), "the view's up, not along the view"),
+    # written as a scene file would (Camera keeps floats): a message shows it as [0, 0, 1]
+    Key("up", "direction [x, y, z]", (0, 0, 1), "the view's up, not along the view"),
     Key("fov", "number in (0.001, 180)", 30.0, "perspective: horizontal field of view, degrees"),
     Key("width", "number > 1e-12", None, "orthographic: view width in scene units", "automatic"),
 )
@@ -142,15 +142,17 @@ def shape_keys(shape: dict[str, Any]) -> tuple[str, ...]:
 
 
 def _parameter(t: Table, fn: str, name: str) -> Any:
+    """A shape-function parameter: its TOML type checked here, its value by the registry."""
     spec = SHAPE_FUNCTIONS[fn].parameters[name]
     what = f" (parameter of {fn}: {spec.help})"
-    if spec.kind == "choice":
-        return t.choice(name, spec.choices)
-    if spec.kind in ("direction", "vector"):
-        return t.vector(name, nonzero=True, what=what)
-    if spec.kind == "point":
-        return t.vector(name, what=what)
-    return t.number(name, expected=f"a number{what}")
+    value = t.data[name]
+    if spec.kind in ("direction", "vector", "point"):
+        value = t.vector(name, what=what)
+    elif spec.kind == "number":
+        value = t.number(name, expected=f"a number{what}")
+    with t.reported():
+        validate_parameter(fn, name, t.data[name])
+    return value
 
 
 def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
@@ -185,25 +187,14 @@ def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
     value_range = None
     if "range" in raw:
         r = raw["range"]
-        if not (
-            isinstance(r, list)
-            and len(r) == 2
-            and all(is_number(x) and math.isfinite(x) for x in r)
-        ):
+        if not (isinstance(r, list) and len(r) == 2 and all(is_number(x) for x in r)):
             raise t.error("range", f"expected [min, max], two numbers, got {show(r)}")
-        if not r[0] < r[1]:
-            raise t.error("range", f"expected [min, max] with min < max, got {show(r)}")
-        value_range = (float(r[0]), float(r[1]))
+        with t.reported():
+            value_range = validate_range(r)
     colormap = t.string("colormap", expected="the name of a matplotlib colour map")
     if colormap is not None:
-        import matplotlib
-
-        if colormap not in matplotlib.colormaps:
-            raise t.error(
-                "colormap",
-                f'expected the name of a matplotlib colour map (e.g. "viridis"), got '
-                f"{show(colormap)}{suggest(colormap, list(matplotlib.colormaps))}",
-            )
+        with t.reported():
+            validate_colormap(colormap)
     return Shape(
         function,
         params,
@@ -225,24 +216,15 @@ def parse_camera(file: str, raw: dict[str, Any]) -> Camera:
     t = Table(file, "[camera] ", raw, CAMERA_KEYS)
     t.reject_unknown()
     kind = t.choice("type", CAMERA_TYPES)
-    origin = t.vector("origin")
-    target = t.vector("target")
-    up = t.vector("up", nonzero=True)
+    # TOML types here; the vectors' rules (up a direction, target not origin, up not along
+    # the view) are Camera's, which is handed the values as written so that its messages
+    # show them so
+    for key in ("origin", "target", "up"):
+        t.vector(key)
     fov = t.number("fov", lo=1e-3, hi=180)
     width = t.number("width", lo=1e-12)
-    if origin is not None and target is not None:
-        view = np.subtract(target, origin)
-        if not np.any(view):
-            raise t.error(
-                "target", f"expected a point other than origin, got {show(raw['target'])}"
-            )
-        if np.linalg.norm(np.cross(view, up)) <= 1e-9 * np.linalg.norm(view) * np.linalg.norm(up):
-            raise t.error(
-                "up",
-                f"expected a direction not parallel to target - origin {view.tolist()}, "
-                f"got {show(raw.get('up', [0, 0, 1]))}",
-            )
-    return Camera(kind, origin, target, up, fov, width)
+    with t.reported():
+        return Camera(kind, t.raw("origin"), t.raw("target"), t.raw("up"), fov, width)
 
 
 def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:

@@ -5,7 +5,6 @@ parsers read their allowed keys and defaults from and ``gshade keys`` lists."""
 
 from __future__ import annotations
 
-import difflib
 import json
 import math
 import os
@@ -23,7 +22,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from ..errors import GshadeError
+from ..errors import GshadeError, one_of, show, suggest
 from ..limits import MAX_NESTING, MAX_SCENE_FILE_BYTES
 
 __all__ = [
@@ -47,8 +46,6 @@ __all__ = [
 REQUIRED: Any = object()
 #: A getter's default argument: the key's declared default (REQUIRED if undeclared).
 _DECLARED: Any = object()
-#: Shortest direction vector (light, view up, ...) accepted: normalising it stays exact.
-MIN_DIRECTION = 1e-12
 
 
 def parse_toml(text: str, file: str) -> dict[str, Any]:
@@ -151,32 +148,6 @@ def toml_value(value: Any) -> str:
     if isinstance(value, (tuple, list)):
         return "[" + ", ".join(toml_value(v) for v in value) + "]"
     return json.dumps(value) if isinstance(value, str) else str(value)
-
-
-def show(value: Any, limit: int = 60) -> str:
-    """A value as it would look in TOML, shortened."""
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, str):
-        text = json.dumps(value, ensure_ascii=False)
-    elif isinstance(value, (int, float)):
-        text = repr(value)
-    elif isinstance(value, list):
-        text = "[" + ", ".join(show(v, limit) for v in value) + "]"
-    elif isinstance(value, dict):
-        text = "a table {" + ", ".join(value) + "}"
-    else:
-        text = f"{value} ({type(value).__name__})"
-    return text if len(text) <= limit else text[: limit - 1] + "…"
-
-
-def one_of(choices: Sequence[str]) -> str:
-    return ", ".join(json.dumps(c) for c in choices)
-
-
-def suggest(word: str, candidates: Sequence[str]) -> str:
-    close = difflib.get_close_matches(word, list(candidates), n=1)
-    return f"; did you mean {json.dumps(close[0])}?" if close else ""
 
 
 def is_number(x: Any) -> bool:
@@ -329,9 +300,9 @@ class Table:
             raise self.error(key, f"expected {expected}, got {show(x)}")
         return x
 
-    def vector(
-        self, key: str, default: Any = _DECLARED, *, nonzero: bool = False, what: str = ""
-    ) -> Any:
+    def vector(self, key: str, default: Any = _DECLARED, *, what: str = "") -> Any:
+        """3 finite numbers, as a tuple of floats (what they may be is the library's to
+        check: a direction's length, ...)."""
         default = self._default(key, default)
         expected = f"3 numbers [x, y, z]{what}"
         x = self.raw(key, default, expected)
@@ -343,12 +314,6 @@ class Table:
             or not all(is_number(c) and math.isfinite(c) for c in x)
         ):
             raise self.error(key, f"expected {expected}, got {show(x)}")
-        if nonzero and not math.hypot(*x) >= MIN_DIRECTION:
-            raise self.error(
-                key,
-                f"expected a direction [x, y, z] of length at least {MIN_DIRECTION:g}, "
-                f"got {show(x)}",
-            )
         return (float(x[0]), float(x[1]), float(x[2]))
 
     def array(self, key: str, levels: Sequence[str], length: int | None = None) -> np.ndarray:

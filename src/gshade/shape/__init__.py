@@ -9,6 +9,8 @@ from .functions import (
     ShapeValues,
     evaluate,
     get_shape_function,
+    validate_parameter,
+    validate_parameters,
 )
 
 __all__ = [
@@ -18,4 +20,6 @@ __all__ = [
     "ShapeValues",
     "evaluate",
     "get_shape_function",
+    "validate_parameter",
+    "validate_parameters",
 ]

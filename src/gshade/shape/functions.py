@@ -51,9 +51,8 @@ from .registry import (
     evaluate,
     get_shape_function,
     register,
-)
-from .registry import (
-    _validate_params as _validate_params,  # tests pack parameters through it
+    validate_parameter,
+    validate_parameters,
 )
 
 __all__ = [
@@ -63,6 +62,8 @@ __all__ = [
     "ShapeValues",
     "evaluate",
     "get_shape_function",
+    "validate_parameter",
+    "validate_parameters",
 ]
 
 # --------------------------------------------------------------------------- light-line frames

@@ -6,6 +6,7 @@ checking of parameters, and :func:`evaluate`, which runs one on a derivatives ar
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -13,9 +14,10 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import GshadeError
+from ..errors import GshadeError, one_of, show, suggest
 from ..geometry.differential import IRREGULAR_TOL
 from ..geometry.differential import derivative_scale as _derivative_scale
+from ..limits import MIN_DIRECTION
 from . import kernels
 from .kernels import Formula, Layout
 
@@ -28,6 +30,8 @@ __all__ = [
     "evaluate",
     "get_shape_function",
     "register",
+    "validate_parameter",
+    "validate_parameters",
 ]
 
 
@@ -106,45 +110,80 @@ def get_shape_function(name: str) -> ShapeFunction:
 # --------------------------------------------------------------------------- parameters
 
 
-def _vector(fn: str, name: str, x: Any, *, nonzero: bool = True, unit: bool = False) -> NDArray:
+def _unknown(fn: ShapeFunction, name: Any) -> GshadeError:
+    known = ", ".join(fn.parameters) or "none"
+    return GshadeError(f"{fn.name}: unknown parameter {name!r}; expected one of: {known}")
+
+
+def _vector(name: str, x: Any, *, nonzero: bool, unit: bool) -> NDArray:
     try:
         v = np.asarray(x, dtype=np.float64)
     except (TypeError, ValueError):
         v = None
     if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise GshadeError(f"{fn}: {name}: expected 3 finite numbers [x, y, z], got {x!r}")
-    length = float(np.linalg.norm(v))
-    if nonzero and length == 0:
-        raise GshadeError(f"{fn}: {name}: expected a non-zero direction, got {x!r}")
-    return v / length if unit else v
+        raise GshadeError(f"{name}: expected 3 finite numbers [x, y, z], got {show(x)}")
+    if nonzero and not math.hypot(*v) >= MIN_DIRECTION:
+        raise GshadeError(
+            f"{name}: expected a direction [x, y, z] of length at least {MIN_DIRECTION:g}, "
+            f"got {show(x)}"
+        )
+    return v / np.linalg.norm(v) if unit else v
 
 
-def _validate_params(fn: ShapeFunction, params: dict) -> dict:
+def validate_parameter(function: str | ShapeFunction, name: str, value: Any) -> Any:
+    """One parameter of a shape function checked against its declaration (the one place
+    its rule is written): a choice among its ``choices``; a ``point``: 3 finite numbers; a
+    ``vector`` or ``direction``: 3 finite numbers of length at least
+    :data:`gshade.limits.MIN_DIRECTION` (a direction is returned normalised); a
+    ``number``: a number.  None stands for a vector left out (a default of None).
+
+    Raises
+    ------
+    GshadeError
+        ``NAME: expected ..., got ...`` (an unknown name: ``FUNCTION: unknown parameter``).
+    """
+    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
+    spec = fn.parameters.get(name)
+    if spec is None:
+        raise _unknown(fn, name)
+    if spec.kind == "choice":
+        if not (isinstance(value, str) and value in spec.choices):
+            hint = suggest(value, spec.choices) if isinstance(value, str) else ""
+            raise GshadeError(
+                f"{name}: expected one of {one_of(spec.choices)}, got {show(value)}{hint}"
+            )
+        return value
+    if spec.kind in ("direction", "point", "vector"):
+        if value is None:
+            return None
+        return _vector(name, value, nonzero=spec.kind != "point", unit=spec.kind == "direction")
+    if spec.kind == "number":
+        try:
+            return float(value)
+        except (TypeError, ValueError):
+            raise GshadeError(f"{name}: expected a number, got {show(value)}") from None
+    return value
+
+
+def validate_parameters(function: str | ShapeFunction, params: dict[str, Any]) -> dict[str, Any]:
+    """All parameters of a shape function: those given, checked by
+    :func:`validate_parameter`, and the defaults of the rest.
+
+    Raises
+    ------
+    GshadeError
+        ``FUNCTION: NAME: expected ..., got ...``, or an unknown parameter.
+    """
+    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
     unknown = sorted(set(params) - set(fn.parameters))
     if unknown:
-        known = ", ".join(fn.parameters) or "none"
-        raise GshadeError(f"{fn.name}: unknown parameter {unknown[0]!r}; expected one of: {known}")
+        raise _unknown(fn, unknown[0])
     out: dict[str, Any] = {}
     for name, spec in fn.parameters.items():
-        x = params.get(name, spec.default)
-        if spec.kind == "choice":
-            if x not in spec.choices:
-                raise GshadeError(
-                    f"{fn.name}: {name}: expected one of {', '.join(spec.choices)}, got {x!r}"
-                )
-        elif spec.kind in ("direction", "point", "vector"):
-            if x is None:
-                out[name] = None
-                continue
-            x = _vector(
-                fn.name, name, x, nonzero=spec.kind != "point", unit=spec.kind == "direction"
-            )
-        elif spec.kind == "number":
-            try:
-                x = float(x)
-            except (TypeError, ValueError):
-                raise GshadeError(f"{fn.name}: {name}: expected a number, got {x!r}") from None
-        out[name] = x
+        try:
+            out[name] = validate_parameter(fn, name, params.get(name, spec.default))
+        except GshadeError as exc:
+            raise GshadeError(f"{fn.name}: {exc}") from None
     return out
 
 
@@ -208,7 +247,7 @@ def evaluate(
         ``f`` (shape (...)), ``gradient`` (shape (..., 3) or None), ``valid`` (bool).
     """
     fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
-    kw = _validate_params(fn, params)
+    kw = validate_parameters(fn, params)
     form, layout, values = fn.pack(fn.name, kw)
     d = np.asarray(d, dtype=np.float64)
     if d.ndim < 3 or d.shape[0] != d.shape[1] or d.shape[-1] != 3:
