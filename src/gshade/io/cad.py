@@ -1,0 +1,135 @@
+"""CAD models (STEP, IGES, BREP, Rhino 3dm) as exact faces: the data model and the reader.
+
+A model is a list of faces, each an exact NURBS surface (the kernel's own B-spline form, or
+the exact rational form of a plane, cylinder, cone, sphere, torus, surface of revolution or
+extrusion) with the parameter box of its trimmed region and its trimming loops.  The readers
+are :mod:`gshade.io.cad_occt` (Open CASCADE through cadquery-ocp: ``.step .stp .iges .igs
+.brep``) and :mod:`gshade.io.cad_3dm` (openNURBS through rhino3dm: ``.3dm``); both are an
+optional dependency (``pip install "gshade[cad]"``).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+from ..geometry.bspline import BSplinePatch
+
+__all__ = ["CAD_EXTENSIONS", "INSTALL", "CadFace", "CadModel", "read_cad"]
+
+#: The file extensions read as CAD models, and the reader of each.
+CAD_EXTENSIONS = {
+    ".step": "occt",
+    ".stp": "occt",
+    ".iges": "occt",
+    ".igs": "occt",
+    ".brep": "occt",
+    ".3dm": "3dm",
+}
+
+#: What to install when the CAD libraries are missing.
+INSTALL = 'pip install "gshade[cad]"'
+
+
+@dataclass
+class CadFace:
+    """One face of a model, exact.
+
+    Attributes
+    ----------
+    index : int
+        The face's number in the model (0-based, in the kernel's traversal order).
+    kind : str
+        The kernel's surface type: ``"bspline"``, ``"bezier"``, ``"plane"``, ``"cylinder"``,
+        ``"cone"``, ``"sphere"``, ``"torus"``, ``"revolution"``, ``"extrusion"``,
+        ``"offset"``, ``"other"``.
+    patch : BSplinePatch
+        The surface in NURBS form over its whole knot domain; the face uses ``box`` of it.
+    box : ((u0, u1), (v0, v1))
+        The parameter box of the face (its trimming loops lie inside).
+    reversed : bool
+        True when the face's outward normal is -(p_u x p_v) (a ``TopAbs_REVERSED`` face).
+    exact : bool
+        True when ``patch`` is the surface itself; False for an approximation within
+        ``error`` (model units).
+    error : float
+        The largest distance between ``patch`` and the kernel's surface (0 when exact).
+    loops : list of ndarray (n, 2)
+        Trimming loops in (u, v), the outer loop first, then the holes; each closed polyline
+        (last point = first) within ``loop_tolerance`` of the exact trimming curve.
+    loop_tolerance : float
+        How far (in parameter units) the loops' polylines may lie from the exact curves.
+    trimmed : bool
+        False when the face is its whole parameter box.
+    """
+
+    index: int
+    kind: str
+    patch: BSplinePatch
+    box: tuple[tuple[float, float], tuple[float, float]]
+    reversed: bool = False
+    exact: bool = True
+    error: float = 0.0
+    loops: list[NDArray[np.float64]] = field(default_factory=list)
+    loop_tolerance: float = 0.0
+    trimmed: bool = False
+
+    @property
+    def inner_loops(self) -> int:
+        """The number of holes (loops after the outer one)."""
+        return max(len(self.loops) - 1, 0)
+
+
+@dataclass
+class CadModel:
+    """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi)."""
+
+    path: Path
+    faces: list[CadFace]
+    unit: str
+    bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+def read_cad(
+    path: str | os.PathLike, sew: bool | None = None, tolerance: float | None = None
+) -> CadModel:
+    """Read a CAD file into exact faces (reader chosen by the file's extension).
+
+    Parameters
+    ----------
+    path : path-like
+        ``.step .stp .iges .igs .brep .3dm``.
+    sew : bool, optional
+        Sew the faces into shells before anything else (default: when the file holds
+        unsewn faces, as IGES files usually do).
+    tolerance : float, optional
+        The sewing tolerance in model units (default: from the model's size).
+
+    Raises
+    ------
+    GshadeError
+        One line naming the file: an unknown extension, the CAD libraries missing (with the
+        install command), or a file the kernel cannot read or that holds no surfaces.
+    """
+    path = Path(path)
+    reader = CAD_EXTENSIONS.get(path.suffix.lower())
+    if reader is None:
+        raise GshadeError(
+            f"{path}: expected a CAD file ({', '.join(CAD_EXTENSIONS)}), got the extension "
+            f"{path.suffix or '(none)'!r}"
+        )
+    try:
+        if reader == "occt":
+            from . import cad_occt as module
+        else:
+            from . import cad_3dm as module  # type: ignore[no-redef]
+    except ImportError as exc:
+        raise GshadeError(
+            f"{path}: reading {path.suffix} files needs the CAD libraries ({INSTALL}): {exc}"
+        ) from None
+    return module.read(path, sew=sew, tolerance=tolerance)

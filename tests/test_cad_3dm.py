@@ -1,0 +1,160 @@
+"""Rhino .3dm files read into exact faces (files written at test time with rhino3dm)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gshade.errors import GshadeError
+from gshade.geometry import gaussian_and_mean_curvature
+from gshade.geometry.bspline import BSplinePatch
+from gshade.io.cad import read_cad
+
+r3 = pytest.importorskip("rhino3dm")
+from gshade.io import cad_3dm  # noqa: E402
+
+
+def _write(tmp_path, name, *geoms, unit=None):
+    f = r3.File3dm()
+    if unit is not None:
+        f.Settings.ModelUnitSystem = unit
+    for g in geoms:
+        if isinstance(g, r3.Brep):
+            f.Objects.AddBrep(g)
+        elif isinstance(g, r3.Surface):
+            f.Objects.AddSurface(g)
+        else:
+            f.Objects.Add(g, None)
+    path = tmp_path / name
+    assert f.Write(str(path), 7)
+    return path
+
+
+def _nurbs(rational: bool) -> object:
+    """A bicubic x biquadratic surface, non-uniform knots, uneven weights when rational."""
+    s = r3.NurbsSurface.Create(3, rational, 4, 3, 5, 4)
+    ku = [0.0, 0.0, 0.0, 0.4, 1.0, 1.0, 1.0]
+    kv = [0.0, 0.0, 0.3, 1.0, 1.0]
+    for i, k in enumerate(ku):
+        s.KnotsU[i] = k
+    for i, k in enumerate(kv):
+        s.KnotsV[i] = k
+    rng = np.random.default_rng(1)
+    for i in range(5):
+        for j in range(4):
+            x, y, z = i + 0.2 * rng.random(), j + 0.2 * rng.random(), rng.random()
+            w = 0.5 + rng.random() if rational else 1.0
+            s.Points[i, j] = r3.Point4d(x * w, y * w, z * w, w)
+    assert s.IsValid
+    return s
+
+
+def _max_error(patch: BSplinePatch, surface, n=50, seed=0, mapped=None) -> float:
+    rng = np.random.default_rng(seed)
+    du, dv = surface.Domain(0), surface.Domain(1)
+    err = 0.0
+    for _ in range(n):
+        s = du.T0 + (du.T1 - du.T0) * rng.random()
+        t = dv.T0 + (dv.T1 - dv.T0) * rng.random()
+        a, b = (s, t) if mapped is None else mapped(s, t)
+        p = surface.PointAt(s, t)
+        err = max(err, float(np.linalg.norm(patch(a, b) - [p.X, p.Y, p.Z])))
+        nr = surface.NormalAt(s, t)
+        d = patch.derivatives(a, b, 1)
+        nn = np.cross(d[1, 0], d[0, 1])
+        if np.linalg.norm(nn) > 1e-6:
+            nn /= np.linalg.norm(nn)
+            err = max(err, float(np.linalg.norm(nn - [nr.X, nr.Y, nr.Z])))
+    return err
+
+
+def test_sphere_exact_and_curvature(tmp_path):
+    r = 2.5
+    path = _write(tmp_path, "s.3dm", r3.Sphere(r3.Point3d(1, 2, 3), r).ToBrep())
+    model = read_cad(path)
+    brep = r3.File3dm.Read(str(path)).Objects[0].Geometry
+    assert len(model.faces) == len(brep.Faces) == 1
+    for cf, face in zip(model.faces, [brep.Faces[0]], strict=True):
+        assert cf.exact and cf.patch.rational and cf.kind == "sphere"
+
+        def mapped(s, t, face=face):
+            ok, a, b = face.GetNurbsFormParameterFromSurfaceParameter(s, t)
+            assert ok
+            return a, b
+
+        assert _max_error(cf.patch, face, mapped=mapped) < 1e-9 * r
+        (u0, u1), (v0, v1) = cf.box
+        u = np.linspace(u0, u1, 7)[:, None]
+        v = np.linspace(v0 + 0.2 * (v1 - v0), v1 - 0.2 * (v1 - v0), 5)[None, :]
+        K, H = gaussian_and_mean_curvature(cf.patch.derivatives(u, v, 2))
+        np.testing.assert_allclose(np.abs(H), 1 / r, rtol=1e-9)
+        np.testing.assert_allclose(K, 1 / r**2, rtol=1e-9)
+        assert cf.loops and cf.loops[0].shape[1] == 2
+        assert cf.loop_tolerance < 1e-6
+    lo, hi = model.bounds
+    np.testing.assert_allclose(lo, [1 - r, 2 - r, 3 - r], atol=1e-6 * r)
+    np.testing.assert_allclose(hi, [1 + r, 2 + r, 3 + r], atol=1e-6 * r)
+
+
+@pytest.mark.parametrize("rational", [False, True])
+def test_nurbs_surface_exact(tmp_path, rational):
+    s = _nurbs(rational)
+    model = read_cad(_write(tmp_path, "n.3dm", s))
+    (face,) = model.faces
+    assert face.patch.rational == rational and not face.trimmed
+    assert _max_error(face.patch, s) < 1e-12
+
+
+def test_wrong_padding_or_weights_is_caught(tmp_path):
+    s = _nurbs(True)
+    good = cad_3dm.nurbs_patch(s)
+    assert _max_error(good, s) < 1e-12
+    U, V = good.knots
+    U2 = U.copy()
+    U2[0] -= 0.5  # harmless: outside the domain
+    assert _max_error(BSplinePatch(good.points, (3, 2), (U2, V), good.weights), s) < 1e-12
+    ku = np.asarray(s.KnotsU.ToList())
+    with pytest.raises(GshadeError):  # openNURBS knots taken unpadded
+        BSplinePatch(good.points, (3, 2), (ku, V), good.weights)
+    inner = U.copy()
+    inner[4] = 0.6  # an interior knot wrong: the surface changes
+    assert _max_error(BSplinePatch(good.points, (3, 2), (inner, V), good.weights), s) > 1e-3
+    assert _max_error(BSplinePatch(good.points, (3, 2), (U, V)), s) > 1e-3  # weights dropped
+
+
+def test_cylinder_closed_and_brep(tmp_path):
+    cyl = r3.Cylinder(r3.Circle(r3.Point3d(0, 0, 0), 1.5), 2.0)
+    s = cyl.ToNurbsSurface()
+    model = read_cad(_write(tmp_path, "c.3dm", s, cyl.ToBrep(True, True)))
+    assert _max_error(model.faces[0].patch, s) < 1e-12
+    kinds = sorted(f.kind for f in model.faces[1:])
+    assert kinds == ["cylinder", "plane", "plane"]
+    for f in model.faces[1:]:
+        assert f.loops and f.loop_tolerance < 1e-6
+        (u0, u1), (v0, v1) = f.box
+        L = f.loops[0]
+        assert np.all((L[:, 0] >= u0 - 1e-9) & (L[:, 0] <= u1 + 1e-9))
+        assert np.all((L[:, 1] >= v0 - 1e-9) & (L[:, 1] <= v1 + 1e-9))
+        np.testing.assert_array_equal(L[0], L[-1])
+
+
+def test_units(tmp_path):
+    path = _write(tmp_path, "u.3dm", _nurbs(False), unit=r3.UnitSystem.Millimeters)
+    assert read_cad(path).unit == "mm"
+    path = _write(tmp_path, "i.3dm", _nurbs(False), unit=r3.UnitSystem.Inches)
+    assert read_cad(path).unit == "in"
+
+
+def test_bad_input(tmp_path):
+    text = tmp_path / "x.3dm"
+    text.write_text("not a rhino file\n")
+    good = _write(tmp_path, "g.3dm", r3.Sphere(r3.Point3d(0, 0, 0), 1.0).ToBrep())
+    data = good.read_bytes()
+    half = tmp_path / "half.3dm"
+    half.write_bytes(data[: len(data) // 2])
+    empty = _write(tmp_path, "p.3dm", r3.Point(r3.Point3d(1, 2, 3)))
+    for path in (text, half, empty, tmp_path / "missing.3dm", tmp_path):
+        with pytest.raises(GshadeError) as info:
+            read_cad(path if path != tmp_path else tmp_path)
+        msg = str(info.value)
+        assert "\n" not in msg and str(path) in msg
