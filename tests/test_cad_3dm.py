@@ -158,3 +158,32 @@ def test_bad_input(tmp_path):
             read_cad(path if path != tmp_path else tmp_path)
         msg = str(info.value)
         assert "\n" not in msg and str(path) in msg
+
+
+def _double_wall() -> object:
+    """A mug-like surface of revolution: a thin double wall (up the outside, over the rim, down
+    the inside, 0.03 apart) crowded into short knot spans of the profile between two long
+    spans that hold the floor, so that a grid uniform in (u, v) barely samples the wall."""
+    pts = [(0.2, 0, 0), (1, 0, 0), (1, 0, 0.5), (1, 0, 1), (0.985, 0, 1.02)]
+    pts += [(0.97, 0, 1), (0.97, 0, 0.5), (0.97, 0, 0.03), (0.2, 0, 0.03)]
+    c = r3.NurbsCurve.Create(False, 3, [r3.Point3d(*p) for p in pts])
+    for i, k in enumerate([0, 0, 0, 10, 10.1, 10.2, 10.3, 10.4, 20, 20, 20]):
+        c.Knots[i] = k
+    axis = r3.Line(r3.Point3d(0, 0, 0), r3.Point3d(0, 0, 1))
+    s = r3.RevSurface.Create(c, axis, 0.0, 2 * np.pi)
+    return r3.Brep.CreateFromRevSurface(s, False, False)
+
+
+def test_loops_on_the_right_sheet(tmp_path):
+    """Every recovered loop point maps back onto its edge, not onto the other wall nearby."""
+    brep = _double_wall()
+    model = cad_3dm.read(_write(tmp_path, "wall.3dm", brep))
+    (face,) = model.faces
+    edges = np.concatenate([cad_3dm._edge_points(e) for e in brep.Edges])
+    size = float(np.ptp(edges, axis=0).max())
+    assert face.loops
+    for loop in face.loops:
+        P = face.patch(loop[:, 0], loop[:, 1])
+        d = np.sqrt(((P[:, None, :] - edges[None, :, :]) ** 2).sum(-1)).min(axis=1)
+        assert d.max() < 1e-6 * size
+    assert face.loop_tolerance < 1e-6

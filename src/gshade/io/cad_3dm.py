@@ -6,9 +6,13 @@ textbook vector; the end knots are repeated to pad it (they weigh on no basis fu
 the domain, so periodic, unclamped surfaces come out the same).
 
 The Python bindings expose no 2D trimming curves: each loop is recovered by pulling the 3D
-edge curves back into the NURBS form's (u, v) by point inversion (a grid search, then
-Gauss-Newton).  Singular trims at poles (edge index -1) are bridged by the straight segment
-between their neighbours, which is what they are in (u, v).
+edge curves back into the NURBS form's (u, v) by point inversion: starting points from a grid
+whose density follows the control net (a grid uniform in (u, v) misses short knot spans where
+the surface moves fast, and then Newton lands on a nearby sheet, the other wall of a mug), a
+damped Gauss-Newton over all the points of a face at once, and points left far from the
+surface tried again from their neighbours' parameters along the loop.
+Singular trims at poles (edge index -1) are bridged by the straight segment between their
+neighbours, which is what they are in (u, v).
 """
 
 from __future__ import annotations
@@ -61,8 +65,9 @@ _UNITS = {
 #: Edge samples per span and degree, and their bounds, for the recovered trimming loops.
 _SAMPLES_PER_SPAN = 4
 _MIN_SAMPLES, _MAX_SAMPLES = 9, 200
-_GRID = 24
-_NEWTON_STEPS = 30
+_GRID, _GRID_MAX, _GRID_PIECES = 48, 200, 8
+_NEWTON_STEPS = 40
+_RETRIES, _RETRY_RATIO, _RETRY_FLOOR = 400, 100.0, 1e-5
 
 
 def read(
@@ -245,9 +250,7 @@ def _brep_face(path: Path, brep, face, index: int) -> CadFace:
 
 def _loops(brep, face, grid: _Grid) -> tuple[list[NDArray[np.float64]], float]:
     """The face's loops in the NURBS form's (u, v), outer first, and their tolerance."""
-    outer: list[NDArray[np.float64]] = []
-    inner: list[NDArray[np.float64]] = []
-    tol = 0.0
+    chains: list[tuple[bool, NDArray[np.float64]]] = []
     for loop in face.Loops:
         curves = []
         for trim in loop.Trims:
@@ -256,14 +259,35 @@ def _loops(brep, face, grid: _Grid) -> tuple[list[NDArray[np.float64]], float]:
                 continue  # singular trim: bridged by its neighbours' end points
             pts = _edge_points(brep.Edges[k])
             curves.append(pts[::-1] if trim.IsReversed else pts)
-        if not curves:
-            continue
-        uv, t = _pull_back(grid, np.concatenate(curves))
-        tol = max(tol, t)
+        if curves:
+            chains.append((str(loop.LoopType).endswith("Outer"), np.concatenate(curves)))
+    if not chains:
+        return [], 0.0
+    # all the loops of the face in one batch, with each point's neighbours along its loop
+    sizes = np.array([len(c) for _, c in chains])
+    first = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    size = np.repeat(sizes, sizes)
+    local = np.arange(len(first)) - first
+    near = np.stack([first + (local - 1) % size, first + (local + 1) % size])
+    uv_all, ratio_all, free_all = _pull_back(grid, np.concatenate([c for _, c in chains]), near)
+    cuts = np.cumsum(sizes)[:-1]
+    outer: list[NDArray[np.float64]] = []
+    inner: list[NDArray[np.float64]] = []
+    tol = 0.0
+    for (is_outer, _), uv, ratio, free in zip(
+        chains,
+        np.split(uv_all, cuts),
+        np.split(ratio_all, cuts),
+        np.split(free_all, cuts),
+        strict=True,
+    ):
+        _fix_ambiguous(grid, uv, free)
+        ratio = ratio[free < 0]
+        tol = max(tol, float(ratio.max()) if ratio.size else 0.0)
         keep = np.r_[True, np.any(np.abs(np.diff(uv, axis=0)) > 1e-12 * grid.span, axis=1)]
         uv = uv[keep]
         uv = np.vstack([uv, uv[:1]])
-        (outer if str(loop.LoopType).endswith("Outer") else inner).append(uv)
+        (outer if is_outer else inner).append(uv)
     return outer + inner, tol
 
 
@@ -276,8 +300,31 @@ def _edge_points(edge) -> NDArray[np.float64]:
     return np.array([_xyz(edge.PointAt(float(t))) for t in ts])
 
 
+def _grid_parameters(patch: BSplinePatch, d: int, lo: float, hi: float) -> NDArray[np.float64]:
+    """Starting parameters over [lo, hi] in direction ``d``: between consecutive Greville
+    abscissae, as many as the control polygon's length there asks for (``_GRID`` per size of
+    the surface): a uniform grid misses short spans where the surface moves fast, and then
+    the nearest grid point may lie on another sheet (the inner wall of a mug)."""
+    p = patch.degree[d]
+    U = patch.knots[d]
+    P = np.moveaxis(patch.points, d, 0)
+    n = P.shape[0]
+    g = np.array([U[i + 1 : i + p + 1].mean() for i in range(n)]) if p else U[:n]
+    chord = np.linalg.norm(np.diff(P, axis=0), axis=-1).max(axis=-1)
+    scale = float(np.ptp(P.reshape(-1, 3), axis=0).max()) or 1.0
+    pieces = np.clip(np.ceil(chord * _GRID / scale), 1, _GRID_PIECES).astype(np.intp)
+    t = np.concatenate(
+        [np.linspace(a, b, k + 1) for a, b, k in zip(g[:-1], g[1:], pieces, strict=True)]
+        + [[lo, hi]]
+    )
+    t = np.unique(np.clip(t, lo, hi))
+    if len(t) > _GRID_MAX:
+        t = t[np.round(np.linspace(0, len(t) - 1, _GRID_MAX)).astype(np.intp)]
+    return t
+
+
 class _Grid:
-    """A patch sampled on a grid over ``box``, for starting points of the inversion."""
+    """A patch sampled over ``box`` (per knot span), for starting points of the inversion."""
 
     def __init__(self, patch: BSplinePatch, box, closed: tuple[bool, bool]):
         self.patch = patch
@@ -286,8 +333,8 @@ class _Grid:
         self.hi = np.array([u1, v1])
         self.span = self.hi - self.lo
         self.closed = closed
-        gu = np.linspace(box[0][0], box[0][1], _GRID)
-        gv = np.linspace(box[1][0], box[1][1], _GRID)
+        gu = _grid_parameters(patch, 0, *box[0])
+        gv = _grid_parameters(patch, 1, *box[1])
         self.uv = np.stack(np.meshgrid(gu, gv, indexing="ij"), -1).reshape(-1, 2)
         self.xyz = patch(self.uv[:, 0], self.uv[:, 1])
         self.scale = float(np.ptp(self.xyz, axis=0).max()) or 1.0
@@ -301,35 +348,87 @@ class _Grid:
                 out[:, d] = self.lo[d] + np.mod(uv[:, d] - self.lo[d], self.span[d])
         return out
 
+    def nearest(self, xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The grid parameters nearest each point of ``xyz``."""
+        g2 = (self.xyz**2).sum(-1)
+        out = np.empty((len(xyz), 2))
+        for i in range(0, len(xyz), 256):
+            x = xyz[i : i + 256]
+            out[i : i + 256] = self.uv[np.argmin(g2[None, :] - 2.0 * x @ self.xyz.T, axis=1)]
+        return out
 
-def _pull_back(grid: _Grid, xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
-    """(u, v) of the surface points nearest ``xyz`` (m, 3), in order along a loop.
 
-    Returns the parameters and the loop tolerance: the largest 3D residual over the smallest
-    parameter speed there (singular points, where the speed vanishes, are left out).
+def _newton(
+    grid: _Grid, xyz: NDArray[np.float64], uv: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Damped Gauss-Newton from ``uv`` towards the surface points nearest ``xyz``, all points
+    at once (one surface evaluation per iteration, for the points still moving).
+
+    Returns the parameters and the squared 3D residuals there.
     """
-    d2 = ((xyz[:, None, :] - grid.xyz[None, :, :]) ** 2).sum(-1)
-    uv = grid.uv[np.argmin(d2, axis=1)].copy()
+    uv = uv.copy()
+    m = len(uv)
     d = grid.patch.derivatives(uv[:, 0], uv[:, 1], 1)
+    S, Su, Sv = d[0, 0], d[1, 0], d[0, 1]
+    f = ((S - xyz) ** 2).sum(-1)
+    alpha = np.ones(m)
+    step = np.zeros((m, 2))
+    fresh = np.ones(m, dtype=bool)  # a step to compute from the current derivatives
+    act = np.arange(m)
+    small = 1e-12 * grid.span
     for _ in range(_NEWTON_STEPS):
-        r = d[0, 0] - xyz
-        J = np.stack([d[1, 0], d[0, 1]], -1)  # (m, 3, 2)
-        A = np.einsum("mki,mkj->mij", J, J)
-        g = np.einsum("mki,mk->mi", J, r)
-        A += (1e-12 * np.trace(A, axis1=1, axis2=2) + 1e-300)[:, None, None] * np.eye(2)
-        step = -np.linalg.solve(A, g[..., None])[..., 0]
-        old = (r**2).sum(-1)
-        for _halving in range(8):  # backtrack where the step makes things worse
-            trial = grid.wrap(uv + step)
-            dt = grid.patch.derivatives(trial[:, 0], trial[:, 1], 1)
-            worse = ((dt[0, 0] - xyz) ** 2).sum(-1) > old
-            if not worse.any():
-                break
-            step[worse] *= 0.5
-        better = ~worse
-        uv[better] = trial[better]
-        d[:, :, better] = dt[:, :, better]
-        if np.all(np.abs(step) <= 1e-14 * grid.span):
+        new = act[fresh[act]]
+        if new.size:
+            J = np.stack([Su[new], Sv[new]], -1)  # (k, 3, 2)
+            A = np.einsum("mki,mkj->mij", J, J)
+            g = np.einsum("mki,mk->mi", J, S[new] - xyz[new])
+            A += (1e-12 * np.trace(A, axis1=1, axis2=2) + 1e-300)[:, None, None] * np.eye(2)
+            step[new] = -np.linalg.solve(A, g[..., None])[..., 0]
+        trial = grid.wrap(uv[act] + alpha[act, None] * step[act])
+        dt = grid.patch.derivatives(trial[:, 0], trial[:, 1], 1)
+        ft = ((dt[0, 0] - xyz[act]) ** 2).sum(-1)
+        ok = ft <= f[act]
+        a = act[ok]
+        moved = np.all(np.abs(trial - uv[act]) <= small, axis=1)
+        stalled = f[act] - ft <= 1e-6 * f[act]
+        done = (ok & (moved | stalled)) | (alpha[act] < 1e-8)
+        uv[a], f[a] = trial[ok], ft[ok]
+        S[a], Su[a], Sv[a] = dt[0, 0][ok], dt[1, 0][ok], dt[0, 1][ok]
+        alpha[a] = np.minimum(1.0, 2.0 * alpha[a])
+        alpha[act[~ok]] *= 0.25
+        fresh[act] = ok
+        act = act[~done]
+        if not act.size:
+            break
+    return uv, f
+
+
+def _pull_back(
+    grid: _Grid, xyz: NDArray[np.float64], near: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
+    """(u, v) of the surface points nearest ``xyz`` (m, 3), points along loops.
+
+    ``near`` (2, m) names each point's neighbours along its loop: points whose inversion from
+    the grid lands far from the surface are tried again from their neighbours' parameters.
+
+    Returns the parameters, each point's 3D residual over the smallest parameter speed there
+    (the loop tolerance), and at singular points (where the speed vanishes) the direction
+    along which the surface does not move (-1 elsewhere).
+    """
+    uv, f = _newton(grid, xyz, grid.nearest(xyz))
+    for _ in range(_RETRIES):
+        bad = np.flatnonzero(
+            f > np.maximum(_RETRY_RATIO * np.minimum(*f[near]), (_RETRY_FLOOR * grid.scale) ** 2)
+        )
+        if not bad.size:
+            break
+        improved = False
+        for side in near:
+            u2, f2 = _newton(grid, xyz[bad], uv[side[bad]])
+            better = f2 < 0.25 * f[bad]
+            uv[bad[better]], f[bad[better]] = u2[better], f2[better]
+            improved |= bool(better.any())
+        if not improved:
             break
     d = grid.patch.derivatives(uv[:, 0], uv[:, 1], 1)
     res = np.linalg.norm(d[0, 0] - xyz, axis=1)
@@ -337,9 +436,8 @@ def _pull_back(grid: _Grid, xyz: NDArray[np.float64]) -> tuple[NDArray[np.float6
     speed = np.linalg.svd(J, compute_uv=False)[:, -1]
     singular = speed <= 1e-8 * grid.scale
     slow_u = np.linalg.norm(d[1, 0], axis=1) < np.linalg.norm(d[0, 1], axis=1)
-    _fix_ambiguous(grid, uv, np.where(singular, np.where(slow_u, 0, 1), -1))
-    ratio = res[~singular] / speed[~singular]
-    return uv, float(ratio.max()) if ratio.size else 0.0
+    free = np.where(singular, np.where(slow_u, 0, 1), -1)
+    return uv, res / np.where(singular, 1.0, speed), free
 
 
 def _fix_ambiguous(grid: _Grid, uv: NDArray[np.float64], free: NDArray[np.intp]) -> None:
