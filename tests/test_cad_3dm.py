@@ -91,6 +91,11 @@ def test_sphere_exact_and_curvature(tmp_path):
         np.testing.assert_allclose(K, 1 / r**2, rtol=1e-9)
         assert cf.loops and cf.loops[0].shape[1] == 2
         assert cf.loop_tolerance < 1e-6
+        # the outer loop is the seam (up on one side, down on the other) and the poles: it
+        # bounds the box (but for the pole's last chord), not a loop folded onto one side
+        L, ((u0, u1), (v0, v1)) = cf.loops[0], cf.box
+        area = 0.5 * np.sum(L[:-1, 0] * L[1:, 1] - L[1:, 0] * L[:-1, 1])
+        assert area == pytest.approx((u1 - u0) * (v1 - v0), rel=1e-2)
     lo, hi = model.bounds
     np.testing.assert_allclose(lo, [1 - r, 2 - r, 3 - r], atol=1e-6 * r)
     np.testing.assert_allclose(hi, [1 + r, 2 + r, 3 + r], atol=1e-6 * r)
@@ -136,6 +141,12 @@ def test_cylinder_closed_and_brep(tmp_path):
         assert np.all((L[:, 0] >= u0 - 1e-9) & (L[:, 0] <= u1 + 1e-9))
         assert np.all((L[:, 1] >= v0 - 1e-9) & (L[:, 1] <= v1 + 1e-9))
         np.testing.assert_array_equal(L[0], L[-1])
+        # the side's outer loop bounds its whole box (the seam traversed on both sides of the
+        # periodic direction, not folded onto one); a cap's is the disk (a plane's (u, v) are
+        # lengths here)
+        area = abs(0.5 * np.sum(L[:-1, 0] * L[1:, 1] - L[1:, 0] * L[:-1, 1]))
+        expected = (u1 - u0) * (v1 - v0) if f.kind == "cylinder" else np.pi * 1.5**2
+        assert area == pytest.approx(expected, rel=1e-3), f.kind
 
 
 def test_units(tmp_path):

@@ -65,6 +65,9 @@ _UNITS = {
 #: Edge samples per span and degree, and their bounds, for the recovered trimming loops.
 _SAMPLES_PER_SPAN = 4
 _MIN_SAMPLES, _MAX_SAMPLES = 9, 200
+#: Chord midpoints within this fraction of an edge's size from the curve, at most so many
+#: points an edge.
+_CHORD_TOLERANCE, _MAX_EDGE_POINTS = 1e-4, 4000
 _GRID, _GRID_MAX, _GRID_PIECES = 48, 200, 8
 _NEWTON_STEPS = 40
 _RETRIES, _RETRY_RATIO, _RETRY_FLOOR = 400, 100.0, 1e-5
@@ -292,12 +295,25 @@ def _loops(brep, face, grid: _Grid) -> tuple[list[NDArray[np.float64]], float]:
 
 
 def _edge_points(edge) -> NDArray[np.float64]:
-    """Points along an edge curve, both ends included."""
+    """Points along an edge curve, both ends included, dense enough that every chord's
+    midpoint lies within ``_CHORD_TOLERANCE`` of the edge's size from the curve (intervals
+    halved where it does not, up to ``_MAX_EDGE_POINTS`` points)."""
     d = edge.Domain
     n = int(edge.SpanCount) * int(edge.Degree) * _SAMPLES_PER_SPAN
     n = min(max(n, _MIN_SAMPLES), _MAX_SAMPLES)
     ts = np.linspace(d.T0, d.T1, n)
-    return np.array([_xyz(edge.PointAt(float(t))) for t in ts])
+    pts = np.array([_xyz(edge.PointAt(float(t))) for t in ts])
+    size = float(np.linalg.norm(np.ptp(pts, axis=0))) or 1.0
+    while len(ts) < _MAX_EDGE_POINTS:
+        mid_t = 0.5 * (ts[:-1] + ts[1:])
+        mid = np.array([_xyz(edge.PointAt(float(t))) for t in mid_t])
+        split = np.linalg.norm(mid - 0.5 * (pts[:-1] + pts[1:]), axis=1) > _CHORD_TOLERANCE * size
+        if not split.any():
+            break
+        at = np.flatnonzero(split) + 1  # insert after the interval's start
+        ts = np.insert(ts, at, mid_t[split])
+        pts = np.insert(pts, at, mid[split], axis=0)
+    return pts
 
 
 def _grid_parameters(patch: BSplinePatch, d: int, lo: float, hi: float) -> NDArray[np.float64]:
@@ -449,14 +465,30 @@ def _fix_ambiguous(grid: _Grid, uv: NDArray[np.float64], free: NDArray[np.intp])
     for d in (0, 1):
         if not grid.closed[d]:
             continue
+        # continuous along the loop: each point on the side of the seam its predecessor is
+        # on (a seam edge then runs at one end going and at the other coming back), starting
+        # from a point off the seam; then the whole loop shifted into the domain
         seam = (np.abs(uv[:, d] - grid.lo[d]) <= 1e-9 * span[d]) | (
             np.abs(uv[:, d] - grid.hi[d]) <= 1e-9 * span[d]
         )
-        for i in _outward(seam):
-            near = uv[(i - 1) % m, d] if not seam[(i - 1) % m] else uv[(i + 1) % m, d]
-            lo_side = abs(near - grid.lo[d]) < abs(near - grid.hi[d])
-            uv[i, d] = grid.lo[d] if lo_side else grid.hi[d]
-            seam[i] = False
+        if seam.all():  # only seam edges (and poles): the outer loop runs counterclockwise,
+            # so up the seam at the high end and down it at the low one (for u; for v the
+            # other way round)
+            e = 1 - d
+            rising = np.gradient(uv[:, e]) > 0
+            high = rising if d == 0 else ~rising
+            uv[:, d] = np.where(high, grid.hi[d], grid.lo[d])
+            continue
+        order = np.roll(np.arange(m), -int(np.flatnonzero(~seam)[0]))
+        x = uv[order, d].copy()
+        for k in range(1, m):
+            x[k] += span[d] * np.round((x[k - 1] - x[k]) / span[d])
+        slack = 1e-9 * span[d]
+        if x.min() < grid.lo[d] - slack:
+            x += span[d] * np.ceil((grid.lo[d] - slack - x.min()) / span[d])
+        if x.max() > grid.hi[d] + slack:
+            x -= span[d] * np.ceil((x.max() - grid.hi[d] - slack) / span[d])
+        uv[order, d] = np.clip(x, grid.lo[d], grid.hi[d])
     pole = free >= 0
     for i in _outward(pole):
         j = (i - 1) % m if not pole[(i - 1) % m] else (i + 1) % m
