@@ -284,7 +284,7 @@ def _loops(brep, face, grid: _Grid) -> tuple[list[NDArray[np.float64]], float]:
         np.split(free_all, cuts),
         strict=True,
     ):
-        _fix_ambiguous(grid, uv, free)
+        _fix_ambiguous(grid, uv, free, is_outer)
         ratio = ratio[free < 0]
         tol = max(tol, float(ratio.max()) if ratio.size else 0.0)
         keep = np.r_[True, np.any(np.abs(np.diff(uv, axis=0)) > 1e-12 * grid.span, axis=1)]
@@ -456,39 +456,39 @@ def _pull_back(
     return uv, res / np.where(singular, 1.0, speed), free
 
 
-def _fix_ambiguous(grid: _Grid, uv: NDArray[np.float64], free: NDArray[np.intp]) -> None:
-    """Choose, in place, among parameters that name the same point: on the seam of a closed
-    direction the end nearer the neighbouring points; at a pole (``free`` >= 0: the direction
-    along which the surface does not move) the neighbour's parameter."""
+def _fix_ambiguous(
+    grid: _Grid, uv: NDArray[np.float64], free: NDArray[np.intp], outer: bool = True
+) -> None:
+    """Choose, in place, among parameters that name the same point.
+
+    On the seam of a closed direction: a run of points along the seam (a seam edge) lies at
+    the end that the loop's sense asks for (an outer loop runs counterclockwise in (u, v):
+    up a u-seam at the high end, down it at the low one; a hole the other way round); a
+    lone seam point at the end nearer its neighbours.  At a pole (``free`` >= 0: the
+    direction along which the surface does not move) the neighbour's parameter."""
     m = len(uv)
     span = grid.hi - grid.lo
     for d in (0, 1):
         if not grid.closed[d]:
             continue
-        # continuous along the loop: each point on the side of the seam its predecessor is
-        # on (a seam edge then runs at one end going and at the other coming back), starting
-        # from a point off the seam; then the whole loop shifted into the domain
+        e = 1 - d
         seam = (np.abs(uv[:, d] - grid.lo[d]) <= 1e-9 * span[d]) | (
             np.abs(uv[:, d] - grid.hi[d]) <= 1e-9 * span[d]
         )
-        if seam.all():  # only seam edges (and poles): the outer loop runs counterclockwise,
-            # so up the seam at the high end and down it at the low one (for u; for v the
-            # other way round)
-            e = 1 - d
-            rising = np.gradient(uv[:, e]) > 0
-            high = rising if d == 0 else ~rising
-            uv[:, d] = np.where(high, grid.hi[d], grid.lo[d])
-            continue
-        order = np.roll(np.arange(m), -int(np.flatnonzero(~seam)[0]))
-        x = uv[order, d].copy()
-        for k in range(1, m):
-            x[k] += span[d] * np.round((x[k - 1] - x[k]) / span[d])
-        slack = 1e-9 * span[d]
-        if x.min() < grid.lo[d] - slack:
-            x += span[d] * np.ceil((grid.lo[d] - slack - x.min()) / span[d])
-        if x.max() > grid.hi[d] + slack:
-            x -= span[d] * np.ceil((x.max() - grid.hi[d] - slack) / span[d])
-        uv[order, d] = np.clip(x, grid.lo[d], grid.hi[d])
+        step = np.roll(uv[:, e], -1) - uv[:, e]  # towards the next point
+        along = seam & np.roll(seam, -1) & (np.abs(step) > 1e-9 * span[e])
+        # a point of a seam run takes the sense of the step leaving it (or entering it)
+        run = along | (seam & np.roll(along, 1))
+        sense = np.where(along, step, np.roll(step, 1))
+        rising = sense > 0
+        high = rising if (d == 0) == outer else ~rising
+        uv[run, d] = np.where(high[run], grid.hi[d], grid.lo[d])
+        lone = seam & ~run
+        for i in _outward(lone):
+            near = uv[(i - 1) % m, d] if not lone[(i - 1) % m] else uv[(i + 1) % m, d]
+            lo_side = abs(near - grid.lo[d]) < abs(near - grid.hi[d])
+            uv[i, d] = grid.lo[d] if lo_side else grid.hi[d]
+            lone[i] = False
     pole = free >= 0
     for i in _outward(pole):
         j = (i - 1) % m if not pole[(i - 1) % m] else (i + 1) % m
