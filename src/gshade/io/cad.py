@@ -87,12 +87,17 @@ class CadFace:
 
 @dataclass
 class CadModel:
-    """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi)."""
+    """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi).
+
+    ``shape`` is the kernel's NURBS-converted shape, whose faces are ``faces`` in order
+    (STEP, IGES, BREP); None for ``.3dm``.
+    """
 
     path: Path
     faces: list[CadFace]
     unit: str
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
+    shape: object | None = None
 
 
 def read_cad(

@@ -110,7 +110,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             raise GshadeError(f"{path}: face {index}: {exc}") from None
         except Exception as exc:
             raise GshadeError(f"{path}: face {index}: the kernel failed ({_why(exc)})") from None
-    return CadModel(path=path, faces=out, unit=unit, bounds=bounds)
+    return CadModel(path=path, faces=out, unit=unit, bounds=bounds, shape=converted)
 
 
 def _why(exc: BaseException) -> str:

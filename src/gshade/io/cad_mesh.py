@@ -1,0 +1,206 @@
+"""The trimmed faces of a CAD model as one watertight triangle mesh, from Open CASCADE's mesher.
+
+The kernel meshes the model's NURBS-converted shape (``CadModel.shape``) with
+``BRepMesh_IncrementalMesh``: its nodes carry the converted faces' parameters (u, v), which
+are those of each :class:`~gshade.io.cad.CadFace`'s exact patch, and the nodes on an edge
+shared by two faces are the same (bit-identical) in both.  Each face gets its own vertices:
+
+- interior nodes are placed at the exact surface point S(u, v) of the face's patch (the
+  kernel's own node differs from it by round-off);
+- boundary nodes (on a face's edges, seams and poles) keep the kernel's node, so that the
+  faces meeting at an edge meet at the same points: the patches of two faces evaluated at
+  their own (u, v) of a shared node differ by up to the file's edge tolerance, which would
+  open cracks.
+
+Triangles are oriented along the faces' outward normals (p_u x p_v, flipped for reversed
+faces); those with two corners at the same point (at a pole) are dropped.  Only plain
+arrays come out; :mod:`gshade.rendering` wraps them for display.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+from .cad import CadModel
+
+__all__ = ["FaceMesh", "mesh_faces"]
+
+
+@dataclass(frozen=True)
+class FaceMesh:
+    """Triangles of a model's faces, each face with its own vertices.
+
+    Attributes
+    ----------
+    positions : ndarray (n, 3)
+        Vertex positions: S(u, v) of the face's exact patch inside a face, the kernel's node
+        on the face's boundary (shared with the neighbouring face, bit-identical).
+    uv : ndarray (n, 2)
+        The vertices' parameters (u, v) on their face's patch.
+    face : ndarray (n,) of int32
+        The vertices' face indices (``CadFace.index``).
+    triangles : ndarray (m, 3) of int32
+        Vertex indices, ordered so that (p1 - p0) x (p2 - p0) points out of the face.
+    boundary : ndarray (n,) of bool
+        True for vertices on their face's boundary (placed at the kernel's node).
+    node_gap : float
+        The largest distance between S(u, v) and the kernel's node over interior vertices.
+    """
+
+    positions: NDArray[np.float64]
+    uv: NDArray[np.float64]
+    face: NDArray[np.int32]
+    triangles: NDArray[np.int32]
+    boundary: NDArray[np.bool_]
+    node_gap: float
+
+
+def mesh_faces(
+    model: CadModel,
+    deflection: float,
+    angle: float = 0.5,
+    faces: Sequence[int] | None = None,
+) -> FaceMesh:
+    """Mesh a model's trimmed faces with the kernel's mesher.
+
+    Parameters
+    ----------
+    model : CadModel
+        Read from a STEP, IGES or BREP file (it holds the kernel's shape).
+    deflection : float
+        The largest distance between a triangle and the surface (model units).
+    angle : float
+        The largest angle (radians) between neighbouring triangles' normals.
+    faces : sequence of int, optional
+        Mesh only these faces (default: all); faces among them share their edges' nodes.
+
+    Raises
+    ------
+    GshadeError
+        One line naming the file (and the face): no kernel shape (a ``.3dm`` model), bad
+        parameters, a mesher failure, or a face the mesher left without triangles.
+    """
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+    from OCP.TopoDS import TopoDS_Compound
+
+    from .cad_occt import _faces, _why
+
+    path = model.path
+    if model.shape is None:
+        raise GshadeError(f"{path}: meshing needs the kernel's shape (STEP, IGES or BREP files)")
+    if not (np.isfinite(deflection) and deflection > 0):
+        raise GshadeError(f"deflection: expected a positive number, got {deflection!r}")
+    if not (np.isfinite(angle) and angle > 0):
+        raise GshadeError(f"angle: expected a positive number of radians, got {angle!r}")
+    shape: Any = model.shape
+    kernel_faces = _faces(shape)
+    if len(kernel_faces) != len(model.faces):
+        raise GshadeError(
+            f"{path}: the kernel's shape has {len(kernel_faces)} faces for {len(model.faces)}"
+        )
+    chosen = list(range(len(kernel_faces))) if faces is None else [int(i) for i in faces]
+    for i in chosen:
+        if not 0 <= i < len(kernel_faces):
+            raise GshadeError(f"{path}: no face {i} (the model has {len(kernel_faces)})")
+    target = shape
+    if faces is not None:
+        target = TopoDS_Compound()
+        builder = BRep_Builder()
+        builder.MakeCompound(target)
+        for i in dict.fromkeys(chosen):
+            builder.Add(target, kernel_faces[i])
+    try:
+        BRepTools.Clean_s(target)  # the deflection asked for, not an earlier mesh's
+        mesher = BRepMesh_IncrementalMesh(target, float(deflection), False, float(angle), True)
+        if not mesher.IsDone():
+            raise RuntimeError("not done")
+    except Exception as exc:
+        raise GshadeError(f"{path}: the kernel could not mesh the faces ({_why(exc)})") from None
+    parts = []
+    count = 0
+    for i in chosen:
+        try:
+            part = _face_mesh(kernel_faces[i], model.faces[i].patch, i)
+        except GshadeError as exc:
+            raise GshadeError(f"{path}: face {i}: {exc}") from None
+        except Exception as exc:
+            raise GshadeError(f"{path}: face {i}: the kernel failed ({_why(exc)})") from None
+        parts.append((part, count))
+        count += len(part[0])
+    if not parts:
+        return FaceMesh(
+            np.empty((0, 3)),
+            np.empty((0, 2)),
+            np.empty(0, np.int32),
+            np.empty((0, 3), np.int32),
+            np.empty(0, bool),
+            0.0,
+        )
+    return FaceMesh(
+        positions=np.concatenate([p[0] for p, _ in parts]),
+        uv=np.concatenate([p[1] for p, _ in parts]),
+        face=np.concatenate(
+            [np.full(len(p[0]), i, np.int32) for (p, _), i in zip(parts, chosen, strict=True)]
+        ),
+        triangles=np.concatenate([p[2] + offset for p, offset in parts]).astype(np.int32),
+        boundary=np.concatenate([p[3] for p, _ in parts]),
+        node_gap=max(p[4] for p, _ in parts),
+    )
+
+
+def _face_mesh(face: Any, patch: Any, index: int) -> tuple:
+    """One face's (positions, uv, triangles, boundary, node_gap) from its triangulation."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_REVERSED
+    from OCP.TopLoc import TopLoc_Location
+
+    location = TopLoc_Location()
+    triangulation = BRep_Tool.Triangulation_s(face, location)
+    if triangulation is None or triangulation.NbTriangles() == 0:
+        raise GshadeError("the kernel's mesher gave no triangles")
+    if not triangulation.HasUVNodes():
+        raise GshadeError("the kernel's mesh has no (u, v) at its nodes")
+    transform = location.Transformation()
+    n, m = triangulation.NbNodes(), triangulation.NbTriangles()
+    nodes = np.empty((n, 3))
+    uv = np.empty((n, 2))
+    for k in range(n):
+        p = triangulation.Node(k + 1).Transformed(transform)
+        nodes[k] = p.X(), p.Y(), p.Z()
+        q = triangulation.UVNode(k + 1)
+        uv[k] = q.X(), q.Y()
+    triangles = np.array([triangulation.Triangle(k + 1).Get() for k in range(m)], np.int64) - 1
+    if triangles.min() < 0 or triangles.max() >= n:
+        raise GshadeError("the kernel's mesh refers to missing nodes")
+    if face.Orientation() == TopAbs_REVERSED:
+        triangles = triangles[:, ::-1]
+    boundary = _boundary(triangles, n)
+    (u0, u1), (v0, v1) = patch.domain
+    exact = patch(np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1))
+    gaps = np.linalg.norm(exact - nodes, axis=1)[~boundary]
+    positions = np.where(boundary[:, None], nodes, exact)
+    gap = float(gaps.max()) if gaps.size else 0.0
+    corners = positions[triangles]
+    same = (corners[:, [0, 1, 2]] == corners[:, [1, 2, 0]]).all(axis=2).any(axis=1)
+    triangles = triangles[~same]  # collapsed at a pole: two corners are the same node
+    return positions, uv, np.ascontiguousarray(triangles, np.int32), boundary, gap
+
+
+def _boundary(triangles: NDArray[np.int64], n: int) -> NDArray[np.bool_]:
+    """The nodes on edges used by one triangle only (the face's edges, seams and poles)."""
+    edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    keys = edges[:, 0] * n + edges[:, 1]
+    unique, counts = np.unique(keys, return_counts=True)
+    single = unique[counts == 1]
+    out = np.zeros(n, bool)
+    out[single // n] = True
+    out[single % n] = True
+    return out
