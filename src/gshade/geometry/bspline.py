@@ -6,10 +6,13 @@ the curve or surface (Kiciak, A.3; Piegl & Tiller, ch. 5).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import GshadeError
+from ..errors import GshadeError, show
 from .bezier import BezierCurve, BezierPatch
 from .knots import domain, insert_knot, refine_to_bezier, validate_knots
 from .patch import BasisCurve, BSplineBasis, TensorProductPatch, validate_points, validate_weights
@@ -22,6 +25,55 @@ def _split(h: NDArray, rational: bool) -> tuple[NDArray, NDArray | None]:
     if not rational:
         return h, None
     return h[..., :-1] / h[..., -1:], h[..., -1]
+
+
+def _restrict(
+    knots: NDArray, degree: int, net: NDArray, a: float, b: float
+) -> tuple[NDArray, NDArray]:
+    """Knots and control points (axis 0 of ``net``) of the same spline over [a, b] only.
+
+    ``a`` and ``b`` (U_p <= a < b <= U_{n+1}) are inserted until each has multiplicity >= p
+    (Boehm, on all of ``net`` at once).  If U_r is then the last knot equal to a and U_s the
+    first equal to b, the spans in [a, b] use the points P_{r-p}..P_{s-1} and the knots
+    U_{r-p+1}..U_{s+p-1} only, which equal a up to U_r and b from U_s: the knots beyond are
+    replaced by a and b (clamped ends), which changes no basis function on [a, b].
+    """
+    U, P, p = knots, net, degree
+    for t in (a, b):
+        mult = int(np.count_nonzero(U == t))
+        if mult < p:
+            U, P = insert_knot(U, p, P, t, p - mult)
+    r = int(np.searchsorted(U, a, side="right")) - 1
+    s = int(np.searchsorted(U, b, side="left"))
+    ends = np.ones(p + 1)
+    return np.concatenate([a * ends, U[r + 1 : s], b * ends]), P[r - p : s].copy()
+
+
+def _box(box: Any, dom: tuple) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``box`` as ((u0, u1), (v0, v1)) of floats, checked to be non-empty and inside ``dom``."""
+    ends: list[float] = []
+    try:
+        (a0, a1), (b0, b1) = box
+        for x in (a0, a1, b0, b1):
+            if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+                break
+            ends.append(float(x))
+    except (TypeError, ValueError):
+        pass
+    if len(ends) != 4 or not np.all(np.isfinite(ends)):
+        raise GshadeError(f"box: expected ((u0, u1), (v0, v1)) of finite numbers, got {show(box)}")
+    u0, u1, v0, v1 = ends
+    for name, (a, b), (lo, hi) in (("u", (u0, u1), dom[0]), ("v", (v0, v1), dom[1])):
+        if not a < b:
+            raise GshadeError(
+                f"box: expected {name}0 < {name}1, got the empty {name} range [{a!r}, {b!r}]"
+            )
+        if not (lo <= a and b <= hi):
+            raise GshadeError(
+                f"box: expected a {name} range inside the domain's [{lo!r}, {hi!r}], "
+                f"got [{a!r}, {b!r}]"
+            )
+    return (u0, u1), (v0, v1)
 
 
 class BSplineCurve(BasisCurve):
@@ -107,6 +159,43 @@ class BSplinePatch(TensorProductPatch):
             h = np.swapaxes(h, 0, 1)
         P, w = _split(h, self.rational)
         return BSplinePatch(P, self.degree, (U, V), w)
+
+    def restricted(self, box: Sequence[Sequence[float]]) -> BSplinePatch:
+        """The same surface over the sub-box ``box`` of the domain, as a patch of its own.
+
+        Parameters
+        ----------
+        box : ((u0, u1), (v0, v1))
+            Inside the domain, with u0 < u1 and v0 < v1 (e.g. a CAD face's parameter box).
+
+        Returns
+        -------
+        BSplinePatch
+            A new patch of the same degrees whose domain is exactly ``box`` and which equals
+            this one there, derivatives included (knots outside ``box`` play no part).
+
+        Raises
+        ------
+        GshadeError
+            If ``box`` is not two pairs of finite numbers, is empty or leaves the domain.
+
+        Notes
+        -----
+        In each direction the box ends are inserted (Boehm 1980; Piegl & Tiller, *The NURBS
+        Book*, §5.2) until each has multiplicity >= p, which splits the spline there
+        (§5.3); the control points and knots between them are kept, and the knots
+        beyond them set to the box end (a clamped knot vector over the box).  Insertion acts on
+        the homogeneous points (w P, w) of a rational patch, then the weights are divided out;
+        it works on all rows of the net at once.  This is exact up to round-off, for clamped
+        and unclamped (e.g. once periodic) knot vectors alike (Kiciak, A.3).
+        """
+        (u0, u1), (v0, v1) = _box(box, self.domain)
+        p, q = self.degree
+        U, V = self.knots
+        U, h = _restrict(U, p, self._net, u0, u1)
+        V, h = _restrict(V, q, np.swapaxes(h, 0, 1), v0, v1)
+        P, w = _split(np.swapaxes(h, 0, 1), self.rational)
+        return BSplinePatch(P, self.degree, (U, V), w)  # its domain: U_p = u0, ... exactly
 
     def bezier_patches(self) -> list[list[BezierPatch]]:
         """Bézier extraction: ``out[a][b]`` is the piece over the a-th u-span and b-th v-span,
