@@ -132,6 +132,8 @@ def continuity(args: argparse.Namespace) -> int:
     from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
+    if any(s.cad is not None for s in scene.surfaces):
+        raise GshadeError(f"{args.scene}: continuity along B-rep edges is not supported yet")
     patches = list(scene.patches)
     pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
     tol = Tolerances.for_size(

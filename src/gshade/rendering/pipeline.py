@@ -39,9 +39,9 @@ from .camera import View
 from .channels import exact_channels, refuse_non_finite
 from .mitsuba_scene import mitsuba_scene, render_data, render_shape
 from .rendered_image import RenderedImage
-from .sizing import frame, mesh_resolution, tile_size, validate_memory
+from .sizing import chord_tolerance, frame, mesh_resolution, tile_size, validate_memory
 from .style import display_style, legend, shape_functions
-from .tessellate import TriangleMesh, tessellate
+from .tessellate import TriangleMesh, join_meshes, tessellate, tessellate_faces
 from .textures import shape_textures
 
 __all__ = ["render"]
@@ -77,6 +77,8 @@ def render(scene, **overrides) -> RenderedImage:
     framing = frame(scene, settings, where)
     resolution = mesh_resolution(scene, settings, framing)
     junctions = None
+    if settings.junctions and any(s.cad is not None for s in scene.surfaces):
+        raise GshadeError(f"{where}: continuity along B-rep edges is not supported yet")
     if settings.junctions:  # measured first: overlapping surfaces fail before rendering
         junctions = _measure_junctions(scene, where)
         lap("junctions")
@@ -166,6 +168,9 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
     """The tessellation and the atlas layout, within the memory limit."""
     patches = scene.patches
     tile = tile_size(scene, framing)
+    if any(s.cad is not None for s in scene.surfaces):
+        mixed = _mixed_mesh(scene, settings, framing, resolution, where, tile)
+        return mixed, Atlas.for_patches(len(patches), tile)
     validate_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
     mesh: TriangleMesh = tessellate(patches, resolution)
     if len(mesh.faces) == 0:
@@ -174,6 +179,39 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
             "triangle (the patches collapse at that resolution); expected a larger value"
         )
     return mesh, Atlas.for_patches(len(patches), tile)
+
+
+def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int) -> TriangleMesh:
+    """The mesh of a scene with ``cad`` surfaces: their trimmed faces from the kernel's mesher
+    within the chord tolerance, the other surfaces' patches on the common grid."""
+    patches = scene.patches
+    grid: list[int] = []
+    cad = []  # (surface, its patches' global indices)
+    start = 0
+    for surface in scene.surfaces:
+        indices = list(range(start, start + len(surface.patches)))
+        if surface.cad is None:
+            grid.extend(indices)
+        else:
+            cad.append((surface, np.array(indices, dtype=np.int32)))
+        start += len(surface.patches)
+    validate_memory(where, settings, len(grid) * resolution**2, len(patches) * tile**2)
+    meshes = []
+    if grid:
+        meshes.append(
+            (tessellate([patches[i] for i in grid], resolution), np.array(grid, dtype=np.int32))
+        )
+    deflection = chord_tolerance(scene, settings, framing)
+    for surface, index in cad:
+        try:
+            meshes.append((tessellate_faces(surface.cad, surface.patches, deflection), index))
+        except GshadeError as exc:
+            raise GshadeError(f"{surface.source}: {exc}") from None
+    mesh = join_meshes(meshes, resolution)
+    validate_memory(where, settings, len(mesh.positions), len(patches) * tile**2)
+    if len(mesh.faces) == 0:
+        raise GshadeError(f"{where}: the tessellation left no triangle")
+    return mesh
 
 
 def _metadata(

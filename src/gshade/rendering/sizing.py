@@ -29,6 +29,7 @@ __all__ = [
     "MIN_TILE",
     "NEAREST_FRACTION",
     "Framing",
+    "chord_tolerance",
     "frame",
     "mesh_resolution",
     "tile_size",
@@ -84,18 +85,24 @@ def _nearest_distance(view: View, lo: NDArray, hi: NDArray) -> float:
     return float(max(depth.min(), NEAREST_FRACTION * np.linalg.norm(hi - lo)))
 
 
+def chord_tolerance(scene, settings, framing: Framing) -> float:
+    """The chord-error tolerance in scene units: ``chord_tolerance`` times the diagonal, at
+    most half a pixel at the nearest point, and no finer than single precision resolves (a
+    tiny view must not ask for more)."""
+    view, lo, hi, diag = framing.view, framing.lo, framing.hi, framing.diag
+    tol = settings.chord_tolerance * diag
+    if scene.camera.type == "perspective" or view.width is not None:
+        tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
+    return max(tol, MIN_CHORD_TOLERANCE * diag)
+
+
 def mesh_resolution(scene, settings, framing: Framing) -> int:
     """Vertices per patch side: ``tessellation`` if set, else the coarsest grid within the
     chord tolerance (no finer than single precision resolves, and within the budget)."""
     if settings.tessellation:
         return int(settings.tessellation)
-    view, lo, hi, diag = framing.view, framing.lo, framing.hi, framing.diag
     patches = scene.patches
-    tol = settings.chord_tolerance * diag
-    if scene.camera.type == "perspective" or view.width is not None:
-        tol = min(tol, 0.5 * view.pixel_size(_nearest_distance(view, lo, hi)))
-    # no finer than single precision resolves (a tiny view must not ask for more)
-    resolution = max_chord_resolution(patches, max(tol, MIN_CHORD_TOLERANCE * diag))
+    resolution = max_chord_resolution(patches, chord_tolerance(scene, settings, framing))
     # keep the mesh within what the image can show (a few million vertices at most)
     budget = _budget(settings.width * settings.height, MAX_VERTICES)
     return min(resolution, max(2, int(np.sqrt(budget / len(patches)))))

@@ -143,3 +143,58 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
         faces=F,
         resolution=n,
     )
+
+
+def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
+    """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.model.CadFaces`) as a
+    triangle mesh from the kernel's mesher (:func:`gshade.io.cad_mesh.mesh_faces`), within
+    ``deflection`` (model units) of the faces.
+
+    ``patches`` are the surface's patches (one a face, over its box, u and v swapped for the
+    faces in ``cad.swapped``): the vertices' params are the kernel's (u, v) normalised to the
+    face's box ((v, u) on a swapped face), their normals the exact unit normals of the patch
+    there, and their patch index the face's place in ``cad.faces``.
+    """
+    from ..io.cad_mesh import mesh_faces
+
+    m = mesh_faces(cad.model, deflection, faces=cad.faces)
+    place = {face: k for k, face in enumerate(cad.faces)}
+    index = np.array([place[int(f)] for f in m.face], dtype=np.int32)
+    params = np.empty_like(m.uv)
+    normals = np.empty_like(m.positions)
+    for k, patch in enumerate(patches):
+        mine = index == k
+        if not mine.any():
+            continue
+        uv = m.uv[mine][:, ::-1] if cad.swapped[k] else m.uv[mine]
+        (u0, u1), (v0, v1) = patch.domain
+        st = np.clip((uv - (u0, v0)) / (u1 - u0, v1 - v0), 0.0, 1.0)
+        params[mine] = st
+        u, v = unit_to_domain(patch.domain, st[:, 0], st[:, 1])
+        normals[mine] = patch_normals(patch, u, v).n
+    P = np.ascontiguousarray(m.positions, dtype=np.float64)
+    F = m.triangles
+    scale = float(np.ptp(P, axis=0).max()) if len(P) else 1.0
+    if len(F):
+        area = np.linalg.norm(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]), axis=1)
+        F = F[area > 1e-14 * scale * scale]
+    return TriangleMesh(P, normals, params, index, np.ascontiguousarray(F, np.int32), 0)
+
+
+def join_meshes(
+    meshes: list[tuple[TriangleMesh, NDArray[np.int32]]], resolution: int
+) -> TriangleMesh:
+    """One mesh of several, each with the global patch index of each of its patches."""
+    offset = 0
+    parts = []
+    for mesh, global_index in meshes:
+        parts.append((mesh, global_index[mesh.patch], mesh.faces + offset))
+        offset += len(mesh.positions)
+    return TriangleMesh(
+        positions=np.concatenate([m.positions for m, _, _ in parts]),
+        normals=np.concatenate([m.normals for m, _, _ in parts]),
+        params=np.concatenate([m.params for m, _, _ in parts]),
+        patch=np.concatenate([p for _, p, _ in parts]).astype(np.int32),
+        faces=np.concatenate([f for _, _, f in parts]).astype(np.int32),
+        resolution=resolution,
+    )

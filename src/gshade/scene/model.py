@@ -22,6 +22,7 @@ __all__ = [
     "DISPLAYS",
     "LIGHTINGS",
     "VARIANTS",
+    "CadFaces",
     "Camera",
     "RenderSettings",
     "Scene",
@@ -36,15 +37,30 @@ CAMERA_TYPES = ("perspective", "orthographic")
 
 
 @dataclass(frozen=True)
+class CadFaces:
+    """What the render meshes a ``cad`` surface from: the model read
+    (:class:`gshade.io.cad.CadModel`, with the kernel's shape), the face numbers rendered
+    (one patch each, in order) and, per face, whether its patch has u and v swapped (a
+    reversed face, so that p_u x p_v points outward)."""
+
+    model: Any = field(repr=False)
+    faces: tuple[int, ...]
+    swapped: tuple[bool, ...]
+
+
+@dataclass(frozen=True)
 class Surface:
     """One ``[[surface]]``: its type, its patches and where it was defined.
 
     ``source`` is the location used in messages, e.g. ``scene.toml: [[surface]] 1 (newell)``.
+    ``cad`` is set for the ``cad`` type only (None otherwise): its patches are the faces'
+    untrimmed boxes, and the render meshes the trimmed faces from it instead of the grid.
     """
 
     kind: str
     patches: tuple[Patch, ...] = field(repr=False)
     source: str
+    cad: CadFaces | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)

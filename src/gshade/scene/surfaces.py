@@ -36,7 +36,7 @@ from ..geometry.nuspline import NuSplinePatch
 from ..geometry.subdivision import subdivision_patches
 from ..limits import MAX_DEGREE, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
 from .data_files import DataFiles
-from .model import Surface
+from .model import CadFaces, Surface
 from .tables import (
     REQUIRED,
     Key,
@@ -63,7 +63,8 @@ class SurfaceType:
     name: str
     description: str
     keys: dict[str, Key]
-    build: Callable[[Table, DataFiles], list[Patch]]
+    #: the patches, or (for ``cad``) the patches and what the render meshes them from
+    build: Callable[[Table, DataFiles], list[Patch] | tuple[list[Patch], CadFaces]]
 
 
 #: The surface types by name, in the order they are registered (and listed).
@@ -73,7 +74,7 @@ SURFACES: dict[str, SurfaceType] = {}
 def surface_type(name: str, description: str, *keys: Key) -> Callable:
     """Register the decorated function as the builder of the surface type ``name``."""
 
-    def register(build: Callable[[Table, DataFiles], list[Patch]]) -> Callable:
+    def register(build: Callable[..., Any]) -> Callable:
         SURFACES[name] = SurfaceType(name, description, declare_keys(*keys), build)
         return build
 
@@ -413,6 +414,92 @@ def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
         )
 
 
+#: The CAD files a ``cad`` surface renders (``.3dm`` models are read, not yet rendered).
+CAD_RENDERED = (".step", ".stp", ".iges", ".igs", ".brep")
+
+
+def _swapped(patch: BSplinePatch) -> BSplinePatch:
+    """The same surface with u and v swapped: its p_u x p_v is the original's -(p_u x p_v)."""
+    weights = None if patch.weights is None else np.swapaxes(patch.weights, 0, 1)
+    points = np.swapaxes(patch.points, 0, 1)
+    return BSplinePatch(points, patch.degree[::-1], patch.knots[::-1], weights)
+
+
+def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A face's parameter box clipped into its patch's domain."""
+    (u0, u1), (v0, v1) = box
+    (a0, a1), (b0, b1) = dom
+    return (max(u0, a0), min(u1, a1)), (max(v0, b0), min(v1, b1))
+
+
+@surface_type(
+    "cad",
+    "the trimmed faces of a CAD model (STEP, IGES, BREP), exact, meshed by the kernel",
+    Key(
+        "file",
+        "path (.step .stp .iges .igs .brep)",
+        REQUIRED,
+        "the model, relative to the scene file",
+    ),
+    Key("faces", "list of face numbers (0-based)", None, "the faces rendered", "all"),
+    Key("sew", "true or false", None, "sew the faces into shells first", "when unsewn"),
+    Key("tolerance", "number > 0", None, "the sewing tolerance (model units)", "from the size"),
+)
+def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
+    from ..io.cad import read_cad
+
+    name = t.string("file", expected="a path to a STEP, IGES or BREP file")
+    suffix = Path(name).suffix.lower()
+    if suffix == ".3dm":
+        raise t.error(
+            "file",
+            "rendering .3dm faces is not supported yet; gshade.io.cad.read_cad reads them "
+            f"(got {show(name)})",
+        )
+    if suffix not in CAD_RENDERED:
+        raise t.error(
+            "file",
+            f"expected a CAD file ({' '.join(CAD_RENDERED)}), got {show(name)}",
+        )
+    faces = t.raw("faces")
+    if faces is not None and not (
+        isinstance(faces, list) and faces and all(is_int(i) and i >= 0 for i in faces)
+    ):
+        raise t.error(
+            "faces", f"expected a list of face numbers (integers >= 0), got {show(faces)}"
+        )
+    sew = None if "sew" not in t.data else t.boolean("sew")
+    tolerance = None if "tolerance" not in t.data else t.number("tolerance", lo=0)
+    data_file = files.find(t, name)
+    with t.reported():
+        model = read_cad(data_file, sew=sew, tolerance=tolerance)
+    count = len(model.faces)
+    chosen = list(range(count)) if faces is None else [int(i) for i in faces]
+    for i in chosen:
+        if i >= count:
+            raise t.error(
+                "faces",
+                f"expected face numbers from 0 to {count - 1} ({data_file.name} has {count} "
+                f"faces), got {i}",
+            )
+    if len(chosen) > MAX_PATCHES:
+        raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
+    patches: list[Patch] = []
+    swapped = []
+    for i in chosen:
+        face = model.faces[i]
+        with t.reported("faces"):
+            try:
+                patch = face.patch.restricted(_clipped(face.box, face.patch.domain))
+            except GshadeError as exc:
+                raise GshadeError(f"face {i}: {exc}") from None
+        if face.reversed:
+            patch = _swapped(patch)
+        patches.append(patch)
+        swapped.append(bool(face.reversed))
+    return patches, CadFaces(model, tuple(chosen), tuple(swapped))
+
+
 #: The surface types, in the order messages list them.
 SURFACE_TYPES = tuple(SURFACES)
 #: The key every surface has.
@@ -438,5 +525,6 @@ def build_surface(
     t = Table(file, f"{head} ({kind}): ", raw, spec.keys)
     t.reject_unknown(("type", *spec.keys))
     files = DataFiles(base, roots)
-    patches = spec.build(t, files)
-    return Surface(kind, tuple(patches), f"{file}: {head} ({kind})"), files.used
+    built = spec.build(t, files)
+    patches, cad = built if isinstance(built, tuple) else (built, None)
+    return Surface(kind, tuple(patches), f"{file}: {head} ({kind})", cad), files.used
