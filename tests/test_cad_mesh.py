@@ -11,32 +11,20 @@ pytest.importorskip("OCP")
 
 from OCP.BRep import BRep_Tool
 from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
-from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
 from OCP.BRepGProp import BRepGProp
 from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
 from OCP.BRepTools import BRepTools
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 from OCP.GProp import GProp_GProps
-from OCP.TopAbs import TopAbs_EDGE
-from OCP.TopExp import TopExp_Explorer
-from OCP.TopoDS import TopoDS
 
 from gshade.errors import GshadeError
 from gshade.io.cad import CadModel, read_cad
 from gshade.io.cad_mesh import FaceMesh, mesh_faces
 from gshade.io.cad_occt import _faces
 
+from .cad_parts import filleted_box
+
 DEFLECTION = 0.01
-
-
-def _filleted_box(r: float = 2.0):
-    box = BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Shape()
-    fillet = BRepFilletAPI_MakeFillet(box)
-    explorer = TopExp_Explorer(box, TopAbs_EDGE)
-    while explorer.More():
-        fillet.Add(r, TopoDS.Edge(explorer.Current()))
-        explorer.Next()
-    return fillet.Shape()
 
 
 def _volume(shape) -> float:
@@ -47,7 +35,7 @@ def _volume(shape) -> float:
 
 @pytest.fixture(scope="module")
 def box(tmp_path_factory) -> tuple[CadModel, float]:
-    shape = _filleted_box()
+    shape = filleted_box()
     path = tmp_path_factory.mktemp("mesh") / "box.brep"
     BRepTools.Write_s(shape, str(path))
     return read_cad(path), _volume(shape)

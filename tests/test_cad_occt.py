@@ -13,15 +13,13 @@ from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_MakeFace,
     BRepBuilderAPI_NurbsConvert,
 )
-from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
-from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
 from OCP.BRepTools import BRepTools
 from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
 from OCP.Geom import Geom_BSplineSurface
 from OCP.gp import gp_Pnt, gp_Vec
 from OCP.IGESControl import IGESControl_Writer
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+from OCP.TopAbs import TopAbs_FACE
 from OCP.TopExp import TopExp_Explorer
 from OCP.TopoDS import TopoDS
 
@@ -30,6 +28,8 @@ from gshade.geometry import gaussian_and_mean_curvature
 from gshade.io import cad_occt
 from gshade.io.cad import read_cad
 from gshade.runtime.native import captured_output
+
+from .cad_parts import filleted_box
 
 R = 2.0
 SIZE = (10.0, 20.0, 30.0)
@@ -46,13 +46,7 @@ def _faces(shape):
 
 def make_rounded():
     """A 10 x 20 x 30 box with all 12 edges filleted at R."""
-    box = BRepPrimAPI_MakeBox(*SIZE).Shape()
-    mf = BRepFilletAPI_MakeFillet(box)
-    explorer = TopExp_Explorer(box, TopAbs_EDGE)
-    while explorer.More():
-        mf.Add(R, TopoDS.Edge(explorer.Current()))
-        explorer.Next()
-    return mf.Shape()
+    return filleted_box(SIZE, R)
 
 
 @pytest.fixture(scope="module")

@@ -11,20 +11,18 @@ import pytest
 pytest.importorskip("OCP")
 
 from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
-from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
 from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
 from OCP.BRepTools import BRepTools
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-from OCP.TopAbs import TopAbs_EDGE
-from OCP.TopExp import TopExp_Explorer
-from OCP.TopoDS import TopoDS
 from scipy import ndimage
 
 from gshade.app.cli import main
 from gshade.errors import GshadeError
 from gshade.rendering import render
 from gshade.scene import load_scene
+
+from .cad_parts import filleted_box
 
 R = 2.0  # the fillet radius
 
@@ -38,16 +36,6 @@ height = 120
 spp = 4
 lighting = "flat"
 """
-
-
-def _filleted_box():
-    box = BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Shape()
-    fillet = BRepFilletAPI_MakeFillet(box)
-    explorer = TopExp_Explorer(box, TopAbs_EDGE)
-    while explorer.More():
-        fillet.Add(R, TopoDS.Edge(explorer.Current()))
-        explorer.Next()
-    return fillet.Shape()
 
 
 def _plate_with_hole():
@@ -65,7 +53,7 @@ def _scene(folder: Path, surface: str, camera: str, name: str = "scene.toml") ->
 @pytest.fixture(scope="module")
 def box_file(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("cad_render") / "box.brep"
-    BRepTools.Write_s(_filleted_box(), str(path))
+    BRepTools.Write_s(filleted_box(r=R), str(path))
     return path
 
 
