@@ -3,6 +3,8 @@ exact curvatures on fillets and corners, holes left open, one-line errors."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +21,7 @@ from scipy import ndimage
 
 from gshade.app.cli import main
 from gshade.errors import GshadeError
+from gshade.io import read_exr
 from gshade.rendering import render
 from gshade.scene import load_scene
 
@@ -194,3 +197,59 @@ def test_junctions_and_continuity_are_refused(box_file, capsys):
         render(path, junctions=True)
     assert main(["continuity", str(path)]) != 0
     assert "continuity along B-rep edges is not supported yet" in capsys.readouterr().err
+
+
+def test_a_cad_file_is_a_scene_of_its_one_surface(tmp_path):
+    part = tmp_path / "bracket.brep"
+    BRepTools.Write_s(filleted_box(r=R), str(part))
+    scene = load_scene(part, {"shape.function": "mean"})
+    assert scene.name == "bracket" and len(scene.patches) == 26
+    assert scene.shape.function == "mean"
+    out = tmp_path / "out"
+    out.mkdir()
+    args = [sys.executable, "-m", "gshade"]
+    small = ["--width", "64", "--height", "48", "--spp", "1"]
+    run = subprocess.run(
+        [*args, "render", str(part), "-o", str(out / "b.exr"), *small],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    channels, _ = read_exr(out / "b.exr")
+    assert channels["A"].max() == 1.0
+    info = subprocess.run([*args, "info", str(part)], capture_output=True, text=True)
+    assert info.returncode == 0 and "26" in info.stdout
+    refused = subprocess.run([*args, "continuity", str(part)], capture_output=True, text=True)
+    assert refused.returncode == 2 and "B-rep edges" in refused.stderr
+    assert len(refused.stderr.strip().splitlines()) == 1
+
+
+def test_ranges_come_from_the_trimmed_region_only():
+    """A trimmed face's tile covers its whole parameter box; the stripes' period and the
+    colour range come from the texels the trimmed region's mesh reaches, so wild values of
+    the surface outside the trim (untrimmed corners of the box) do not set them."""
+    from gshade.rendering.atlas import Atlas
+    from gshade.rendering.style import display_style, trimmed_region
+    from gshade.rendering.textures import ShapeTextures
+    from gshade.scene import parse_scene
+
+    atlas = Atlas.for_patches(2, 9)  # patch 0 untrimmed, patch 1 a trimmed face
+    values = np.zeros((atlas.height, atlas.width, 3), np.float32)
+    rows0, cols0 = atlas.tile_slices(0)
+    values[rows0, cols0, 0] = np.linspace(0.0, 1.0, 9)[None, :]  # f in [0, 1] on patch 0
+    rows1, cols1 = atlas.tile_slices(1)
+    values[rows1, cols1, 0] = 1e6  # patch 1: wild outside its trim...
+    values[rows1.start + 3 : rows1.start + 6, cols1.start + 3 : cols1.start + 6, 0] = 0.5
+    valid = np.ones((atlas.height, atlas.width), np.float32)
+    image = np.zeros((atlas.height, atlas.width, 3), np.float32)
+    tex = ShapeTextures(atlas, [values], [valid], [valid], image, image, image, image)
+    # ...and its mesh's vertices only in the middle of its box
+    params = np.array([[0.4, 0.4], [0.6, 0.4], [0.5, 0.6], [0.0, 0.0], [1.0, 1.0]])
+    patch = np.array([1, 1, 1, 0, 0])
+    region = trimmed_region(atlas, patch, params, np.array([False, True]))
+    assert region[rows0, cols0].all()
+    assert region[rows1, cols1].sum() == 7 and region[rows1.start + 4, cols1.start + 4]
+    shape = parse_scene('[[surface]]\ntype = "sphere"\n[shape]\nstripes = 10\n').shape
+    style = display_style(shape, shape.function, tex, region)
+    assert style.period == pytest.approx(0.1)  # (1 - 0) / 10 stripes
+    assert display_style(shape, shape.function, tex).period == pytest.approx(1e5)

@@ -40,7 +40,7 @@ from .channels import exact_channels, refuse_non_finite
 from .mitsuba_scene import mitsuba_scene, render_data, render_shape
 from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_size, validate_memory
-from .style import display_style, legend, shape_functions
+from .style import display_style, legend, shape_functions, trimmed_region
 from .tessellate import TriangleMesh, join_meshes, tessellate, tessellate_faces
 from .textures import shape_textures
 
@@ -87,7 +87,13 @@ def render(scene, **overrides) -> RenderedImage:
 
     functions, mapped = shape_functions(scene.shape)
     tex = shape_textures(scene.patches, atlas, functions)
-    style = display_style(scene.shape, mapped, tex)
+    region = None
+    if any(s.cad is not None for s in scene.surfaces):  # ranges from the trimmed regions
+        trimmed = np.concatenate(
+            [np.full(len(s.patches), s.cad is not None) for s in scene.surfaces]
+        )
+        region = trimmed_region(atlas, mesh.patch, mesh.params, trimmed)
+    style = display_style(scene.shape, mapped, tex, region)
     lap("textures")
 
     view = framing.view

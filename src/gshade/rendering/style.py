@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..display import Legend, auto_range, validate_colormap, validate_range
 from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
@@ -59,16 +60,39 @@ class DisplayStyle:
     lut: np.ndarray | None
 
 
-def display_style(shape, mapped: str, tex: ShapeTextures) -> DisplayStyle:
-    """The range, period and colour map of a scene's ``[shape]`` for its textures."""
-    cvals, cvalid = tex.values[-1][..., 0], tex.valid[-1] > 0
+def trimmed_region(atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> NDArray:
+    """The texels that lie on the surface: every texel of an untrimmed patch's tile, and of
+    a trimmed patch (``trimmed[k]``: a CAD face, whose tile covers its parameter box) the
+    texels around the mesh's vertices (``patch``, ``params`` = (s, t)), which lie in the
+    trimmed region."""
+    region = np.zeros((atlas.height, atlas.width), dtype=bool)
+    for k in np.flatnonzero(~trimmed):
+        rows, cols = atlas.tile_slices(int(k))
+        region[rows, cols] = True
+    on = trimmed[patch]
+    r0, c0 = atlas.tile_start(patch[on])
+    x = c0 + params[on, 0] * (atlas.tile - 1)
+    y = r0 + params[on, 1] * (atlas.tile - 1)
+    for row in (np.floor(y), np.ceil(y)):
+        for col in (np.floor(x), np.ceil(x)):
+            region[row.astype(np.int64), col.astype(np.int64)] = True
+    return region
+
+
+def display_style(
+    shape, mapped: str, tex: ShapeTextures, region: NDArray | None = None
+) -> DisplayStyle:
+    """The range, period and colour map of a scene's ``[shape]`` for its textures, from the
+    texels in ``region`` (default: all; see :func:`trimmed_region`)."""
+    valid = [v > 0 if region is None else (v > 0) & region for v in tex.valid]
+    cvals, cvalid = tex.values[-1][..., 0], valid[-1]
     signed = SHAPE_FUNCTIONS[mapped].signed
     value_range = (
         auto_range(cvals, cvalid, signed=signed)
         if shape.value_range is None
         else validate_range(shape.value_range)
     )
-    f_lo, f_hi = auto_range(tex.values[0][..., 0], tex.valid[0] > 0, percentiles=(0.0, 100.0))
+    f_lo, f_hi = auto_range(tex.values[0][..., 0], valid[0], percentiles=(0.0, 100.0))
     period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
     lut = colormap = None
     if shape.display != "stripes":

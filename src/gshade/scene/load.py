@@ -202,7 +202,9 @@ def load_scene(
     ----------
     path : path-like
         The TOML scene file (a regular file of at most 16 MB); surface data files are found
-        relative to its directory, and must lie within it (symbolic links resolved).
+        relative to its directory, and must lie within it (symbolic links resolved).  A CAD
+        file (``.step .stp .iges .igs .brep .3dm``) is a scene of its one ``cad`` surface
+        with the default shape, camera and render settings, named after the file's stem.
     overrides : dict, optional
         Dotted key -> value (see :func:`parse_overrides`), applied to the file's contents
         before validation.  When an override changes ``shape.function`` (or
@@ -221,8 +223,13 @@ def load_scene(
     GshadeError
         One line naming the file, the table and key, what was expected and what was found.
     """
+    from ..io.cad import CAD_EXTENSIONS
+
     path = Path(path)
-    raw = read_toml(path, "a scene file (TOML)")
+    if path.suffix.lower() in CAD_EXTENSIONS:  # a CAD file: a scene of that one surface
+        raw: dict[str, Any] = {"surface": [{"type": "cad", "file": path.name}]}
+    else:
+        raw = read_toml(path, "a scene file (TOML)")
     return _build(raw, str(path), path, path.parent, overrides, data_path)
 
 
