@@ -9,6 +9,8 @@ import numpy as np
 from hypothesis import settings
 from hypothesis import strategies as st
 
+from gshade.geometry import BSplinePatch
+
 # CI runs the same examples every time (a red CI must mean a change, not a new draw);
 # locally each run explores new ones.
 settings.register_profile("ci", derandomize=True, print_blob=True)
@@ -48,3 +50,13 @@ def random_net(rng: np.random.Generator, shape: tuple[int, ...], rational: bool)
 def interior_parameters(rng, domain, n):
     lo, hi = domain
     return lo + (hi - lo) * rng.uniform(0.02, 0.98, n)
+
+
+def random_patch(data, rng, p: int, q: int, rational: bool, extra: int) -> BSplinePatch:
+    """A B-spline patch of degrees (p, q) with up to ``extra`` more control points per
+    direction than the minimum, random knots (clamped or not) and a random net."""
+    nu, nv = p + 1 + data.draw(st.integers(0, extra)), q + 1 + data.draw(st.integers(0, extra))
+    U = data.draw(knot_vectors(p, nu))
+    V = data.draw(knot_vectors(q, nv))
+    P, W = random_net(rng, (nu, nv), rational)
+    return BSplinePatch(P, (p, q), (U, V), W)

@@ -8,17 +8,7 @@ from hypothesis import strategies as st
 from gshade.geometry import BezierPatch, BSplineCurve, BSplinePatch
 from gshade.geometry.knots import basis_functions
 
-from .conftest import interior_parameters, knot_vectors, random_net
-
-
-def random_patch(data, rng, p: int, q: int, rational: bool, extra: int) -> BSplinePatch:
-    """A B-spline patch of degrees (p, q) with up to ``extra`` more control points per
-    direction than the minimum, random knots (clamped or not) and a random net."""
-    nu, nv = p + 1 + data.draw(st.integers(0, extra)), q + 1 + data.draw(st.integers(0, extra))
-    U = data.draw(knot_vectors(p, nu))
-    V = data.draw(knot_vectors(q, nv))
-    P, W = random_net(rng, (nu, nv), rational)
-    return BSplinePatch(P, (p, q), (U, V), W)
+from .conftest import interior_parameters, knot_vectors, random_net, random_patch
 
 
 @settings(max_examples=50, deadline=None)

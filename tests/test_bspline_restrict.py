@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from gshade.errors import GshadeError
 from gshade.geometry import BSplinePatch
 
-from .conftest import knot_vectors, random_net
+from .conftest import random_net, random_patch
 
 #: Derivative (i, j) may differ by this times the net's size / (hu^i hv^j), with hu, hv the
 #: smallest knot spans of the restricted patch: round-off in the net, amplified by the spans.
@@ -57,12 +57,8 @@ def draw_range(data, choices):
 )
 def test_restricted_is_the_same_surface_over_the_box(data, p, q, rational, seed):
     rng = np.random.default_rng(seed)
-    nu = p + 1 + data.draw(st.integers(0, 6))
-    nv = q + 1 + data.draw(st.integers(0, 6))
-    U = data.draw(knot_vectors(p, nu))  # clamped or not, nonuniform, repeated knots
-    V = data.draw(knot_vectors(q, nv))
-    P, W = random_net(rng, (nu, nv), rational)
-    patch = BSplinePatch(P, (p, q), (U, V), W)
+    patch = random_patch(data, rng, p, q, rational, extra=6)  # knots clamped or not
+    U, V = patch.knots
     (ul, uh), (vl, vh) = patch.domain
     bu = draw_range(data, box_end_choices(U, ul, uh, rng))
     bv = draw_range(data, box_end_choices(V, vl, vh, rng))

@@ -8,7 +8,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .tables import Table, show
+from ..errors import show
+from .tables import Table
 
 __all__ = ["DATA_PATH_VARIABLE", "DataFiles", "data_roots"]
 

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import GshadeError
+from ..errors import GshadeError, show
 from ..geometry.regularity import degenerate_patch
 from ..limits import MAX_MAGNITUDE, MAX_NESTING, MAX_PATCHES, MAX_STRING
 from .data_files import data_roots
@@ -19,7 +19,7 @@ from .model import Scene
 from .overrides import apply_overrides
 from .sections import parse_camera, parse_check, parse_render, parse_shape, parse_sweep
 from .surfaces import SURFACE_TYPES, build_surface
-from .tables import REQUIRED, Key, Table, declare_keys, parse_toml, read_toml, show
+from .tables import REQUIRED, Key, Table, declare_keys, parse_toml, read_toml
 
 __all__ = ["TOP_KEYS", "load_scene", "parse_scene"]
 

@@ -16,11 +16,10 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from ..errors import GshadeError
+from ..errors import GshadeError, show, suggest
 from ..shape.functions import SHAPE_FUNCTIONS
 from .sections import SECTION_KEYS, SHAPE_KEYS, function_names, shape_keys
 from .surfaces import SURFACES
-from .tables import show, suggest
 
 __all__ = ["apply_overrides", "parse_overrides"]
 

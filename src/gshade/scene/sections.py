@@ -9,7 +9,7 @@ from dataclasses import asdict
 from typing import Any
 
 from ..display import validate_colormap, validate_range
-from ..errors import GshadeError
+from ..errors import GshadeError, show
 from ..limits import (
     MAX_IMAGE_SIDE,
     MAX_SEED,
@@ -20,7 +20,7 @@ from ..limits import (
 )
 from ..shape import SHAPE_FUNCTIONS, validate_parameter
 from .model import CAMERA_TYPES, DISPLAYS, LIGHTINGS, VARIANTS, Camera, RenderSettings, Shape
-from .tables import Key, Table, alternatives, declare_keys, is_number, show
+from .tables import Key, Table, alternatives, declare_keys, is_number
 
 __all__ = [
     "CAMERA_KEYS",

@@ -33,11 +33,8 @@ __all__ = [
     "declare_keys",
     "is_int",
     "is_number",
-    "one_of",
     "parse_toml",
     "read_toml",
-    "show",
-    "suggest",
     "toml_value",
 ]
 
