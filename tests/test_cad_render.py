@@ -19,7 +19,6 @@ from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 from scipy import ndimage
 
-from gshade.app.cli import main
 from gshade.errors import GshadeError
 from gshade.io import read_exr
 from gshade.rendering import render
@@ -188,15 +187,6 @@ def test_some_faces(box_file):
     image = render(scene)
     assert set(np.unique(image["patch"])) <= {-1, 0, 1}
     assert (image["A"] > 0).any()
-
-
-def test_junctions_and_continuity_are_refused(box_file, capsys):
-    camera = "origin = [40, -50, 45]\ntarget = [5, 10, 15]\nup = [0, 0, 1]"
-    path = _scene(box_file.parent, 'file = "box.brep"', camera, "junctions.toml")
-    with pytest.raises(GshadeError, match="continuity along B-rep edges is not supported yet"):
-        render(path, junctions=True)
-    assert main(["continuity", str(path)]) != 0
-    assert "continuity along B-rep edges is not supported yet" in capsys.readouterr().err
 
 
 def test_a_cad_file_is_a_scene_of_its_one_surface(tmp_path):

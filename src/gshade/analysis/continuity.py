@@ -63,8 +63,11 @@ class Tolerances:
 
 @dataclass
 class Junction:
+    """A measured junction: two patches' sides, or (``edge`` set) a B-rep edge of a CAD
+    model between two faces (``patches`` the face numbers; no sides)."""
+
     patches: tuple[int, int]
-    sides: tuple[str, str]
+    sides: tuple[str, str] | None
     reversed: bool
     cls: str
     gap: float
@@ -72,12 +75,18 @@ class Junction:
     curvature_jump: float
     curvature_gradient_jump: float
     samples: int
+    edge: int | None = None
 
     def as_dict(self) -> dict:
         d = asdict(self)
         d["class"] = d.pop("cls")
         d["patches"] = list(self.patches)
-        d["sides"] = list(self.sides)
+        if self.edge is None:
+            d.pop("edge")
+            d["sides"] = list(self.sides or ())
+        else:
+            d.pop("sides")
+            d.pop("reversed")
         return d
 
 
@@ -219,7 +228,12 @@ def junction_between(
 
 
 def _geometry(patch: Patch, side: str, t: NDArray):
-    u, v = _side_params(patch, side, t)
+    return geometry_at(patch, *_side_params(patch, side, t))
+
+
+def geometry_at(patch: Patch, u: NDArray, v: NDArray):
+    """Derivatives to order 3 (regularised where the patch is irregular), unit normals, and
+    the mean and Gaussian curvatures (with their surface gradients) at (u, v)."""
     d = regularised_derivatives(patch, u, v, 3).d
     n = unit_normal(d).n
     mean = evaluate("mean", d)
@@ -330,25 +344,11 @@ def measure_all(patches, junctions, samples: int = 32, directions: int = 8) -> l
         di, ni, hi, ki = d[:, :, a], n[a], h[a], k[a]
         bb = b[:, None]
         dj, nj, hj, kj = d[:, :, bb, flip], n[bb, flip], h[bb, flip], k[bb, flip]
-        gap = np.linalg.norm(di[0, 0] - dj[0, 0], axis=-1).max(axis=-1)
-        angle = np.degrees(
-            np.arctan2(np.linalg.norm(np.cross(ni, nj), axis=-1), np.abs(np.sum(ni * nj, -1)))
-        ).max(axis=-1)
-        sign = np.sign(np.sum(ni * nj, -1))[..., None]
         across_v = np.array([si in ("v0", "v1") for _, si, *_ in part])[:, None, None]
         along = np.where(across_v, di[1, 0], di[0, 1])
-        along = along / np.linalg.norm(along, axis=-1, keepdims=True)
-        across = np.cross(ni, along)
-        jump = np.zeros(len(part))
-        for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
-            e = np.cos(theta) * along + np.sin(theta) * across
-            k_i = normal_curvature(di, ni, e)
-            k_j = normal_curvature(dj, nj, e) * sign[..., 0]
-            worst = np.abs(k_i - k_j).max(axis=-1)
-            jump = _pick(jump, worst)
-        grad_h = np.linalg.norm(hi - sign * hj, axis=-1).max(axis=-1)
-        grad_k = np.linalg.norm(ki - kj, axis=-1).max(axis=-1)
-        gradient_jump = _pick(grad_h, grad_k)
+        gap, angle, jump, gradient_jump = compare_sides(
+            (di, ni, hi, ki), (dj, nj, hj, kj), along, directions
+        )
         for m in range(len(part)):
             out.append(
                 {
@@ -359,6 +359,39 @@ def measure_all(patches, junctions, samples: int = 32, directions: int = 8) -> l
                 }
             )
     return out
+
+
+def compare_sides(
+    side_i: tuple, side_j: tuple, along: NDArray, directions: int = 8
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The four measures of many junctions from both sides' geometry at paired points.
+
+    ``side_i`` and ``side_j`` are (d, n, mean gradient, Gaussian gradient) as
+    :func:`_side_geometry` gives them, shapes (4, 4, J, S, 3), (J, S, 3), (J, S, 3),
+    (J, S, 3), point s of junction m on side i paired with point s on side j; ``along``
+    (J, S, 3) is a tangent of the junction on side i.  Returns each measure's largest value
+    over each junction's points, (J,) each: gap, normal angle (degrees, orientation aside),
+    normal-curvature jump over ``directions`` tangent directions, curvature-gradient jump.
+    """
+    di, ni, hi, ki = side_i
+    dj, nj, hj, kj = side_j
+    gap = np.linalg.norm(di[0, 0] - dj[0, 0], axis=-1).max(axis=-1)
+    # atan2 of |cross| and |dot|: accurate for tiny angles (arccos is not)
+    angle = np.degrees(
+        np.arctan2(np.linalg.norm(np.cross(ni, nj), axis=-1), np.abs(np.sum(ni * nj, -1)))
+    ).max(axis=-1)
+    sign = np.sign(np.sum(ni * nj, -1))[..., None]  # curvatures w.r.t. one orientation
+    along = along / np.linalg.norm(along, axis=-1, keepdims=True)
+    across = np.cross(ni, along)  # in side i's tangent plane
+    jump = np.zeros(gap.shape)
+    for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
+        e = np.cos(theta) * along + np.sin(theta) * across
+        k_i = normal_curvature(di, ni, e)
+        k_j = normal_curvature(dj, nj, e) * sign[..., 0]
+        jump = _pick(jump, np.abs(k_i - k_j).max(axis=-1))
+    grad_h = np.linalg.norm(hi - sign * hj, axis=-1).max(axis=-1)
+    grad_k = np.linalg.norm(ki - kj, axis=-1).max(axis=-1)
+    return gap, angle, jump, _pick(grad_h, grad_k)
 
 
 def classify(m: dict, tol: Tolerances) -> str:

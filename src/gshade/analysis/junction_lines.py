@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .continuity import Junction
+from .edge_continuity import EdgeLine
 
 __all__ = ["CLASS_COLOURS", "draw_junctions", "junction_metadata"]
 
@@ -33,8 +34,14 @@ CLASS_COLOURS = {
 def _screen_gradient(x: NDArray, patch: NDArray) -> NDArray:
     """|grad x| per pixel (per pixel width), from differences between pixels of the same
     patch: central where both neighbours share the patch, one-sided where one does."""
-    norm2 = np.zeros(x.shape)
-    for axis in (0, 1):
+    dx, dy = _screen_derivatives(x, patch)
+    return np.sqrt(dx**2 + dy**2)
+
+
+def _screen_derivatives(x: NDArray, patch: NDArray) -> tuple[NDArray, NDArray]:
+    """dx/d(column) and dx/d(row) per pixel, as :func:`_screen_gradient` takes them."""
+    out = []
+    for axis in (1, 0):
         fwd = np.zeros(x.shape)
         bwd = np.zeros(x.shape)
         n_fwd = np.zeros(x.shape, bool)
@@ -48,9 +55,8 @@ def _screen_gradient(x: NDArray, patch: NDArray) -> NDArray:
         fwd[below], n_fwd[below] = step, same
         bwd[above], n_bwd[above] = step, same
         count = n_fwd.astype(float) + n_bwd
-        derivative = (fwd + bwd) / np.maximum(count, 1.0)
-        norm2 += derivative**2
-    return np.sqrt(norm2)
+        out.append((fwd + bwd) / np.maximum(count, 1.0))
+    return out[0], out[1]
 
 
 def draw_junctions(
@@ -58,6 +64,7 @@ def draw_junctions(
     junctions: list[Junction],
     domains: list[tuple[tuple[float, float], tuple[float, float]]],
     width: float = 2.0,
+    edges: list[EdgeLine] | None = None,
 ) -> dict[str, NDArray[np.float32]]:
     """Channels with the junctions drawn into R, G, B (new arrays; the others as given).
 
@@ -71,12 +78,19 @@ def draw_junctions(
         Each patch's parameter domain ((u0, u1), (v0, v1)).
     width : float
         Line width in pixels (half of it on each side of the edge).
+    edges : list of EdgeLine, optional
+        B-rep edges (:func:`gshade.analysis.edge_continuity.scene_continuity`): each drawn
+        along its parameter curves on its faces' pixels, at the pixel distance
+        |J^-1 (c - (u, v))| to the nearest point c of the curve, J = d(u, v)/d(pixel) from
+        the ``u`` and ``v`` channels; the junctions with ``edge`` set are drawn this way.
     """
     patch = np.rint(channels["patch"]).astype(np.int64)
     params = {"u": channels["u"].astype(np.float64), "v": channels["v"].astype(np.float64)}
     gradients = {name: _screen_gradient(x, patch) for name, x in params.items()}
     coverage = {cls: np.zeros(patch.shape) for cls in CLASS_COLOURS}
     for junction in junctions:
+        if junction.sides is None:
+            continue  # a B-rep edge: drawn from ``edges``
         for k, side in zip(junction.patches, junction.sides, strict=True):
             name = side[0]
             (u0, u1), (v0, v1) = domains[k]
@@ -92,6 +106,23 @@ def draw_junctions(
             c = np.clip(0.5 * width + 0.5 - distance, 0.0, 1.0)
             acc = coverage[junction.cls]
             acc[on] = np.maximum(acc[on], c)
+    if edges:
+        jacobian = (
+            *_screen_derivatives(params["u"], patch),
+            *_screen_derivatives(params["v"], patch),
+        )
+        for line in edges:
+            for k, curve in line.curves:
+                on = patch == k
+                if not on.any():
+                    continue
+                pixels = np.flatnonzero(on)
+                J = [x.ravel()[pixels] for x in jacobian]
+                uv = np.stack([params["u"].ravel()[pixels], params["v"].ravel()[pixels]], -1)
+                distance = _curve_distance(uv, J, curve, width)
+                c = np.clip(0.5 * width + 0.5 - distance, 0.0, 1.0)
+                flat: NDArray = coverage[line.cls].reshape(-1)  # a view: written through
+                flat[pixels] = np.maximum(flat[pixels], c)
     out = dict(channels)
     rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
     alpha = channels["A"].astype(np.float64)[..., None]
@@ -103,15 +134,75 @@ def draw_junctions(
     return out
 
 
+def _curve_distance(uv: NDArray, J: list[NDArray], curve: NDArray, width: float) -> NDArray:
+    """Pixel distance from each pixel (its (u, v), its Jacobian [[u_x, u_y], [v_x, v_y]])
+    to the polyline ``curve`` (m, 2) in (u, v): the nearest of the segments at the pixel's
+    few nearest curve points, each mapped to pixels by J^-1; inf where no point is near."""
+    from scipy.spatial import cKDTree
+
+    ux, uy, vx, vy = J
+    det = ux * vy - uy * vx
+    ok = np.abs(det) > 0
+    safe = np.where(ok, det, 1.0)
+    inverse = np.stack([vy / safe, -uy / safe, -vx / safe, ux / safe], -1)  # J^-1, row-major
+    # candidates: nearest curve points in (u, v) scaled to about a pixel per unit
+    scale = np.array(
+        [
+            np.median(np.hypot(ux, uy)[ok]) if ok.any() else 1.0,
+            np.median(np.hypot(vx, vy)[ok]) if ok.any() else 1.0,
+        ]
+    )
+    scale = np.where(scale > 0, scale, 1.0)
+    k = min(4, len(curve))
+    found = cKDTree(curve / scale).query(uv / scale, k=k, distance_upper_bound=4.0 * width + 8.0)
+    dist = np.reshape(found[0], (len(uv), k))
+    index = np.reshape(found[1], (len(uv), k))
+    best = np.full(len(uv), np.inf)
+    near = ok & np.isfinite(dist[:, 0])
+    if not near.any():
+        return best
+    m = len(curve)
+    for c in range(k):
+        i = index[near, c]
+        valid = i < m
+        for lo in (-1, 0):  # the segments before and after the point
+            a = np.clip(i + lo, 0, m - 1)
+            b = np.clip(i + lo + 1, 0, m - 1)
+            A = _to_pixels(inverse[near], curve[a] - uv[near])
+            B = _to_pixels(inverse[near], curve[b] - uv[near])
+            AB = B - A
+            length2 = np.sum(AB * AB, -1)
+            t = np.clip(-np.sum(A * AB, -1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+            d = np.linalg.norm(A + t[:, None] * AB, axis=-1)
+            sub = best[near]
+            best[near] = np.where(valid & (d < sub), d, sub)
+    return best
+
+
+def _to_pixels(inverse: NDArray, duv: NDArray) -> NDArray:
+    """J^-1 (du, dv) for each row (inverse row-major (n, 4), duv (n, 2))."""
+    return np.stack(
+        [
+            inverse[:, 0] * duv[:, 0] + inverse[:, 1] * duv[:, 1],
+            inverse[:, 2] * duv[:, 0] + inverse[:, 3] * duv[:, 1],
+        ],
+        -1,
+    )
+
+
 def junction_metadata(junctions: list[Junction]) -> str:
     """The drawn junctions and the colour legend, as JSON for the image header."""
     return json.dumps(
         {
             "colours": {k: list(v) for k, v in CLASS_COLOURS.items()},
-            "junctions": [
-                {"patches": list(j.patches), "sides": list(j.sides), "class": j.cls}
-                for j in junctions
-            ],
+            "junctions": [_drawn(j) for j in junctions],
         },
         sort_keys=True,
     )
+
+
+def _drawn(j: Junction) -> dict:
+    """A junction as the header lists it: its patches and sides, or its faces and edge."""
+    if j.sides is None:
+        return {"edge": j.edge, "patches": list(j.patches), "class": j.cls}
+    return {"patches": list(j.patches), "sides": list(j.sides), "class": j.cls}

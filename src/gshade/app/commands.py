@@ -132,20 +132,28 @@ def continuity(args: argparse.Namespace) -> int:
     from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
-    if any(s.cad is not None for s in scene.surfaces):
-        raise GshadeError(f"{args.scene}: continuity along B-rep edges is not supported yet")
     patches = list(scene.patches)
-    pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+    cad = any(s.cad is not None for s in scene.surfaces)
+    if cad:
+        from ..analysis.edge_continuity import scene_diagonal
+
+        diagonal = scene_diagonal(scene)
+    else:
+        pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+        diagonal = float(np.linalg.norm(np.ptp(pts, axis=0)))
     tol = Tolerances.for_size(
-        float(np.linalg.norm(np.ptp(pts, axis=0))),
-        g0=args.tol_g0,
-        g1=args.tol_g1,
-        g2=args.tol_g2,
-        g3=args.tol_g3,
+        diagonal, g0=args.tol_g0, g1=args.tol_g1, g2=args.tol_g2, g3=args.tol_g3
     )
     pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
+    if cad and pairs:
+        raise GshadeError("--pair: names patch sides; a CAD scene's junctions are B-rep edges")
     try:
-        report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
+        if cad:
+            from ..analysis.edge_continuity import scene_continuity
+
+            report, _ = scene_continuity(scene, samples=args.samples, tolerances=tol)
+        else:
+            report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
     except GshadeError as exc:  # about a parameter (a flag), or about the scene's surfaces
         if parameter(str(exc)) is not None:
             raise
@@ -162,8 +170,9 @@ def continuity(args: argparse.Namespace) -> int:
         f"{'curv.jump':>9}  {'grad.jump':>9}"
     )
     for j in report:
+        where = f"{j.sides[0]}-{j.sides[1]}" if j.sides else f"e{j.edge:<6}"
         print(
-            f"{j.patches[0]:>4} {j.patches[1]:>4}  {j.sides[0]}-{j.sides[1]}  {j.cls:>5}  "
+            f"{j.patches[0]:>4} {j.patches[1]:>4}  {where}  {j.cls:>5}  "
             f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
             f"{j.curvature_gradient_jump:9.2e}"
         )

@@ -76,11 +76,9 @@ def render(scene, **overrides) -> RenderedImage:
 
     framing = frame(scene, settings, where)
     resolution = mesh_resolution(scene, settings, framing)
-    junctions = None
-    if settings.junctions and any(s.cad is not None for s in scene.surfaces):
-        raise GshadeError(f"{where}: continuity along B-rep edges is not supported yet")
+    junctions = edges = None
     if settings.junctions:  # measured first: overlapping surfaces fail before rendering
-        junctions = _measure_junctions(scene, where)
+        junctions, edges = _measure_junctions(scene, where)
         lap("junctions")
     mesh, atlas = _mesh_and_atlas(scene, settings, framing, resolution, where)
     lap("tessellate")
@@ -110,7 +108,8 @@ def render(scene, **overrides) -> RenderedImage:
     if junctions is not None:
         from ..analysis.junction_lines import draw_junctions
 
-        channels = draw_junctions(channels, junctions, [p.domain for p in scene.patches])
+        domains = [p.domain for p in scene.patches]
+        channels = draw_junctions(channels, junctions, domains, edges=edges)
         lap("junctions")
     shown = legend(scene.shape, style)
     metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
@@ -160,12 +159,20 @@ def _settings(scene):
     return settings, where
 
 
+#: Points per B-rep edge drawn as a junction line.
+EDGE_LINE_POINTS = 256
+
+
 def _measure_junctions(scene, where: str):
-    """The continuity report of the patches' junctions (:mod:`gshade.analysis.continuity`)."""
+    """The continuity report of the patches' junctions (:mod:`gshade.analysis.continuity`)
+    and of the CAD surfaces' B-rep edges, with the edges' lines to draw (None without)."""
     from ..analysis.continuity import continuity_report
+    from ..analysis.edge_continuity import scene_continuity
 
     try:
-        return continuity_report(list(scene.patches))
+        if any(s.cad is not None for s in scene.surfaces):
+            return scene_continuity(scene, lines=EDGE_LINE_POINTS)
+        return continuity_report(list(scene.patches)), None
     except GshadeError as exc:
         raise GshadeError(f"{where}: {exc}") from None
 

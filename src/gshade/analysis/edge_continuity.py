@@ -1,0 +1,216 @@
+"""Continuity along the B-rep edges of CAD models, measured, and of scenes mixing them.
+
+Every edge shared by two faces (:func:`gshade.io.cad_edges.shared_edges`: seams, poles and
+free edges are no junctions) is sampled at the same edge parameters on both faces'
+parameter curves, and at each pair of points both faces' exact derivatives give the four
+measures of :mod:`gshade.analysis.continuity` (gap, normal angle, normal-curvature jump,
+curvature-gradient jump; Kiciak, ch. 2–3) and so the class G0–G3.  A designed sharp edge
+is G0 with its angle.
+
+A valid B-rep's faces meet within each edge's own tolerance, not exactly: each face's
+points lie within the kernel's tolerance of the edge, so an edge's G0 tolerance is the larger
+of the given one and twice the edge's tolerance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+from .continuity import (
+    Junction,
+    Tolerances,
+    classify,
+    compare_sides,
+    continuity_report,
+    geometry_at,
+)
+
+__all__ = ["EdgeLine", "edge_report", "scene_continuity", "scene_diagonal"]
+
+
+@dataclass
+class EdgeLine:
+    """Where to draw one measured B-rep edge in a rendered scene: its class and, per face,
+    the scene's patch number and the edge's parameter curve in that patch's (u, v)."""
+
+    cls: str
+    curves: list[tuple[int, NDArray[np.float64]]]
+
+
+def edge_report(
+    model,
+    faces: list[int] | None = None,
+    *,
+    samples: int = 32,
+    tolerances: Tolerances | None = None,
+    directions: int = 8,
+) -> tuple[list[Junction], list]:
+    """Every B-rep edge between two of the model's faces (of ``faces``, default all),
+    measured and classified.
+
+    Parameters
+    ----------
+    model : gshade.io.cad.CadModel
+        A model read with its kernel shape (STEP, IGES, BREP).
+    faces : list of int, optional
+        The face numbers whose shared edges are measured.
+    samples : int
+        Points per edge.
+    tolerances : Tolerances, optional
+        Default: :meth:`Tolerances.for_size` of the model's bounding-box diagonal.
+
+    Returns
+    -------
+    junctions : list of Junction
+        One per edge and pair of faces, ``edge`` its number, ``patches`` the face numbers.
+    edges : list of gshade.io.cad_edges.CadEdge
+        The sampled edges, in the same order.
+    """
+    from ..io.cad_edges import shared_edges
+
+    lo, hi = model.bounds
+    tol = tolerances or Tolerances.for_size(float(np.linalg.norm(hi - lo)))
+    edges = shared_edges(model, samples, faces)
+    if not edges:
+        return [], []
+    geometry = _face_geometry(model, edges, samples)
+    count = len(edges)
+    d = np.empty((2, 4, 4, count, samples, 3))
+    n, h, k = (np.empty((2, count, samples, 3)) for _ in range(3))
+    for side in (0, 1):
+        for m, edge in enumerate(edges):
+            dg, ng, hg, kg = geometry[(edge.faces[side], m)]
+            d[side, :, :, m], n[side, m], h[side, m], k[side, m] = dg, ng, hg, kg
+    # the edge's tangent on face i: p_u du/dt + p_v dv/dt, du/dt from the pcurve samples
+    duv = np.stack([_tangent(e.uv[0]) for e in edges])
+    along = d[0, 1, 0] * duv[..., :1] + d[0, 0, 1] * duv[..., 1:]
+    gap, angle, jump, gradient = compare_sides(
+        (d[0], n[0], h[0], k[0]), (d[1], n[1], h[1], k[1]), along, directions
+    )
+    out = []
+    for m, edge in enumerate(edges):
+        measures = {
+            "gap": float(gap[m]),
+            "normal_angle_deg": float(angle[m]),
+            "curvature_jump": float(jump[m]),
+            "curvature_gradient_jump": float(gradient[m]),
+        }
+        own = replace(tol, g0=max(tol.g0, 2.0 * edge.tolerance))
+        out.append(
+            Junction(
+                edge.faces,
+                None,
+                False,
+                classify(measures, own),
+                samples=samples,
+                edge=edge.index,
+                **measures,
+            )
+        )
+    return out, edges
+
+
+def _tangent(uv: NDArray[np.float64]) -> NDArray[np.float64]:
+    """d(u, v)/dk along the samples (one-sided at the ends; a lone sample: none)."""
+    if len(uv) < 2:
+        return np.zeros_like(uv)
+    return np.gradient(uv, axis=0)
+
+
+def _face_geometry(model, edges: list, samples: int) -> dict:
+    """(face, edge) -> the face's geometry at the edge's points on it: each face is
+    evaluated once, at the points of all its edges."""
+    points: dict[int, list[tuple[int, NDArray[np.float64]]]] = {}
+    for m, edge in enumerate(edges):
+        for side in (0, 1):
+            points.setdefault(edge.faces[side], []).append((m, edge.uv[side]))
+    out = {}
+    for f, items in points.items():
+        patch = model.faces[f].patch
+        (u0, u1), (v0, v1) = patch.domain
+        uv = np.concatenate([q for _, q in items])
+        u = np.clip(uv[:, 0], u0, u1)  # pcurves may stray past the domain by a tolerance
+        v = np.clip(uv[:, 1], v0, v1)
+        d, nrm, mean, gauss = geometry_at(patch, u, v)
+        for q, (m, _) in enumerate(items):
+            s = slice(q * samples, (q + 1) * samples)
+            out[(f, m)] = (d[:, :, s], nrm[s], mean.gradient[s], gauss.gradient[s])
+    return out
+
+
+def scene_continuity(
+    scene,
+    *,
+    samples: int = 32,
+    tolerances: Tolerances | None = None,
+    lines: int = 0,
+) -> tuple[list[Junction], list[EdgeLine]]:
+    """The continuity report of a scene: the junctions of its patches (not CAD faces) and
+    the B-rep edges of each ``cad`` surface.
+
+    Patch junctions number the scene's patches; edge rows the faces of their model.  With
+    ``lines`` > 0, each edge also comes as an :class:`EdgeLine` with its parameter curves
+    sampled at ``lines`` points, for drawing.
+    """
+    surfaces = scene.surfaces
+    tol = tolerances or Tolerances.for_size(scene_diagonal(scene))
+    starts = np.cumsum([0] + [len(s.patches) for s in surfaces])
+    grid = [
+        i
+        for s, a in zip(surfaces, starts, strict=False)
+        if s.cad is None
+        for i in range(a, a + len(s.patches))
+    ]
+    out: list[Junction] = []
+    drawn: list[EdgeLine] = []
+    if grid:
+        patches = [scene.patches[i] for i in grid]
+        for j in continuity_report(patches, samples=samples, tolerances=tol):
+            out.append(replace(j, patches=(grid[j.patches[0]], grid[j.patches[1]])))
+    for surface, start in zip(surfaces, starts, strict=False):
+        if surface.cad is None:
+            continue
+        cad = surface.cad
+        try:
+            report, _ = edge_report(cad.model, list(cad.faces), samples=samples, tolerances=tol)
+            if lines:
+                drawn.extend(_lines(cad, int(start), report, lines))
+        except GshadeError as exc:
+            raise GshadeError(f"{surface.source}: {exc}") from None
+        out.extend(report)
+    return out, drawn
+
+
+def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine]:
+    """The measured edges' parameter curves in the scene patches' (u, v), densely."""
+    from ..io.cad_edges import CadEdge, shared_edges
+
+    place = {face: start + k for k, face in enumerate(cad.faces)}
+    dense: dict[tuple[int | None, tuple[int, int]], CadEdge] = {
+        (e.index, e.faces): e for e in shared_edges(cad.model, lines, list(cad.faces))
+    }
+    out = []
+    for j in report:
+        edge = dense[(j.edge, j.patches)]
+        curves = []
+        for face, uv in zip(edge.faces, edge.uv, strict=True):
+            k = place[face]
+            curves.append((k, uv[:, ::-1] if cad.swapped[k - start] else uv))
+        out.append(EdgeLine(j.cls, curves))
+    return out
+
+
+def scene_diagonal(scene) -> float:
+    """The scene's size: CAD models' bounding boxes and the other patches' 9 x 9 grids."""
+    points = []
+    for surface in scene.surfaces:
+        if surface.cad is not None:
+            points.extend(surface.cad.model.bounds)
+        else:
+            points.extend(p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in surface.patches)
+    pts = np.vstack([np.atleast_2d(p) for p in points])
+    return float(np.linalg.norm(np.ptp(pts, axis=0)))

@@ -1,0 +1,134 @@
+"""The B-rep edges of a CAD model where two faces meet, as points on both faces' parameters.
+
+An edge of a sewn B-rep carries one parameter t and, on each face it bounds, a parameter
+curve (pcurve) c_f(t) in that face's (u, v); the kernel keeps them "same parameter", so
+S_f(c_f(t)) and S_g(c_g(t)) are the same point of the edge up to the edge's tolerance.
+Sampling both pcurves at the same t therefore pairs the points of the two faces along the
+edge, which is what continuity across the edge is measured on
+(:mod:`gshade.analysis.edge_continuity`) and what junction lines are drawn along.
+
+Not junctions: seams (an edge bounding one face twice, as on a periodic face), degenerate
+edges (a pole), free edges (one face).  An edge shared by more than two faces (non-manifold)
+gives every pair.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+from .cad import CadModel
+
+__all__ = ["CadEdge", "shared_edges"]
+
+
+@dataclass
+class CadEdge:
+    """An edge where two faces meet, sampled at the same edge parameters on both.
+
+    Attributes
+    ----------
+    index : int
+        The edge's number in the model (0-based, in the kernel's map of edges).
+    faces : (int, int)
+        The two faces' numbers in the model.
+    uv : (ndarray (n, 2), ndarray (n, 2))
+        The points on each face's pcurve, in that face's (u, v), at the same n parameters
+        t_k = t0 + (k + 1/2) / n (t1 - t0) along the edge.
+    tolerance : float
+        The kernel's tolerance of the edge (model units): how far the two faces' points
+        may lie apart in a valid B-rep.
+    """
+
+    index: int
+    faces: tuple[int, int]
+    uv: tuple[NDArray[np.float64], NDArray[np.float64]]
+    tolerance: float
+
+
+def shared_edges(
+    model: CadModel, samples: int = 32, faces: list[int] | None = None
+) -> list[CadEdge]:
+    """Every edge shared by two of the model's faces (of ``faces``, default all), sampled
+    at ``samples`` parameters along it on both faces' pcurves.
+
+    Raises
+    ------
+    GshadeError
+        One line naming the file: a model without a kernel shape, or an edge whose
+        parameter curves the kernel cannot evaluate.
+    """
+    if model.shape is None:
+        raise GshadeError(f"{model.path}: the model has no kernel shape to find edges in")
+    try:
+        return _shared_edges(model, samples, faces)
+    except GshadeError:
+        raise
+    except Exception as exc:
+        raise GshadeError(
+            f"{model.path}: the kernel failed on the edges' parameter curves ({exc})"
+        ) from None
+
+
+def _shared_edges(model: CadModel, samples: int, faces: list[int] | None) -> list[CadEdge]:
+    from OCP.BRep import BRep_Tool
+    from OCP.collections import (
+        IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as EdgeFaces,
+    )
+    from OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap
+    from OCP.TopAbs import TopAbs_EDGE as EDGE
+    from OCP.TopAbs import TopAbs_FACE as FACE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    face_map = ShapeMap()
+    TopExp.MapShapes_s(model.shape, FACE, face_map)
+    number: dict[int, int] = {}  # the map's index -> the model's face number (first seen)
+    explorer, position = TopExp_Explorer(model.shape, FACE), 0  # the order of model.faces
+    while explorer.More():
+        number.setdefault(face_map.FindIndex(explorer.Current()), position)
+        explorer.Next()
+        position += 1
+    wanted = set(range(len(model.faces))) if faces is None else set(faces)
+    edge_faces = EdgeFaces()
+    TopExp.MapShapesAndUniqueAncestors_s(model.shape, EDGE, FACE, edge_faces)
+    fraction = (np.arange(samples) + 0.5) / samples
+    out = []
+    for e in range(1, edge_faces.Extent() + 1):
+        edge = TopoDS.Edge(edge_faces.FindKey(e))
+        if BRep_Tool.Degenerated_s(edge):
+            continue
+        mine = []
+        for shape in edge_faces.FindFromIndex(e):
+            face = TopoDS.Face(shape)
+            f = number.get(face_map.FindIndex(face))
+            if f is not None and f in wanted and not BRep_Tool.IsClosed_s(edge, face):
+                mine.append((f, face))
+        if len(mine) < 2:
+            continue
+        tolerance = float(BRep_Tool.Tolerance_s(edge))
+        curves = {k: _pcurve_points(edge, face, fraction) for k, face in mine}
+        for a in range(len(mine)):
+            for b in range(a + 1, len(mine)):
+                i, j = mine[a][0], mine[b][0]
+                if i == j:
+                    continue
+                out.append(CadEdge(e - 1, (i, j), (curves[i], curves[j]), tolerance))
+    return out
+
+
+def _pcurve_points(edge: Any, face: Any, fraction: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The edge's pcurve on the face at t0 + fraction (t1 - t0), as (n, 2) (u, v)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+
+    curve = BRepAdaptor_Curve2d(edge, face)
+    t0, t1 = curve.FirstParameter(), curve.LastParameter()
+    out = np.empty((len(fraction), 2))
+    for k, s in enumerate(fraction.tolist()):
+        p = curve.Value(t0 + s * (t1 - t0))
+        out[k] = p.X(), p.Y()
+    return out
