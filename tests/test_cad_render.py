@@ -162,7 +162,7 @@ def test_bad_inputs_are_one_line(tmp_path, box_file):
     (tmp_path / "box.brep").write_bytes(box_file.read_bytes())
     (tmp_path / "model.3dm").write_bytes(b"")
     cases = {
-        'file = "model.3dm"': ("file", "rendering .3dm faces is not supported yet"),
+        'file = "model.3dm"': ("", "model.3dm: expected a Rhino .3dm file, got no 3dm header"),
         'file = "missing.step"': ("file", "no such file"),
         'file = "box.brep"\nfaces = [0, 999]': ("faces", "got 999"),
         'file = "box.brep"\nfaces = [-1]': ("faces", "expected a list of face numbers"),
@@ -176,7 +176,8 @@ def test_bad_inputs_are_one_line(tmp_path, box_file):
             load_scene(path)
         message = str(err.value)
         assert "\n" not in message
-        assert str(path) in message and f"(cad): {key}: " in message and words in message
+        assert str(path) in message and words in message
+        assert f"(cad): {key}: " in message if key else "(cad): " in message
 
 
 def test_some_faces(box_file):
@@ -209,9 +210,8 @@ def test_a_cad_file_is_a_scene_of_its_one_surface(tmp_path):
     assert channels["A"].max() == 1.0
     info = subprocess.run([*args, "info", str(part)], capture_output=True, text=True)
     assert info.returncode == 0 and "26" in info.stdout
-    refused = subprocess.run([*args, "continuity", str(part)], capture_output=True, text=True)
-    assert refused.returncode == 2 and "B-rep edges" in refused.stderr
-    assert len(refused.stderr.strip().splitlines()) == 1
+    edges = subprocess.run([*args, "continuity", str(part)], capture_output=True, text=True)
+    assert edges.returncode == 0 and edges.stdout.strip().endswith("48 junctions: 48 G1")
 
 
 def test_ranges_come_from_the_trimmed_region_only():

@@ -85,6 +85,8 @@ def info(args: argparse.Namespace) -> int:
             kinds[label] = kinds.get(label, 0) + 1
         summary = ", ".join(f"{n} x {label}" for label, n in kinds.items())
         print(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
+        if surface.cad is not None:
+            _print_cad_faces(surface.cad)
     points = []
     irregular = []
     for index, patch in enumerate(scene.patches):
@@ -108,6 +110,27 @@ def info(args: argparse.Namespace) -> int:
     for line in irregular:
         print(f"    {line}")
     return 0
+
+
+def _print_cad_faces(cad) -> None:
+    """A CAD model's unit and bounding box, and per face rendered: its surface kind, exact or
+    approximated (with the error), degrees, rational, trimmed, inner loops."""
+    model = cad.model
+    lo, hi = model.bounds
+    print(
+        f"    model: {len(model.faces)} faces, unit {model.unit}, bounding box "
+        f"[{', '.join(f'{x:.6g}' for x in lo)}] .. [{', '.join(f'{x:.6g}' for x in hi)}]"
+    )
+    print(f"    {'face':>5}  {'kind':<10}  {'exact':<16}  degree   rational  trimmed  holes")
+    for i in cad.faces:
+        face = model.faces[i]
+        exact = "exact" if face.exact else f"approx {face.error:.2g} {model.unit}"
+        degree = f"{face.patch.degree[0]}x{face.patch.degree[1]}"
+        print(
+            f"    {i:>5}  {face.kind:<10}  {exact:<16}  {degree:<7}  "
+            f"{'yes' if face.patch.rational else 'no':<8}  "
+            f"{'yes' if face.trimmed else 'no':<7}  {face.inner_loops}"
+        )
 
 
 def _parse_pair(text: str) -> tuple[int, str, int, str]:

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 
-__all__ = ["CAD_EXTENSIONS", "INSTALL", "CadFace", "CadModel", "read_cad"]
+__all__ = ["CAD_EXTENSIONS", "INSTALL", "CadFace", "CadModel", "read_cad", "trimmed_points"]
 
 #: The file extensions read as CAD models, and the reader of each.
 CAD_EXTENSIONS = {
@@ -98,6 +98,25 @@ class CadModel:
     unit: str
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
     shape: object | None = None
+
+
+def trimmed_points(face: CadFace, n: int = 17) -> NDArray[np.float64]:
+    """Points (m, 3) of a face's trimmed region, standing for its extent: the points of its
+    loops (at most ``4 n`` a loop) and of the n x n grid of its box that lie inside them (an
+    odd number of loops around; the box's grid for a face without loops)."""
+    from matplotlib.path import Path as Polygon
+
+    (u0, u1), (v0, v1) = face.box
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    grid = np.stack([u.ravel(), v.ravel()], -1)
+    if face.loops:
+        around = sum(Polygon(loop).contains_points(grid).astype(int) for loop in face.loops)
+        edges = [loop[:: max(1, len(loop) // (4 * n))] for loop in face.loops]
+        grid = np.concatenate([grid[np.asarray(around) % 2 == 1], *edges])
+    (a0, a1), (b0, b1) = face.patch.domain
+    return np.asarray(
+        face.patch(np.clip(grid[:, 0], a0, a1), np.clip(grid[:, 1], b0, b1)), float
+    ).reshape(-1, 3)
 
 
 def read_cad(

@@ -9,14 +9,14 @@ The Python bindings expose no 2D trimming curves: each loop is recovered by pull
 edge curves back into the NURBS form's (u, v) by point inversion: starting points from a grid
 whose density follows the control net (a grid uniform in (u, v) misses short knot spans where
 the surface moves fast, and then Newton lands on a nearby sheet, the other wall of a mug), a
-damped Gauss-Newton over all the points of a face at once, and points left far from the
-surface tried again from their neighbours' parameters along the loop.
-Singular trims at poles (edge index -1) are bridged by the straight segment between their
-neighbours, which is what they are in (u, v).
+damped Gauss-Newton over all the points of a face at once, points left far from the surface
+tried again from their neighbours' parameters along the loop.  Singular trims at poles are the
+segment between their neighbours.  The kernel's shape: :mod:`gshade.io.cad_3dm_shape`.
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 from pathlib import Path
 from typing import Any
@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
+from . import cad_3dm_shape as sh
 from .cad import CadFace, CadModel
 from .files import read_bytes
 
@@ -35,42 +36,22 @@ __all__ = ["read"]
 
 _MAGIC = b"3D Geometry File Format "
 
-_UNITS = {
-    "Angstroms": "angstrom",
-    "Nanometers": "nm",
-    "Microns": "um",
-    "Millimeters": "mm",
-    "Centimeters": "cm",
-    "Decimeters": "dm",
-    "Meters": "m",
-    "Dekameters": "dam",
-    "Hectometers": "hm",
-    "Kilometers": "km",
-    "Megameters": "Mm",
-    "Gigameters": "Gm",
-    "Microinches": "uin",
-    "Mils": "mil",
-    "Inches": "in",
-    "Feet": "ft",
-    "Yards": "yd",
-    "Miles": "mi",
-    "NauticalMiles": "nmi",
-    "AstronomicalUnits": "au",
-    "LightYears": "ly",
-    "Parsecs": "pc",
-    "PrinterPoints": "pt",
-    "PrinterPicas": "pica",
-}
+#: openNURBS unit names and their short names.
+_UNITS = dict(
+    pair.split("=")
+    for pair in (
+        "Angstroms=angstrom Nanometers=nm Microns=um Millimeters=mm Centimeters=cm "
+        "Decimeters=dm Meters=m Dekameters=dam Hectometers=hm Kilometers=km Megameters=Mm "
+        "Gigameters=Gm Microinches=uin Mils=mil Inches=in Feet=ft Yards=yd Miles=mi "
+        "NauticalMiles=nmi AstronomicalUnits=au LightYears=ly Parsecs=pc PrinterPoints=pt "
+        "PrinterPicas=pica"
+    ).split()
+)
 
-#: Edge samples per span and degree, and their bounds, for the recovered trimming loops.
-_SAMPLES_PER_SPAN = 4
-_MIN_SAMPLES, _MAX_SAMPLES = 9, 200
-#: Chord midpoints within this fraction of an edge's size from the curve, at most so many
-#: points an edge.
-_CHORD_TOLERANCE, _MAX_EDGE_POINTS = 1e-4, 4000
 _GRID, _GRID_MAX, _GRID_PIECES = 48, 200, 8
 _NEWTON_STEPS = 40
 _RETRIES, _RETRY_RATIO, _RETRY_FLOOR = 400, 100.0, 1e-5
+_SEAM = 1e-4  # points this close (relative to the span) to a closed direction's seam are on it
 
 
 def read(
@@ -82,19 +63,19 @@ def read(
     ----------
     path : path-like
     sew, tolerance
-        Ignored: a ``.3dm`` file stores its Breps already joined.
+        Ignored: the kernel's shape takes the file's own topology (its edges are shared).
 
     Returns
     -------
     CadModel
-        The faces in the order of the objects (Breps, extrusions, surfaces), the model's unit
-        and the union of the surface objects' bounding boxes.
+        The faces in the order of the objects (Breps, extrusions, surfaces), the model's unit,
+        the union of the objects' bounding boxes, and the kernel's shape with those faces.
 
     Raises
     ------
     GshadeError
-        One line naming the file: not a regular readable file, too large, not a 3dm file, a
-        file openNURBS cannot read, or one that holds no surfaces.
+        One line naming the file (and face): not a regular readable file, too large, not 3dm,
+        unreadable by openNURBS, no surfaces in it (only meshes, curves...), a kernel failure.
     """
     path = Path(path)
     head = read_bytes(path, "a Rhino .3dm file", size=len(_MAGIC), limit=MAX_DATA_FILE_BYTES)
@@ -105,6 +86,7 @@ def read(
     if model is None:
         raise GshadeError(f"{path}: openNURBS cannot read the file (damaged or truncated?)")
     faces: list[CadFace] = []
+    parts: list[sh.BrepPart | int] = []
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
     for obj in model.Objects:
@@ -113,12 +95,17 @@ def read(
         if isinstance(geom, rhino3dm.Extrusion):
             geom = geom.ToBrep(False)
         if isinstance(geom, rhino3dm.Brep):
+            part = sh.BrepPart(geom, {})
             for face in list(geom.Faces):  # type: ignore[call-overload]
                 if face is not None:
-                    faces.append(_brep_face(path, geom, face, len(faces)))
+                    cad, trims = _brep_face(path, part, face, len(faces))
+                    part.faces.append((len(faces), trims))
+                    faces.append(cad)
+            parts.append(part)
         elif isinstance(geom, rhino3dm.Surface):
             nurbs = geom.ToNurbsSurface()
             if nurbs is not None:
+                parts.append(len(faces))
                 faces.append(_surface_face(path, geom, nurbs, len(faces)))
         if geom is not None and len(faces) > before:
             box = geom.GetBoundingBox()
@@ -126,8 +113,11 @@ def read(
                 lo = np.minimum(lo, _xyz(box.Min))
                 hi = np.maximum(hi, _xyz(box.Max))
     if not faces:
-        raise GshadeError(f"{path}: expected surfaces (Breps, extrusions, NURBS), found none")
-    return CadModel(path=path, faces=faces, unit=_unit(model), bounds=(lo, hi))
+        raise GshadeError(
+            f"{path}: expected surfaces (Breps, extrusions, NURBS), sh.found {sh.found(model)}"
+        )
+    shape = sh.build_shape(path, faces, parts)
+    return CadModel(path=path, faces=faces, unit=_unit(model), bounds=(lo, hi), shape=shape)
 
 
 def _unit(model) -> str:
@@ -213,8 +203,11 @@ def _surface_face(path: Path, surface, nurbs, index: int) -> CadFace:
     )
 
 
-def _brep_face(path: Path, brep, face, index: int) -> CadFace:
-    """One Brep face: its NURBS form, the mapped parameter box and the recovered loops."""
+def _brep_face(
+    path: Path, part: sh.BrepPart, face, index: int
+) -> tuple[CadFace, list[list[sh.Trim]]]:
+    """One Brep face: its NURBS form, the mapped parameter box, the recovered loops (and
+    their trims)."""
     nurbs = face.ToNurbsSurface()
     if nurbs is None:
         raise GshadeError(f"{path}: face {index} has no NURBS form")
@@ -237,83 +230,76 @@ def _brep_face(path: Path, brep, face, index: int) -> CadFace:
         box = patch.domain
     single = face.DuplicateFace(False)
     trimmed = not (single is not None and bool(single.IsSurface))
-    closed = (bool(nurbs.IsClosed(0)), bool(nurbs.IsClosed(1)))
-    loops, tol = _loops(brep, face, _Grid(patch, box, closed))
+    closed = sh.closed_directions(face, nurbs, patch)
+    loops, tol, trims = _loops(part, face, _Grid(patch, box, closed))
     return CadFace(
         index=index,
         kind=_kind(face, _scale(patch)),
         patch=patch,
-        box=box,
+        box=sh.trimmed_box(box, loops),
         reversed=bool(face.OrientationIsReversed),
         loops=loops,
         loop_tolerance=tol,
         trimmed=trimmed,
-    )
+    ), trims
 
 
-def _loops(brep, face, grid: _Grid) -> tuple[list[NDArray[np.float64]], float]:
-    """The face's loops in the NURBS form's (u, v), outer first, and their tolerance."""
-    chains: list[tuple[bool, NDArray[np.float64]]] = []
+def _loops(
+    part: sh.BrepPart, face, grid: _Grid
+) -> tuple[list[NDArray[np.float64]], float, list[list[sh.Trim]]]:
+    """The face's loops in the NURBS form's (u, v), outer first, their tolerance, and the
+    loops' trims (each trim's samples at its edge's parameters, for the kernel's shape)."""
+    brep, count = part.brep, len(part.brep.Edges)
+    chains: list[tuple[bool, list[sh.Trim], NDArray[np.float64]]] = []
     for loop in face.Loops:
+        trims: list[sh.Trim] = []
         curves = []
         for trim in loop.Trims:
-            k = int(trim.EdgeIndex)
-            if k < 0 or k >= len(brep.Edges):
-                continue  # singular trim: bridged by its neighbours' end points
-            pts = _edge_points(brep.Edges[k])
-            curves.append(pts[::-1] if trim.IsReversed else pts)
+            k, rev = int(trim.EdgeIndex), bool(trim.IsReversed)
+            ends = (int(trim.StartVertexIndex), int(trim.EndVertexIndex))
+            if k < 0 or k >= count:  # singular trim: bridged by its neighbours' end points
+                trims.append(sh.Trim(-1, rev, ends))
+                continue
+            if k not in part.samples:
+                part.samples[k] = sh.edge_points(brep.Edges[k])
+            t, pts = part.samples[k]
+            trims.append(sh.Trim(k, rev, ends, t))
+            curves.append(pts[::-1] if rev else pts)
         if curves:
-            chains.append((str(loop.LoopType).endswith("Outer"), np.concatenate(curves)))
+            outer = str(loop.LoopType).endswith("Outer")
+            chains.append((outer, trims, np.concatenate(curves)))
     if not chains:
-        return [], 0.0
+        return [], 0.0, []
     # all the loops of the face in one batch, with each point's neighbours along its loop
-    sizes = np.array([len(c) for _, c in chains])
+    sizes = np.array([len(c) for _, _, c in chains])
     first = np.repeat(np.cumsum(sizes) - sizes, sizes)
     size = np.repeat(sizes, sizes)
     local = np.arange(len(first)) - first
     near = np.stack([first + (local - 1) % size, first + (local + 1) % size])
-    uv_all, ratio_all, free_all = _pull_back(grid, np.concatenate([c for _, c in chains]), near)
+    uv_all, ratio_all, free_all = _pull_back(grid, np.concatenate([c for *_, c in chains]), near)
     cuts = np.cumsum(sizes)[:-1]
-    outer: list[NDArray[np.float64]] = []
-    inner: list[NDArray[np.float64]] = []
+    outer_loops: list[NDArray[np.float64]] = []
+    inner_loops: list[NDArray[np.float64]] = []
+    outer_trims: list[list[sh.Trim]] = []
+    inner_trims: list[list[sh.Trim]] = []
     tol = 0.0
-    for (is_outer, _), uv, ratio, free in zip(
+    for (is_outer, trims, _), uv, ratio, free in zip(
         chains,
         np.split(uv_all, cuts),
         np.split(ratio_all, cuts),
         np.split(free_all, cuts),
         strict=True,
     ):
-        _fix_ambiguous(grid, uv, free, is_outer)
+        _fix_ambiguous(grid, uv, free, is_outer, [len(t.t) for t in trims if t.edge >= 0])
+        sh.split_trims(trims, uv)
         ratio = ratio[free < 0]
         tol = max(tol, float(ratio.max()) if ratio.size else 0.0)
         keep = np.r_[True, np.any(np.abs(np.diff(uv, axis=0)) > 1e-12 * grid.span, axis=1)]
         uv = uv[keep]
         uv = np.vstack([uv, uv[:1]])
-        (outer if is_outer else inner).append(uv)
-    return outer + inner, tol
-
-
-def _edge_points(edge) -> NDArray[np.float64]:
-    """Points along an edge curve, both ends included, dense enough that every chord's
-    midpoint lies within ``_CHORD_TOLERANCE`` of the edge's size from the curve (intervals
-    halved where it does not, up to ``_MAX_EDGE_POINTS`` points)."""
-    d = edge.Domain
-    n = int(edge.SpanCount) * int(edge.Degree) * _SAMPLES_PER_SPAN
-    n = min(max(n, _MIN_SAMPLES), _MAX_SAMPLES)
-    ts = np.linspace(d.T0, d.T1, n)
-    pts = np.array([_xyz(edge.PointAt(float(t))) for t in ts])
-    size = float(np.linalg.norm(np.ptp(pts, axis=0))) or 1.0
-    while len(ts) < _MAX_EDGE_POINTS:
-        mid_t = 0.5 * (ts[:-1] + ts[1:])
-        mid = np.array([_xyz(edge.PointAt(float(t))) for t in mid_t])
-        split = np.linalg.norm(mid - 0.5 * (pts[:-1] + pts[1:]), axis=1) > _CHORD_TOLERANCE * size
-        if not split.any():
-            break
-        at = np.flatnonzero(split) + 1  # insert after the interval's start
-        ts = np.insert(ts, at, mid_t[split])
-        pts = np.insert(pts, at, mid[split], axis=0)
-    return pts
+        (outer_loops if is_outer else inner_loops).append(uv)
+        (outer_trims if is_outer else inner_trims).append(trims)
+    return outer_loops + inner_loops, tol, outer_trims + inner_trims
 
 
 def _grid_parameters(patch: BSplinePatch, d: int, lo: float, hi: float) -> NDArray[np.float64]:
@@ -457,56 +443,51 @@ def _pull_back(
 
 
 def _fix_ambiguous(
-    grid: _Grid, uv: NDArray[np.float64], free: NDArray[np.intp], outer: bool = True
+    grid: _Grid,
+    uv: NDArray[np.float64],
+    free: NDArray[np.intp],
+    outer: bool = True,
+    pieces: list[int] | None = None,
 ) -> None:
     """Choose, in place, among parameters that name the same point.
 
-    On the seam of a closed direction: a run of points along the seam (a seam edge) lies at
-    the end that the loop's sense asks for (an outer loop runs counterclockwise in (u, v):
-    up a u-seam at the high end, down it at the low one; a hole the other way round); a
-    lone seam point at the end nearer its neighbours.  At a pole (``free`` >= 0: the
-    direction along which the surface does not move) the neighbour's parameter."""
+    Across the seam of a closed direction, per trim (``pieces``: the trims' sample counts,
+    in order; default one piece): a trim that runs along the seam (all its points within
+    ``_SEAM`` of the span from it: a seam edge) lies at the end that the loop's sense asks
+    for (an outer loop runs counterclockwise in (u, v): up a u-seam at the high end, down it
+    at the low one; a hole the other way round); any other point near the seam goes to the
+    side of the nearest point of its trim away from the seam (a trim never crosses the seam,
+    and Newton may stop a hair inside either end).  At a pole (``free`` >= 0: the direction
+    along which the surface does not move) the neighbour's parameter."""
     m = len(uv)
     span = grid.hi - grid.lo
+    cuts = np.cumsum([0, *(pieces if pieces is not None else [m])])
     for d in (0, 1):
         if not grid.closed[d]:
             continue
-        e = 1 - d
-        seam = (np.abs(uv[:, d] - grid.lo[d]) <= 1e-9 * span[d]) | (
-            np.abs(uv[:, d] - grid.hi[d]) <= 1e-9 * span[d]
-        )
-        step = np.roll(uv[:, e], -1) - uv[:, e]  # towards the next point
-        along = seam & np.roll(seam, -1) & (np.abs(step) > 1e-9 * span[e])
-        # a point of a seam run takes the sense of the step leaving it (or entering it)
-        run = along | (seam & np.roll(along, 1))
-        sense = np.where(along, step, np.roll(step, 1))
-        rising = sense > 0
-        high = rising if (d == 0) == outer else ~rising
-        uv[run, d] = np.where(high[run], grid.hi[d], grid.lo[d])
-        lone = seam & ~run
-        for i in _outward(lone):
-            near = uv[(i - 1) % m, d] if not lone[(i - 1) % m] else uv[(i + 1) % m, d]
-            lo_side = abs(near - grid.lo[d]) < abs(near - grid.hi[d])
-            uv[i, d] = grid.lo[d] if lo_side else grid.hi[d]
-            lone[i] = False
+        e, lo, hi = 1 - d, grid.lo[d], grid.hi[d]
+        for a, b in itertools.pairwise(cuts):
+            x = uv[a:b, d]
+            seam = (x - lo <= _SEAM * span[d]) | (hi - x <= _SEAM * span[d])
+            if not seam.any():
+                continue
+            if seam.all():
+                travel = uv[b - 1, e] - uv[a, e]
+                if abs(travel) <= 1e-9 * span[e]:
+                    continue
+                high = (travel > 0) if (d == 0) == outer else (travel < 0)
+                x[:] = hi if high else lo
+                continue
+            away = np.flatnonzero(~seam)
+            for i in np.flatnonzero(seam):
+                j = away[np.argmin(np.abs(away - i))]
+                side_hi = x[j] - lo > hi - x[j]
+                if side_hi and x[i] - lo <= _SEAM * span[d]:
+                    x[i] = min(x[i] + span[d], hi)
+                elif not side_hi and hi - x[i] <= _SEAM * span[d]:
+                    x[i] = max(x[i] - span[d], lo)
     pole = free >= 0
-    for i in _outward(pole):
-        j = (i - 1) % m if not pole[(i - 1) % m] else (i + 1) % m
-        uv[i, free[i]] = uv[j, free[i]]
-        pole[i] = False
-
-
-def _outward(mask: NDArray[np.bool_]) -> list[int]:
-    """Indices of ``mask`` ordered so that each comes next to one already resolved (none
-    when every index is in ``mask``)."""
-    m = len(mask)
-    mask = mask.copy()
-    order: list[int] = []
-    while mask.any() and not mask.all():
-        ready = [i for i in np.flatnonzero(mask) if not (mask[(i - 1) % m] and mask[(i + 1) % m])]
-        if not ready:
-            break
-        for i in ready:
-            mask[i] = False
-        order.extend(int(i) for i in ready)
-    return order
+    for k in sh.outward(pole):
+        j = (k - 1) % m if not pole[(k - 1) % m] else (k + 1) % m
+        uv[k, free[k]] = uv[j, free[k]]
+        pole[k] = False

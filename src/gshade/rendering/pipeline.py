@@ -111,7 +111,7 @@ def render(scene, **overrides) -> RenderedImage:
         domains = [p.domain for p in scene.patches]
         channels = draw_junctions(channels, junctions, domains, edges=edges)
         lap("junctions")
-    shown = legend(scene.shape, style)
+    shown = legend(scene.shape, style, _length_unit(scene))
     metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
     if junctions is not None:
         from ..analysis.junction_lines import junction_metadata
@@ -157,6 +157,15 @@ def _settings(scene):
             f"{spp} = {settings.width * settings.height * spp}"
         )
     return settings, where
+
+
+def _length_unit(scene) -> str:
+    """The scene's length unit: its CAD models' (all one, e.g. ``"mm"``) when every surface
+    is a CAD model's, else ``"length"`` (control points carry no unit)."""
+    units = {s.cad.model.unit if s.cad is not None else None for s in scene.surfaces}
+    if len(units) == 1 and None not in units and "unknown" not in units:
+        return str(units.pop())
+    return "length"
 
 
 #: Points per B-rep edge drawn as a junction line.

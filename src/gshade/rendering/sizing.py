@@ -67,13 +67,32 @@ class Framing:
 
 
 def frame(scene, settings, where: str) -> Framing:
-    """The bounding box of the patches (sampled on a 17 x 17 grid each), checked to be
-    renderable in single precision, and the resolved camera."""
-    box = grid_derivatives(scene.patches, np.linspace(0.0, 1.0, 17))[:, 0, 0].reshape(-1, 3)
+    """The bounding box of the patches (sampled on a 17 x 17 grid each; a CAD face at its
+    loops and the grid points inside them), checked to be renderable in single precision,
+    and the resolved camera."""
+    box = _extent_points(scene)
     lo, hi = box.min(axis=0), box.max(axis=0)
     diag = _validate_scale(where, lo, hi)
     view = frame_view(scene.camera, box, settings.width, settings.height)
     return Framing(lo, hi, diag, view)
+
+
+def _extent_points(scene) -> NDArray:
+    """Points standing for the surfaces' extent: each patch's 17 x 17 grid, and for CAD
+    faces, which use part of their patch's box, the points of the trimmed region."""
+    grid = np.linspace(0.0, 1.0, 17)
+    if not any(s.cad is not None for s in scene.surfaces):
+        return grid_derivatives(scene.patches, grid)[:, 0, 0].reshape(-1, 3)
+    from ..io.cad import trimmed_points
+
+    points = []
+    for surface in scene.surfaces:
+        if surface.cad is None:
+            points.append(grid_derivatives(surface.patches, grid)[:, 0, 0].reshape(-1, 3))
+        else:
+            faces = surface.cad.model.faces
+            points.extend(trimmed_points(faces[i]) for i in surface.cad.faces)
+    return np.concatenate(points)
 
 
 def _nearest_distance(view: View, lo: NDArray, hi: NDArray) -> float:

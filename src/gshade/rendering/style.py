@@ -105,8 +105,10 @@ def display_style(
     return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
 
 
-def legend(shape, style: DisplayStyle) -> Legend:
-    """The legend of a render: the function, its colour map and range, its stripes."""
+def legend(shape, style: DisplayStyle, length: str = "length") -> Legend:
+    """The legend of a render: the function, its colour map and range, its stripes; the
+    units in terms of ``length``, the scene's length unit (e.g. ``"mm"``: 1/mm), where one
+    is known."""
     return Legend(
         function=shape.function,
         order=get_shape_function(shape.function).order,
@@ -116,5 +118,5 @@ def legend(shape, style: DisplayStyle) -> Legend:
         period=None if shape.display == "colormap" else float(style.period),
         duty=None if shape.display == "colormap" else shape.duty,
         stripe_function=shape.function if shape.display == "both" else None,
-        units=_units(style.mapped, shape.params_for(style.mapped)),
+        units=_units(style.mapped, shape.params_for(style.mapped)).replace("length", length),
     )

@@ -414,8 +414,8 @@ def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
         )
 
 
-#: The CAD files a ``cad`` surface renders (``.3dm`` models are read, not yet rendered).
-CAD_RENDERED = (".step", ".stp", ".iges", ".igs", ".brep")
+#: The CAD files a ``cad`` surface renders.
+CAD_RENDERED = (".step", ".stp", ".iges", ".igs", ".brep", ".3dm")
 
 
 def _swapped(patch: BSplinePatch) -> BSplinePatch:
@@ -434,10 +434,10 @@ def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, floa
 
 @surface_type(
     "cad",
-    "the trimmed faces of a CAD model (STEP, IGES, BREP), exact, meshed by the kernel",
+    "the trimmed faces of a CAD model (STEP, IGES, BREP, Rhino 3dm), exact, meshed by the kernel",
     Key(
         "file",
-        "path (.step .stp .iges .igs .brep)",
+        "path (.step .stp .iges .igs .brep .3dm)",
         REQUIRED,
         "the model, relative to the scene file",
     ),
@@ -448,14 +448,8 @@ def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, floa
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     from ..io.cad import read_cad
 
-    name = t.string("file", expected="a path to a STEP, IGES or BREP file")
+    name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()
-    if suffix == ".3dm":
-        raise t.error(
-            "file",
-            "rendering .3dm faces is not supported yet; gshade.io.cad.read_cad reads them "
-            f"(got {show(name)})",
-        )
     if suffix not in CAD_RENDERED:
         raise t.error(
             "file",

@@ -1,0 +1,498 @@
+"""An Open CASCADE B-rep for a Rhino ``.3dm`` model, built from openNURBS's own topology.
+
+rhino3dm gives each Brep's faces (exact NURBS surfaces), edges (exact 3D NURBS curves),
+vertices and loops of trims (edge index, sense, end vertices), but no 2D trimming curves.
+:mod:`gshade.io.cad_3dm` recovers each trim in the face's (u, v) by point inversion, at the
+edge curve's own parameters t_k; here the kernel's shape is assembled from those pieces,
+with the file's topology, so that it needs no sewing:
+
+- one ``Geom_BSplineSurface`` per face from its :class:`BSplinePatch` (the same poles,
+  weights, knots and multiplicities: exact);
+- one ``TopoDS_Vertex`` per Brep vertex and one ``TopoDS_Edge`` per Brep edge, on the edge's
+  exact NURBS curve C(t) (or, where openNURBS's NURBS form does not match the edge's
+  parametrisation within 1e-9 of its size, a cubic interpolating the edge's samples);
+- on every face that uses an edge, a pcurve c(t): the cubic B-spline that interpolates the
+  recovered (u_k, v_k) at the same t_k (``Geom2dAPI_Interpolate``; a polyline if that fails),
+  two of them on a seam; singular trims at poles become degenerated edges on the segment
+  between their neighbours' ends;
+- wires in the trims' order and sense, faces reversed where the Brep face is, one shell per
+  Brep; ``BRepLib.SameParameter`` then measures |S(c(t)) - C(t)| over each edge and sets the
+  edge and vertex tolerances from it (the inversion's accuracy).
+
+Faces come out in the model's order (checked): an edge shared by two faces is one
+``TopoDS_Edge`` in both, as the watertight mesher and the continuity along edges need.
+Free surface objects become untrimmed faces over their whole domain.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from OCP.BRep import BRep_Builder
+from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+from OCP.BRepLib import BRepLib
+from OCP.collections import (
+    Array1_double,
+    Array1_gp_Pnt,
+    Array1_gp_Pnt2d,
+    Array1_int,
+    Array2_double,
+    Array2_gp_Pnt,
+    HArray1_double,
+    HArray1_gp_Pnt,
+    HArray1_gp_Pnt2d,
+)
+from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface
+from OCP.Geom2d import Geom2d_BSplineCurve
+from OCP.Geom2dAPI import Geom2dAPI_Interpolate
+from OCP.GeomAPI import GeomAPI_Interpolate
+from OCP.gp import gp_Pnt, gp_Pnt2d
+from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+from OCP.TopLoc import TopLoc_Location
+from OCP.TopoDS import (
+    TopoDS_Compound,
+    TopoDS_Edge,
+    TopoDS_Face,
+    TopoDS_Shell,
+    TopoDS_Vertex,
+    TopoDS_Wire,
+)
+
+from ..errors import GshadeError
+from ..geometry.bspline import BSplinePatch
+from ..runtime.native import captured_output
+from .cad import CadFace
+
+__all__ = [
+    "BrepPart",
+    "Trim",
+    "build_shape",
+    "closed_directions",
+    "edge_points",
+    "found",
+    "outward",
+    "split_trims",
+    "trimmed_box",
+]
+
+#: Starting tolerance of edges and vertices, relative to the model's size (SameParameter
+#: raises it to the measured deviation).
+_START_TOLERANCE = 1e-7
+#: openNURBS's NURBS form of an edge is used when it matches the edge's samples within this
+#: fraction of the model's size.
+_CURVE_MATCH = 1e-9
+#: Edge samples per span and degree, and their bounds, for the recovered trimming loops.
+_SAMPLES_PER_SPAN = 4
+_MIN_SAMPLES, _MAX_SAMPLES = 9, 200
+#: Chord midpoints within this fraction of an edge's size from the curve, at most so many
+#: points an edge.
+_CHORD_TOLERANCE, _MAX_EDGE_POINTS = 1e-4, 4000
+
+
+@dataclass
+class Trim:
+    """One trim of a loop, as recovered in the face's (u, v).
+
+    Attributes
+    ----------
+    edge : int
+        The Brep edge's index; -1 for a singular trim (a pole).
+    reversed : bool
+        True when the trim runs against its edge.
+    vertices : (int, int)
+        The Brep vertices at the trim's start and end (in the trim's sense).
+    t : ndarray (n,)
+        The edge parameters of the samples, increasing (the edge's sense).
+    uv : ndarray (n, 2)
+        The samples' parameters on the face at ``t`` (the edge's sense); for a singular
+        trim the two ends of the segment it is in (u, v), in the trim's sense.
+    """
+
+    edge: int
+    reversed: bool
+    vertices: tuple[int, int]
+    t: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    uv: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 2)))
+
+
+@dataclass
+class BrepPart:
+    """A Brep of the file: the rhino3dm object, its edges' samples (edge index -> (t, xyz))
+    and its faces as (model face index, loops of trims, outer loop first)."""
+
+    brep: Any
+    samples: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]
+    faces: list[tuple[int, list[list[Trim]]]] = field(default_factory=list)
+
+
+def build_shape(path: Path, faces: list[CadFace], parts: list[BrepPart | int]) -> Any:
+    """The model's faces as one compound of shells (a Brep each) and free faces.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for messages.
+    faces : list of CadFace
+        The model's faces; the shape's faces are these, in this order.
+    parts : list
+        In the file's order: a :class:`BrepPart`, or the index of a free surface's face.
+
+    Raises
+    ------
+    GshadeError
+        One line naming the file (and the face) where the kernel fails.
+    """
+    lo = np.min([f.patch.points.reshape(-1, 3).min(axis=0) for f in faces], axis=0)
+    hi = np.max([f.patch.points.reshape(-1, 3).max(axis=0) for f in faces], axis=0)
+    tol = _START_TOLERANCE * max(float(np.linalg.norm(hi - lo)), 1e-9)
+    builder = BRep_Builder()
+    compound = TopoDS_Compound()
+    builder.MakeCompound(compound)
+    built: list[Any] = []
+    for part in parts:
+        if isinstance(part, int):
+            face = _free_face(path, faces[part], tol)
+            builder.Add(compound, face)
+            built.append(face)
+            continue
+        shell = TopoDS_Shell()
+        builder.MakeShell(shell)
+        for face in _brep_faces(path, part, faces, builder, tol):
+            builder.Add(shell, face)
+            built.append(face)
+        builder.Add(compound, shell)
+    try:
+        with captured_output():
+            BRepLib.SameParameter_s(compound, tol, True)
+            BRepLib.UpdateTolerances_s(compound, False)
+    except Exception as exc:
+        raise GshadeError(f"{path}: the kernel could not fit the trims ({_why(exc)})") from None
+    from .cad_occt import _faces
+
+    order = _faces(compound)
+    if len(order) != len(faces) or not all(a.IsSame(b) for a, b in zip(order, built, strict=True)):
+        raise GshadeError(f"{path}: the kernel's shape lost the order of the faces")
+    return compound
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+
+
+def _knots(full: NDArray[np.float64]) -> tuple[Any, Any]:
+    """A full knot sequence as OCCT's distinct knots and multiplicities."""
+    values, counts = np.unique(full, return_counts=True)
+    knots = Array1_double(1, len(values))
+    mults = Array1_int(1, len(values))
+    for i, (k, m) in enumerate(zip(values, counts, strict=True)):
+        knots.SetValue(i + 1, float(k))
+        mults.SetValue(i + 1, int(m))
+    return knots, mults
+
+
+def surface(patch: BSplinePatch) -> Any:
+    """The patch as a ``Geom_BSplineSurface``: the same poles, weights, knots (exact)."""
+    nu, nv = patch.points.shape[:2]
+    poles = Array2_gp_Pnt(1, nu, 1, nv)
+    for i in range(nu):
+        for j in range(nv):
+            poles.SetValue(i + 1, j + 1, gp_Pnt(*map(float, patch.points[i, j])))
+    ku, mu = _knots(np.asarray(patch.knots[0], dtype=float))
+    kv, mv = _knots(np.asarray(patch.knots[1], dtype=float))
+    p, q = patch.degree
+    if patch.weights is None:
+        return Geom_BSplineSurface(poles, ku, kv, mu, mv, p, q, False, False)
+    weights = Array2_double(1, nu, 1, nv)
+    for i in range(nu):
+        for j in range(nv):
+            weights.SetValue(i + 1, j + 1, float(patch.weights[i, j]))
+    return Geom_BSplineSurface(poles, weights, ku, kv, mu, mv, p, q, False, False)
+
+
+def _free_face(path: Path, face: CadFace, tol: float) -> Any:
+    """An untrimmed face over the patch's whole domain."""
+    (u0, u1), (v0, v1) = face.patch.domain
+    try:
+        maker = BRepBuilderAPI_MakeFace(surface(face.patch), u0, u1, v0, v1, tol)
+        out = maker.Face()
+    except Exception as exc:
+        raise GshadeError(f"{path}: face {face.index}: the kernel failed ({_why(exc)})") from None
+    return out.Reversed() if face.reversed else out
+
+
+def _edge_curve(nurbs: Any, t: NDArray[np.float64], xyz: NDArray[np.float64], tol: float) -> Any:
+    """The edge's NURBS form as a ``Geom_BSplineCurve`` when it matches the samples (the
+    edge's own parametrisation), else the cubic interpolating them at their parameters."""
+    try:
+        n, p = len(nurbs.Points), int(nurbs.Order) - 1
+        h = np.array([[c.X, c.Y, c.Z, c.W] for c in (nurbs.Points[i] for i in range(n))])
+        k = np.asarray(nurbs.Knots.ToList(), dtype=float)
+        full = np.concatenate([k[:1], k, k[-1:]])
+        knots, mults = _knots(full)
+        poles = Array1_gp_Pnt(1, n)
+        rational = bool(nurbs.IsRational)
+        xyz_h = h[:, :3] / h[:, 3:] if rational else h[:, :3]
+        for i in range(n):
+            poles.SetValue(i + 1, gp_Pnt(*map(float, xyz_h[i])))
+        if rational:
+            w = Array1_double(1, n)
+            for i in range(n):
+                w.SetValue(i + 1, float(h[i, 3]))
+            curve = Geom_BSplineCurve(poles, w, knots, mults, p, False)
+        else:
+            curve = Geom_BSplineCurve(poles, knots, mults, p, False)
+        at = np.array([[q.X(), q.Y(), q.Z()] for q in (curve.Value(float(s)) for s in t)])
+        if np.abs(at - xyz).max() <= tol:
+            return curve
+    except Exception:  # an unusable NURBS form: interpolate the samples instead
+        pass
+    points = HArray1_gp_Pnt(1, len(t))
+    params = HArray1_double(1, len(t))
+    for i, (s, q) in enumerate(zip(t, xyz, strict=True)):
+        points.SetValue(i + 1, gp_Pnt(*map(float, q)))
+        params.SetValue(i + 1, float(s))
+    fit = GeomAPI_Interpolate(points, params, False, 1e-12)
+    fit.Perform()
+    return fit.Curve()
+
+
+def _pcurve(t: NDArray[np.float64], uv: NDArray[np.float64]) -> Any:
+    """The cubic through (u_k, v_k) at t_k (``Geom2dAPI_Interpolate``), or the polyline
+    (degree 1, knots t_k) where the interpolation fails."""
+    n = len(t)
+    if n >= 3:
+        try:
+            points = HArray1_gp_Pnt2d(1, n)
+            params = HArray1_double(1, n)
+            for i in range(n):
+                points.SetValue(i + 1, gp_Pnt2d(float(uv[i, 0]), float(uv[i, 1])))
+                params.SetValue(i + 1, float(t[i]))
+            fit = Geom2dAPI_Interpolate(points, params, False, 1e-14)
+            fit.Perform()
+            if fit.IsDone():
+                return fit.Curve()
+        except Exception:  # confused points: the polyline below
+            pass
+    poles = Array1_gp_Pnt2d(1, n)
+    for i in range(n):
+        poles.SetValue(i + 1, gp_Pnt2d(float(uv[i, 0]), float(uv[i, 1])))
+    knots = Array1_double(1, n)
+    mults = Array1_int(1, n)
+    for i in range(n):
+        knots.SetValue(i + 1, float(t[i]))
+        mults.SetValue(i + 1, 2 if i in (0, n - 1) else 1)
+    return Geom2d_BSplineCurve(poles, knots, mults, 1, False)
+
+
+def _brep_faces(
+    path: Path, part: BrepPart, faces: list[CadFace], builder: Any, tol: float
+) -> list[Any]:
+    """The Brep's faces, sharing their vertices and edges."""
+    brep = part.brep
+    match = _CURVE_MATCH / _START_TOLERANCE * tol
+    vertices: dict[int, Any] = {}
+    edges: dict[int, Any] = {}
+    ranges: dict[int, tuple[float, float]] = {}
+
+    def vertex(k: int) -> Any:
+        if k not in vertices:
+            loc = brep.Vertices[k].Location
+            v = TopoDS_Vertex()
+            builder.MakeVertex(v, gp_Pnt(loc.X, loc.Y, loc.Z), tol)
+            vertices[k] = v
+        return vertices[k]
+
+    def edge(trim: Trim) -> Any:
+        k = trim.edge
+        if k not in edges:
+            t, xyz = part.samples[k]
+            curve = _edge_curve(brep.Edges[k].ToNurbsCurve(), t, xyz, match)
+            e = TopoDS_Edge()
+            builder.MakeEdge(e, curve, tol)
+            start, end = trim.vertices[::-1] if trim.reversed else trim.vertices
+            builder.Add(e, vertex(start).Oriented(TopAbs_FORWARD))
+            builder.Add(e, vertex(end).Oriented(TopAbs_REVERSED))
+            builder.Range(e, float(t[0]), float(t[-1]))
+            edges[k] = e
+            ranges[k] = (float(t[0]), float(t[-1]))
+        return edges[k]
+
+    out = []
+    for index, loops in part.faces:
+        cad = faces[index]
+        try:
+            out.append(_face(cad, loops, builder, tol, edge, vertex))
+        except GshadeError as exc:
+            raise GshadeError(f"{path}: face {index}: {exc}") from None
+        except Exception as exc:
+            raise GshadeError(f"{path}: face {index}: the kernel failed ({_why(exc)})") from None
+    for k, e in edges.items():
+        builder.SameParameter(e, False)
+        builder.Range(e, *ranges[k])
+    return out
+
+
+def _face(cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex) -> Any:
+    """One face on its exact surface, bounded by wires of the shared edges."""
+    face = TopoDS_Face()
+    builder.MakeFace(face, surface(cad.patch), TopLoc_Location(), tol)
+    seams: dict[int, list[Trim]] = {}
+    for loop in loops:
+        for trim in loop:
+            if trim.edge >= 0:
+                seams.setdefault(trim.edge, []).append(trim)
+    for loop in loops:
+        wire = TopoDS_Wire()
+        builder.MakeWire(wire)
+        for trim in loop:
+            if trim.edge < 0:
+                e = _degenerated(trim, builder, tol, vertex)
+                t, uv = _segment(trim.uv)
+                builder.UpdateEdge(e, _pcurve(t, uv), face, tol)
+                builder.Range(e, float(t[0]), float(t[1]))
+                builder.Add(wire, e.Oriented(TopAbs_FORWARD))
+                continue
+            else:
+                e = edge(trim)
+                uses = seams[trim.edge]
+                if len(uses) == 2 and uses[0].reversed != uses[1].reversed:
+                    if trim is uses[0]:  # a seam: both pcurves at once, the forward one first
+                        fwd, rev = (uses[1], uses[0]) if uses[0].reversed else uses
+                        builder.UpdateEdge(
+                            e, _pcurve(fwd.t, fwd.uv), _pcurve(rev.t, rev.uv), face, tol
+                        )
+                elif trim is uses[0]:
+                    builder.UpdateEdge(e, _pcurve(trim.t, trim.uv), face, tol)
+            builder.Add(wire, e.Oriented(TopAbs_REVERSED if trim.reversed else TopAbs_FORWARD))
+        builder.Add(face, wire)
+    return face.Reversed() if cad.reversed else face
+
+
+def _segment(ends: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A straight segment between two (u, v) points, parametrised by arc length."""
+    length = float(np.linalg.norm(ends[1] - ends[0])) or 1e-12
+    return np.array([0.0, length]), ends[:2]
+
+
+def _degenerated(trim: Trim, builder: Any, tol: float, vertex) -> Any:
+    """A degenerated edge (a pole) at the trim's vertex."""
+    e = TopoDS_Edge()
+    builder.MakeEdge(e)
+    v = vertex(trim.vertices[0])
+    builder.Add(e, v.Oriented(TopAbs_FORWARD))
+    builder.Add(e, v.Oriented(TopAbs_REVERSED))
+    builder.Degenerated(e, True)
+    return e
+
+
+def closed_directions(face, nurbs, patch: BSplinePatch) -> tuple[bool, bool]:
+    """The closed directions: openNURBS's, or where the face has a seam edge (one edge used
+    twice) across the direction whose ends meet within 1e-3 of the surface's size."""
+    closed = [bool(nurbs.IsClosed(0)), bool(nurbs.IsClosed(1))]
+    used = [int(t.EdgeIndex) for loop in face.Loops for t in loop.Trims if t.EdgeIndex >= 0]
+    if any(closed) or len(set(used)) == len(used):
+        return closed[0], closed[1]
+    (u0, u1), (v0, v1) = patch.domain
+    s = np.linspace(0.0, 1.0, 17)
+    u, v = u0 + (u1 - u0) * s, v0 + (v1 - v0) * s
+    gaps = (
+        float(np.linalg.norm(patch(np.full(17, u0), v) - patch(np.full(17, u1), v), axis=1).max()),
+        float(np.linalg.norm(patch(u, np.full(17, v0)) - patch(u, np.full(17, v1)), axis=1).max()),
+    )
+    d = int(np.argmin(gaps))
+    scale = float(np.ptp(patch.points.reshape(-1, 3), axis=0).max()) or 1.0
+    closed[d] = gaps[d] <= 1e-3 * scale
+    return closed[0], closed[1]
+
+
+def split_trims(trims: list[Trim], uv: NDArray[np.float64]) -> None:
+    """Hand each trim its piece of the loop's parameters (in its edge's sense); a singular
+    trim the segment from the previous trim's end to the next one's start."""
+    at = 0
+    for trim in trims:
+        if trim.edge >= 0:
+            piece = uv[at : at + len(trim.t)]
+            at += len(trim.t)
+            trim.uv = piece[::-1].copy() if trim.reversed else piece.copy()
+    m = len(trims)
+    for i, trim in enumerate(trims):
+        if trim.edge < 0:
+            prev = next(trims[(i - j) % m] for j in range(1, m + 1) if trims[(i - j) % m].edge >= 0)
+            succ = next(trims[(i + j) % m] for j in range(1, m + 1) if trims[(i + j) % m].edge >= 0)
+            end = prev.uv[0] if prev.reversed else prev.uv[-1]
+            start = succ.uv[-1] if succ.reversed else succ.uv[0]
+            trim.uv = np.array([end, start])
+
+
+def edge_points(edge) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Parameters t and points C(t) along an edge curve, both ends included, dense enough
+    that every chord's midpoint lies within ``_CHORD_TOLERANCE`` of the edge's size from the
+    curve (intervals halved where it does not, up to ``_MAX_EDGE_POINTS`` points)."""
+    d = edge.Domain
+    n = int(edge.SpanCount) * int(edge.Degree) * _SAMPLES_PER_SPAN
+    n = min(max(n, _MIN_SAMPLES), _MAX_SAMPLES)
+    ts = np.linspace(d.T0, d.T1, n)
+    pts = np.array([_xyz(edge.PointAt(float(t))) for t in ts])
+    size = float(np.linalg.norm(np.ptp(pts, axis=0))) or 1.0
+    while len(ts) < _MAX_EDGE_POINTS:
+        mid_t = 0.5 * (ts[:-1] + ts[1:])
+        mid = np.array([_xyz(edge.PointAt(float(t))) for t in mid_t])
+        split = np.linalg.norm(mid - 0.5 * (pts[:-1] + pts[1:]), axis=1) > _CHORD_TOLERANCE * size
+        if not split.any():
+            break
+        at = np.flatnonzero(split) + 1  # insert after the interval's start
+        ts = np.insert(ts, at, mid_t[split])
+        pts = np.insert(pts, at, mid[split], axis=0)
+    return ts, pts
+
+
+def _xyz(p: Any) -> NDArray[np.float64]:
+    return np.array([p.X, p.Y, p.Z], dtype=np.float64)
+
+
+def found(model) -> str:
+    """What a file without surfaces holds, in a few words."""
+    kinds: dict[str, int] = {}
+    for obj in model.Objects:
+        geom = obj.Geometry if obj is not None else None
+        name = "nothing" if geom is None else str(geom.ObjectType).split(".")[-1].lower()
+        kinds[name] = kinds.get(name, 0) + 1
+    if not kinds:
+        return "no objects"
+    return "only " + ", ".join(f"{n} {k} object{'s' * (n > 1)}" for k, n in sorted(kinds.items()))
+
+
+def outward(mask: NDArray[np.bool_]) -> list[int]:
+    """Indices of ``mask`` ordered so that each comes next to one already resolved (none
+    when every index is in ``mask``)."""
+    m = len(mask)
+    mask = mask.copy()
+    order: list[int] = []
+    while mask.any() and not mask.all():
+        ready = [i for i in np.flatnonzero(mask) if not (mask[(i - 1) % m] and mask[(i + 1) % m])]
+        if not ready:
+            break
+        for i in ready:
+            mask[i] = False
+        order.extend(int(i) for i in ready)
+    return order
+
+
+def trimmed_box(box: Any, loops: list[NDArray[np.float64]]) -> Any:
+    """The face's box shrunk to its loops' bounding box (widened by 1e-3 of its size): a
+    small face on a big plane gets the box of its trimmed region, not the plane's."""
+    if not loops:
+        return box
+    pts = np.concatenate(loops)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 1e-3 * (hi - lo)
+    out = []
+    for d in (0, 1):
+        a, b = max(box[d][0], lo[d] - pad[d]), min(box[d][1], hi[d] + pad[d])
+        out.append((float(a), float(b)) if b - a > 1e-9 * (box[d][1] - box[d][0]) else box[d])
+    return tuple(out)
