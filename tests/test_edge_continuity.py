@@ -25,7 +25,7 @@ from gshade.io.cad_edges import shared_edges
 from gshade.rendering import render
 from gshade.scene import load_scene
 
-from .cad_parts import filleted_box
+from .cad_parts import filleted_box, loft, split_bspline_face
 
 R = 2.0  # the fillet radius
 
@@ -43,6 +43,8 @@ def parts(tmp_path_factory) -> dict[str, Path]:
     return {
         "box": _write(BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Shape(), folder, "box.brep"),
         "rounded": _write(filleted_box(r=R), folder, "rounded.brep"),
+        "split": _write(split_bspline_face(), folder, "split.brep"),
+        "loft": _write(loft(), folder, "loft.brep"),
         "cylinder": _write(
             BRepPrimAPI_MakeCylinder(axis, 3.0, 5.0).Shape(), folder, "cylinder.brep"
         ),
@@ -75,6 +77,29 @@ def test_fillets_meet_planes_and_corners_g1_with_the_curvature_jump_one_over_r(p
         assert j.gap < 1e-9
         assert j.normal_angle_deg < 1e-6
         assert j.curvature_jump == pytest.approx(1.0 / R, rel=1e-6)
+
+
+def test_one_surface_split_in_two_faces_meets_itself_smoothly(parts):
+    """Both faces are the same cubic surface, C-infinity across the split (no knot there):
+    the one edge between them is G3, every measure at round-off."""
+    report, _ = edge_report(read_cad(parts["split"]))
+    assert len(report) == 1
+    (j,) = report
+    assert j.cls == "G3"
+    assert j.gap < 1e-9 and j.normal_angle_deg < 1e-9
+    assert j.curvature_jump < 1e-9 and j.curvature_gradient_jump < 1e-7
+
+
+def test_a_loft_meets_its_caps_at_an_angle(parts):
+    """The loft's side meets each planar cap along a circle: sharp, G0, at the angle between
+    the side's slope and the cap (the seam of the side is no junction)."""
+    model = read_cad(parts["loft"])
+    report, _ = edge_report(model)
+    kinds = [f.kind for f in model.faces]
+    assert len(report) == 2
+    for j in report:
+        assert sorted(kinds[f] for f in j.patches) == ["bspline", "plane"]
+        assert j.cls == "G0" and 30.0 < j.normal_angle_deg < 150.0
 
 
 def test_a_seam_is_not_a_junction(parts):

@@ -234,7 +234,11 @@ def _geometry(patch: Patch, side: str, t: NDArray):
 def geometry_at(patch: Patch, u: NDArray, v: NDArray):
     """Derivatives to order 3 (regularised where the patch is irregular), unit normals, and
     the mean and Gaussian curvatures (with their surface gradients) at (u, v)."""
-    d = regularised_derivatives(patch, u, v, 3).d
+    return geometry_of(regularised_derivatives(patch, u, v, 3).d)
+
+
+def geometry_of(d: NDArray):
+    """:func:`geometry_at` from the derivatives d (4, 4, ..., 3) themselves."""
     n = unit_normal(d).n
     mean = evaluate("mean", d)
     gauss = evaluate("gaussian", d)
@@ -381,7 +385,11 @@ def compare_sides(
         np.arctan2(np.linalg.norm(np.cross(ni, nj), axis=-1), np.abs(np.sum(ni * nj, -1)))
     ).max(axis=-1)
     sign = np.sign(np.sum(ni * nj, -1))[..., None]  # curvatures w.r.t. one orientation
-    along = along / np.linalg.norm(along, axis=-1, keepdims=True)
+    length = np.linalg.norm(along, axis=-1, keepdims=True)
+    if not (length > 0).all():  # no tangent (a degenerate sample): any tangent-plane frame
+        along = np.where(length > 0, along, di[1, 0] + di[0, 1])
+        length = np.linalg.norm(along, axis=-1, keepdims=True)
+    along = along / length
     across = np.cross(ni, along)  # in side i's tangent plane
     jump = np.zeros(gap.shape)
     for theta in np.linspace(0.0, np.pi, directions, endpoint=False):

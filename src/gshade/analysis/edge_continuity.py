@@ -20,13 +20,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
+from ..geometry import regularised_derivatives
 from .continuity import (
     Junction,
     Tolerances,
     classify,
     compare_sides,
     continuity_report,
-    geometry_at,
+    geometry_of,
 )
 
 __all__ = ["EdgeLine", "edge_report", "scene_continuity", "scene_diagonal"]
@@ -122,23 +123,29 @@ def _tangent(uv: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _face_geometry(model, edges: list, samples: int) -> dict:
-    """(face, edge) -> the face's geometry at the edge's points on it: each face is
-    evaluated once, at the points of all its edges."""
+    """(face, edge) -> the face's geometry at the edge's points on it: each face's
+    derivatives evaluated once, at the points of all its edges, and the normals and
+    curvatures of all faces in one batch."""
     points: dict[int, list[tuple[int, NDArray[np.float64]]]] = {}
     for m, edge in enumerate(edges):
         for side in (0, 1):
             points.setdefault(edge.faces[side], []).append((m, edge.uv[side]))
-    out = {}
+    derivatives = []
     for f, items in points.items():
         patch = model.faces[f].patch
         (u0, u1), (v0, v1) = patch.domain
         uv = np.concatenate([q for _, q in items])
         u = np.clip(uv[:, 0], u0, u1)  # pcurves may stray past the domain by a tolerance
         v = np.clip(uv[:, 1], v0, v1)
-        d, nrm, mean, gauss = geometry_at(patch, u, v)
-        for q, (m, _) in enumerate(items):
-            s = slice(q * samples, (q + 1) * samples)
+        derivatives.append(regularised_derivatives(patch, u, v, 3).d)
+    d, nrm, mean, gauss = geometry_of(np.concatenate(derivatives, axis=2))
+    out = {}
+    start = 0
+    for f, items in points.items():
+        for m, _ in items:
+            s = slice(start, start + samples)
             out[(f, m)] = (d[:, :, s], nrm[s], mean.gradient[s], gauss.gradient[s])
+            start += samples
     return out
 
 
