@@ -33,3 +33,13 @@ def test_missing_libraries_name_the_install_command(tmp_path, monkeypatch, name,
 def test_unknown_extension_is_one_line(tmp_path):
     with pytest.raises(GshadeError, match=r"x\.stl: expected a CAD file \(\.step, .*got the"):
         read_cad(tmp_path / "x.stl")
+
+
+def test_a_mesh_file_given_as_a_scene_is_named_not_parsed(tmp_path):
+    """``gshade render part.stl``: one line naming what was expected, not a TOML error."""
+    from gshade.scene import load_scene
+
+    part = tmp_path / "part.stl"
+    part.write_bytes(b"solid x\nendsolid x\n")
+    with pytest.raises(GshadeError, match=r"part\.stl: expected a scene file \(TOML\) or a CAD"):
+        load_scene(part)

@@ -228,9 +228,21 @@ def load_scene(
     path = Path(path)
     if path.suffix.lower() in CAD_EXTENSIONS:  # a CAD file: a scene of that one surface
         raw: dict[str, Any] = {"surface": [{"type": "cad", "file": path.name}]}
+    elif path.suffix.lower() in OTHER_GEOMETRY:
+        raise GshadeError(
+            f"{path}: expected a scene file (TOML) or a CAD file ({' '.join(CAD_EXTENSIONS)}), "
+            f"got a {path.suffix} file"
+        )
     else:
         raw = read_toml(path, "a scene file (TOML)")
     return _build(raw, str(path), path, path.parent, overrides, data_path)
+
+
+#: Geometry files that are neither scenes nor readable CAD models (named, not parsed as TOML).
+OTHER_GEOMETRY = frozenset(
+    ".stl .obj .ply .off .3mf .gltf .glb .fbx .dxf .dwg .sat .sab .x_t .x_b .jt .sldprt "
+    ".catpart .prt .ipt".split()
+)
 
 
 def parse_scene(
