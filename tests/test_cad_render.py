@@ -243,3 +243,11 @@ def test_ranges_come_from_the_trimmed_region_only():
     style = display_style(shape, shape.function, tex, region)
     assert style.period == pytest.approx(0.1)  # (1 - 0) / 10 stripes
     assert display_style(shape, shape.function, tex).period == pytest.approx(1e5)
+
+
+def test_a_cad_file_through_a_symbolic_link_is_a_scene(tmp_path, box_file):
+    """The link is what the user named: the model is read where the link points."""
+    link = tmp_path / "linked.brep"
+    link.symlink_to(box_file)
+    scene = load_scene(link)
+    assert scene.name == "linked" and len(scene.patches) == 26

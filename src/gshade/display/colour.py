@@ -249,15 +249,30 @@ def auto_range(
     *,
     signed: bool = False,
     percentiles: tuple[float, float] = (1.0, 99.0),
+    weights: ArrayLike | None = None,
 ) -> tuple[float, float]:
     """A robust value range: the given percentiles of the valid values, symmetric about 0
-    (±max |percentile|) for signed functions.  Never empty."""
+    (±max |percentile|) for signed functions.  Never empty.
+
+    With ``weights`` (>= 0, e.g. the surface area each value stands for), the percentiles
+    are of the weighted distribution, estimated from at most ``2**20`` evenly strided
+    values."""
     f = np.asarray(f, dtype=np.float64)
     mask = np.isfinite(f) if valid is None else (np.asarray(valid, bool) & np.isfinite(f))
     values = f[mask]
     if values.size == 0:
         return (-1.0, 1.0) if signed else (0.0, 1.0)
-    lo, hi = (float(x) for x in np.percentile(values, percentiles))
+    if weights is not None:
+        w = np.asarray(weights, dtype=np.float64)[mask]
+        stride = max(1, values.size >> 20)
+        values, w = values[::stride], w[::stride]
+        order = np.argsort(values)
+        values, cumulative = values[order], np.cumsum(w[order])
+    if weights is not None and cumulative[-1] > 0:
+        at = np.searchsorted(cumulative / cumulative[-1], np.asarray(percentiles) / 100.0)
+        lo, hi = (float(values[min(i, values.size - 1)]) for i in at)
+    else:
+        lo, hi = (float(x) for x in np.percentile(values, percentiles))
     if signed:
         m = max(abs(lo), abs(hi))
         lo, hi = -m, m

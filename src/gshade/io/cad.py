@@ -20,7 +20,15 @@ from numpy.typing import NDArray
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 
-__all__ = ["CAD_EXTENSIONS", "INSTALL", "CadFace", "CadModel", "read_cad", "trimmed_points"]
+__all__ = [
+    "CAD_EXTENSIONS",
+    "INSTALL",
+    "CadFace",
+    "CadModel",
+    "faces_bounds",
+    "read_cad",
+    "trimmed_points",
+]
 
 #: The file extensions read as CAD models, and the reader of each.
 CAD_EXTENSIONS = {
@@ -87,7 +95,8 @@ class CadFace:
 
 @dataclass
 class CadModel:
-    """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi).
+    """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi) (of
+    the trimmed faces, sampled: :func:`faces_bounds`).
 
     ``shape`` is the kernel's NURBS-converted shape, whose faces are ``faces`` in order
     (STEP, IGES, BREP); None for ``.3dm``.
@@ -100,10 +109,13 @@ class CadModel:
     shape: object | None = None
 
 
-def trimmed_points(face: CadFace, n: int = 17) -> NDArray[np.float64]:
+def trimmed_points(
+    face: CadFace, n: int = 17, loop_points: int | None = None
+) -> NDArray[np.float64]:
     """Points (m, 3) of a face's trimmed region, standing for its extent: the points of its
-    loops (at most ``4 n`` a loop) and of the n x n grid of its box that lie inside them (an
-    odd number of loops around; the box's grid for a face without loops)."""
+    loops (at most ``loop_points`` a loop, default 4 n; all with 0) and of the n x n grid of
+    its box that lie inside them (an odd number of loops around; the box's grid for a face
+    without loops)."""
     from matplotlib.path import Path as Polygon
 
     (u0, u1), (v0, v1) = face.box
@@ -111,12 +123,20 @@ def trimmed_points(face: CadFace, n: int = 17) -> NDArray[np.float64]:
     grid = np.stack([u.ravel(), v.ravel()], -1)
     if face.loops:
         around = sum(Polygon(loop).contains_points(grid).astype(int) for loop in face.loops)
-        edges = [loop[:: max(1, len(loop) // (4 * n))] for loop in face.loops]
+        most = 4 * n if loop_points is None else loop_points
+        edges = [loop[:: max(1, len(loop) // most)] if most else loop for loop in face.loops]
         grid = np.concatenate([grid[np.asarray(around) % 2 == 1], *edges])
     (a0, a1), (b0, b1) = face.patch.domain
     return np.asarray(
         face.patch(np.clip(grid[:, 0], a0, a1), np.clip(grid[:, 1], b0, b1)), float
     ).reshape(-1, 3)
+
+
+def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The bounding box (lo, hi) of the faces' trimmed regions, from their
+    :func:`trimmed_points` (points on the exact surfaces: tight up to the sampling)."""
+    points = np.concatenate([trimmed_points(face, 65, 0) for face in faces])
+    return points.min(axis=0), points.max(axis=0)
 
 
 def read_cad(

@@ -40,7 +40,7 @@ from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
-from .cad import CadFace, CadModel
+from .cad import CadFace, CadModel, faces_bounds
 from .files import read_bytes
 
 __all__ = ["LOOP_TOLERANCE", "read"]
@@ -86,9 +86,9 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         raise GshadeError(
             f"{path}: holds no surfaces (only wireframe, point or mesh entities, or nothing)"
         )
-    bounds = _bounds(shape, path)
     if sew or (sew is None and _has_free_faces(shape)):
-        diagonal = float(np.linalg.norm(bounds[1] - bounds[0]))
+        rough = _rough_bounds(shape, path)
+        diagonal = float(np.linalg.norm(rough[1] - rough[0]))
         shape = _sew(
             shape, path, tolerance if tolerance is not None else _sew_tolerance(shape, diagonal)
         )
@@ -112,7 +112,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             raise GshadeError(f"{path}: face {index}: {exc}") from None
         except Exception as exc:
             raise GshadeError(f"{path}: face {index}: the kernel failed ({_why(exc)})") from None
-    return CadModel(path=path, faces=out, unit=unit, bounds=bounds, shape=converted)
+    return CadModel(path=path, faces=out, unit=unit, bounds=faces_bounds(out), shape=converted)
 
 
 def _why(exc: BaseException) -> str:
@@ -299,11 +299,14 @@ def _sew(shape: TopoDS_Shape, path: Path, tolerance: float) -> TopoDS_Shape:
     return shape if sewn.IsNull() else sewn
 
 
-def _bounds(shape: TopoDS_Shape, path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The model's bounding box (lo, hi), tight around the faces' geometry."""
+def _rough_bounds(
+    shape: TopoDS_Shape, path: Path
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A box (lo, hi) around the model, quickly (the poles' and the tolerances' box: loose,
+    enough to scale a sewing tolerance)."""
     try:
         box = Bnd_Box()
-        BRepBndLib.AddOptimal_s(shape, box, False, False)  # tight: geometry, no tolerances
+        BRepBndLib.Add_s(shape, box, False)
         lo, hi = box.CornerMin(), box.CornerMax()
     except Exception as exc:
         raise GshadeError(f"{path}: the kernel could not bound the model ({_why(exc)})") from None

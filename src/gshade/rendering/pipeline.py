@@ -96,6 +96,7 @@ def render(scene, **overrides) -> RenderedImage:
 
     view = framing.view
     mitsuba = mitsuba_scene(mesh, atlas, tex, style, view, settings, scene.shape)
+    del mesh, tex, region  # Mitsuba holds its own copies: free ours before rendering
     lap("scene")
     image = render_shape(mitsuba, settings)
     lap("render")

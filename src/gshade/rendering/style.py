@@ -83,16 +83,21 @@ def display_style(
     shape, mapped: str, tex: ShapeTextures, region: NDArray | None = None
 ) -> DisplayStyle:
     """The range, period and colour map of a scene's ``[shape]`` for its textures, from the
-    texels in ``region`` (default: all; see :func:`trimmed_region`)."""
+    texels in ``region`` (default: all; see :func:`trimmed_region`).  With a region (a scene
+    with CAD faces), the range and the stripes' span are percentiles by surface area (1–99 %
+    and 0.5–99.5 %; see :func:`_area_element`); otherwise the colour range is the 1–99 %
+    percentiles of the texels and the stripes' span their whole range."""
     valid = [v > 0 if region is None else (v > 0) & region for v in tex.valid]
     cvals, cvalid = tex.values[-1][..., 0], valid[-1]
     signed = SHAPE_FUNCTIONS[mapped].signed
+    area = None if region is None else _area_element(tex)
     value_range = (
-        auto_range(cvals, cvalid, signed=signed)
+        auto_range(cvals, cvalid, signed=signed, weights=area)
         if shape.value_range is None
         else validate_range(shape.value_range)
     )
-    f_lo, f_hi = auto_range(tex.values[0][..., 0], valid[0], percentiles=(0.0, 100.0))
+    span = (0.0, 100.0) if area is None else (0.5, 99.5)
+    f_lo, f_hi = auto_range(tex.values[0][..., 0], valid[0], percentiles=span, weights=area)
     period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
     lut = colormap = None
     if shape.display != "stripes":
@@ -103,6 +108,15 @@ def display_style(
         colormap = validate_colormap(shape.colormap or ("coolwarm" if signed else "viridis"))
         lut = _srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
     return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
+
+
+def _area_element(tex: ShapeTextures) -> NDArray | None:
+    """|p_s x p_t| at each texel: the surface area a texel stands for (None if all 0).
+
+    CAD faces differ in size by orders of magnitude while every tile has as many texels, so
+    their ranges are taken by area: a sliver face's extreme curvature does not set them."""
+    area = np.linalg.norm(np.cross(tex.tangent_s, tex.tangent_t), axis=-1)
+    return area if (area > 0).any() else None
 
 
 def legend(shape, style: DisplayStyle, length: str = "length") -> Legend:

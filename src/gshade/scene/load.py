@@ -226,8 +226,11 @@ def load_scene(
     from ..io.cad import CAD_EXTENSIONS
 
     path = Path(path)
+    base = path.parent
     if path.suffix.lower() in CAD_EXTENSIONS:  # a CAD file: a scene of that one surface
-        raw: dict[str, Any] = {"surface": [{"type": "cad", "file": path.name}]}
+        model = path.resolve() if path.is_symlink() else path  # its folder holds it
+        raw: dict[str, Any] = {"surface": [{"type": "cad", "file": model.name}]}
+        base = model.parent
     elif path.suffix.lower() in OTHER_GEOMETRY:
         raise GshadeError(
             f"{path}: expected a scene file (TOML) or a CAD file ({' '.join(CAD_EXTENSIONS)}), "
@@ -235,7 +238,7 @@ def load_scene(
         )
     else:
         raw = read_toml(path, "a scene file (TOML)")
-    return _build(raw, str(path), path, path.parent, overrides, data_path)
+    return _build(raw, str(path), path, base, overrides, data_path)
 
 
 #: Geometry files that are neither scenes nor readable CAD models (named, not parsed as TOML).
