@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -150,3 +151,27 @@ def split_bspline_face(at: float = SPLIT_AT):
         sewing.Add(BRepBuilderAPI_MakeFace(surface, u0, u1, 0.0, 1.0, 1e-7).Face())
     sewing.Perform()
     return sewing.SewedShape()
+
+
+def write_shape(shape, path: Path) -> Path:
+    """The shape as a STEP, IGES (``.igs``) or BREP file, by the suffix; the writers'
+    banners silenced."""
+    from OCP.BRepTools import BRepTools
+    from OCP.IGESControl import IGESControl_Writer
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    from gshade.runtime.native import captured_output
+
+    with captured_output():
+        if path.suffix == ".step":
+            writer = STEPControl_Writer()
+            writer.Transfer(shape, STEPControl_AsIs)
+            writer.Write(str(path))
+        elif path.suffix == ".igs":
+            iges = IGESControl_Writer("MM", 1)
+            iges.AddShape(shape)
+            iges.ComputeModel()
+            iges.Write(str(path))
+        else:
+            BRepTools.Write_s(shape, str(path))
+    return path

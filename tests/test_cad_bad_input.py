@@ -28,34 +28,14 @@ from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_MakeWire,
 )
 from OCP.BRepCheck import BRepCheck_Analyzer
-from OCP.BRepTools import BRepTools
 from OCP.Geom import Geom_Circle, Geom_Plane
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pln, gp_Pnt
-from OCP.IGESControl import IGESControl_Writer
-from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 from OCP.TopoDS import TopoDS_Compound, TopoDS_Face
 
 from gshade.errors import GshadeError
 from gshade.io.cad import read_cad
-from gshade.runtime.native import captured_output
 
-from .cad_parts import filleted_box
-
-
-def _write(shape, path: Path) -> Path:
-    with captured_output():
-        if path.suffix == ".step":
-            writer = STEPControl_Writer()
-            writer.Transfer(shape, STEPControl_AsIs)
-            writer.Write(str(path))
-        elif path.suffix == ".igs":
-            iges = IGESControl_Writer("MM", 1)
-            iges.AddShape(shape)
-            iges.ComputeModel()
-            iges.Write(str(path))
-        else:
-            BRepTools.Write_s(shape, str(path))
-    return path
+from .cad_parts import filleted_box, write_shape
 
 
 def curves_only():
@@ -103,7 +83,7 @@ def _text(path: Path) -> Path:
 
 
 def _truncated(path: Path) -> Path:
-    good = _write(filleted_box(), path.with_name("good.step")).read_bytes()
+    good = write_shape(filleted_box(), path.with_name("good.step")).read_bytes()
     path.write_bytes(good[: len(good) // 2])
     path.with_name("good.step").unlink()
     return path
@@ -111,11 +91,14 @@ def _truncated(path: Path) -> Path:
 
 #: name -> (how to make it in a folder, words the error line holds)
 CASES = {
-    "curves.igs": (lambda p: _write(curves_only(), p), "no surfaces"),
-    "wire.step": (lambda p: _write(curves_only(), p), "no surfaces"),
-    "points.step": (lambda p: _write(vertices_only(), p), "no surfaces"),
-    "bowtie.brep": (lambda p: _write(bow_tie(), p), "face 0: the kernel reports the face invalid"),
-    "off.brep": (lambda p: _write(off_its_surface(), p), "off the face's surface"),
+    "curves.igs": (lambda p: write_shape(curves_only(), p), "no surfaces"),
+    "wire.step": (lambda p: write_shape(curves_only(), p), "no surfaces"),
+    "points.step": (lambda p: write_shape(vertices_only(), p), "no surfaces"),
+    "bowtie.brep": (
+        lambda p: write_shape(bow_tie(), p),
+        "face 0: the kernel reports the face invalid",
+    ),
+    "off.brep": (lambda p: write_shape(off_its_surface(), p), "off the face's surface"),
     "text.step": (_text, "not a STEP file"),
     "truncated.step": (_truncated, "truncated STEP file"),
     "stl.toml": (lambda p: _scene_of(_text(p.with_name("part.stl")), p), "expected a CAD file"),
@@ -178,7 +161,7 @@ def test_invalid_faces_are_named_with_what_the_kernel_says(tmp_path, make, words
     builder.MakeCompound(compound)
     builder.Add(compound, filleted_box())  # 26 valid faces first
     builder.Add(compound, make())
-    path = _write(compound, tmp_path / "part.brep")
+    path = write_shape(compound, tmp_path / "part.brep")
     with pytest.raises(GshadeError) as exc:
         read_cad(path)
     message = str(exc.value)

@@ -13,12 +13,9 @@ from OCP.BRepBuilderAPI import (
     BRepBuilderAPI_MakeFace,
     BRepBuilderAPI_NurbsConvert,
 )
-from OCP.BRepTools import BRepTools
 from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
 from OCP.Geom import Geom_BSplineSurface
 from OCP.gp import gp_Pnt, gp_Vec
-from OCP.IGESControl import IGESControl_Writer
-from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 from OCP.TopAbs import TopAbs_FACE
 from OCP.TopExp import TopExp_Explorer
 from OCP.TopoDS import TopoDS
@@ -27,9 +24,8 @@ from gshade.errors import GshadeError
 from gshade.geometry import gaussian_and_mean_curvature
 from gshade.io import cad_occt
 from gshade.io.cad import read_cad
-from gshade.runtime.native import captured_output
 
-from .cad_parts import filleted_box
+from .cad_parts import filleted_box, write_shape
 
 R = 2.0
 SIZE = (10.0, 20.0, 30.0)
@@ -54,25 +50,9 @@ def rounded():
     return make_rounded()
 
 
-def _write(shape, path):
-    with captured_output():
-        if path.suffix == ".step":
-            writer = STEPControl_Writer()
-            writer.Transfer(shape, STEPControl_AsIs)
-            writer.Write(str(path))
-        elif path.suffix == ".igs":
-            writer = IGESControl_Writer("MM", 1)
-            writer.AddShape(shape)
-            writer.ComputeModel()
-            writer.Write(str(path))
-        else:
-            BRepTools.Write_s(shape, str(path))
-    return path
-
-
 @pytest.fixture(scope="module")
 def brep_model(rounded, tmp_path_factory):
-    path = _write(rounded, tmp_path_factory.mktemp("cad") / "rounded.brep")
+    path = write_shape(rounded, tmp_path_factory.mktemp("cad") / "rounded.brep")
     return read_cad(path)
 
 
@@ -114,7 +94,7 @@ def max_difference(model, shape, samples=6, seed=0):
 def test_kinds_and_formats(rounded, tmp_path):
     counts = {}
     for name in ("rounded.step", "rounded.igs", "rounded.brep"):
-        path = _write(rounded, tmp_path / name)
+        path = write_shape(rounded, tmp_path / name)
         model = read_cad(path)
         counts[name] = len(model.faces)
         kinds = [f.kind for f in model.faces]
@@ -145,7 +125,7 @@ def test_dropping_the_weights_is_caught(rounded, brep_model):
 
 
 def test_curvature_on_the_fillets(tmp_path, rounded):
-    model = read_cad(_write(rounded, tmp_path / "r.step"))
+    model = read_cad(write_shape(rounded, tmp_path / "r.step"))
     errors = {"cylinder": 0.0, "sphere": 0.0}
     rng = np.random.default_rng(1)
     for face in model.faces:
@@ -181,7 +161,7 @@ def test_bspline_face(tmp_path):
         vm.SetValue(k + 1, m)
     surface = Geom_BSplineSurface(poles, weights, uk, vk, um, vm, p, q, False, False)
     face = BRepBuilderAPI_MakeFace(surface, 0.1, 0.9, 0.2, 1.8, 1e-7).Face()
-    model = read_cad(_write(face, tmp_path / "f.step"))
+    model = read_cad(write_shape(face, tmp_path / "f.step"))
     (f,) = model.faces
     assert f.kind == "bspline" and f.patch.rational and f.patch.degree == (p, q)
     assert np.allclose(f.box, ((0.1, 0.9), (0.2, 1.8)))
@@ -216,7 +196,7 @@ def _one_line(exc, path):
 
 
 def test_bad_files(tmp_path, rounded):
-    good = _write(rounded, tmp_path / "good.step").read_bytes()
+    good = write_shape(rounded, tmp_path / "good.step").read_bytes()
     text = tmp_path / "x.step"
     text.write_text("hello, not a STEP file\n")
     with pytest.raises(GshadeError) as exc:
@@ -238,7 +218,7 @@ def test_bad_files(tmp_path, rounded):
     before = sorted(p.name for p in tmp_path.iterdir())
     edge = BRepBuilderAPI_MakeEdge(gp_Pnt(0, 0, 0), gp_Pnt(1, 0, 0)).Edge()
     for name in ("wire.igs", "wire.step", "wire.brep"):
-        path = _write(edge, tmp_path / name)
+        path = write_shape(edge, tmp_path / name)
         before.append(name)
         with pytest.raises(GshadeError) as exc:
             read_cad(path)
@@ -255,7 +235,7 @@ def test_bad_files(tmp_path, rounded):
 
 
 def test_step_faces_match_the_kernel_reading_the_same_file(rounded, tmp_path):
-    path = _write(rounded, tmp_path / "r.step")
+    path = write_shape(rounded, tmp_path / "r.step")
     shape, unit = cad_occt._read_shape(path, ".step")
     assert unit == "mm"
     assert max_difference(read_cad(path), shape) < 1e-9

@@ -20,15 +20,11 @@ pytest.importorskip("OCP")
 
 from OCP.BRepAdaptor import BRepAdaptor_Surface
 from OCP.BRepLProp import BRepLProp_SLProps
-from OCP.BRepTools import BRepTools
-from OCP.IGESControl import IGESControl_Writer
-from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 from scipy import ndimage
 
 from gshade.geometry import gaussian_and_mean_curvature
 from gshade.io.cad_occt import _faces
 from gshade.rendering import render
-from gshade.runtime.native import captured_output
 from gshade.scene import load_scene
 
 from .cad_parts import (
@@ -43,6 +39,7 @@ from .cad_parts import (
     loft,
     sphere_cap,
     split_bspline_face,
+    write_shape,
 )
 
 SETTINGS = """
@@ -58,36 +55,19 @@ lighting = "flat"
 """
 
 
-def _write(shape, path: Path) -> Path:
-    """The shape as a STEP, IGES or BREP file (by the suffix)."""
-    with captured_output():
-        if path.suffix == ".step":
-            writer = STEPControl_Writer()
-            writer.Transfer(shape, STEPControl_AsIs)
-            writer.Write(str(path))
-        elif path.suffix == ".igs":
-            iges = IGESControl_Writer("MM", 1)
-            iges.AddShape(shape)
-            iges.ComputeModel()
-            iges.Write(str(path))
-        else:
-            BRepTools.Write_s(shape, str(path))
-    return path
-
-
 @pytest.fixture(scope="module")
 def parts(tmp_path_factory) -> Path:
     """A folder with the parts written once: cap.brep, holed.step, loft.{brep,step,igs},
     loft-reversed.brep, split.brep, sheet.brep."""
     folder = tmp_path_factory.mktemp("cad_parts")
-    _write(sphere_cap(), folder / "cap.brep")
-    _write(holed_bspline_face(), folder / "holed.step")
+    write_shape(sphere_cap(), folder / "cap.brep")
+    write_shape(holed_bspline_face(), folder / "holed.step")
     shape = loft()
     for name in ("loft.brep", "loft.step", "loft.igs"):
-        _write(shape, folder / name)
-    _write(shape.Reversed(), folder / "loft-reversed.brep")
-    _write(split_bspline_face(), folder / "split.brep")
-    _write(bspline_sheet(), folder / "sheet.brep")
+        write_shape(shape, folder / name)
+    write_shape(shape.Reversed(), folder / "loft-reversed.brep")
+    write_shape(split_bspline_face(), folder / "split.brep")
+    write_shape(bspline_sheet(), folder / "sheet.brep")
     return folder
 
 

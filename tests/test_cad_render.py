@@ -23,6 +23,7 @@ from gshade.errors import GshadeError
 from gshade.io import read_exr
 from gshade.rendering import render
 from gshade.scene import load_scene
+from gshade.scene.load import CAD_LIGHT
 
 from .cad_parts import filleted_box
 
@@ -195,7 +196,11 @@ def test_a_cad_file_is_a_scene_of_its_one_surface(tmp_path):
     BRepTools.Write_s(filleted_box(r=R), str(part))
     scene = load_scene(part, {"shape.function": "mean"})
     assert scene.name == "bracket" and len(scene.patches) == 26
-    assert scene.shape.function == "mean"
+    assert scene.shape.function == "mean" and "light" not in scene.shape.params
+    # isophotes lit along the automatic view: walls parallel to z are off the stripe edges
+    lit = load_scene(part).shape
+    assert lit.function == "isophotes"
+    assert np.allclose(lit.params["light"], CAD_LIGHT)
     out = tmp_path / "out"
     out.mkdir()
     args = [sys.executable, "-m", "gshade"]

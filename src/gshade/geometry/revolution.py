@@ -9,11 +9,12 @@ w_i w_j (Kiciak, A.4), exact to round-off.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bspline import BSplineCurve, BSplinePatch
 
-__all__ = ["circle", "cylinder", "revolve", "sphere", "torus"]
+__all__ = ["arc", "arc_parameters", "circle", "cylinder", "revolve", "sphere", "torus"]
 
 _S = np.sqrt(0.5)
 #: The unit circle's weights (:func:`circle`).
@@ -28,6 +29,51 @@ def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
     )
     knots = [0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1]
     return BSplineCurve(np.asarray(centre, float) + radius * c, 2, knots, _CIRCLE_WEIGHTS)
+
+
+def _arc_segments(a0: float, a1: float) -> tuple[int, float]:
+    """The number of equal segments of the arc from a0 to a1 (each at most a quarter turn)
+    and their angle."""
+    count = max(1, int(np.ceil((a1 - a0) / (0.5 * np.pi) - 1e-9)))
+    return count, (a1 - a0) / count
+
+
+def arc(a0: float, a1: float) -> BSplineCurve:
+    """The unit circle's arc from angle a0 to a1 (a0 < a1 <= a0 + 2 pi), exact: rational
+    quadratic segments of equal angle Delta <= pi/2 with weights 1, cos(Delta/2), 1 (Piegl &
+    Tiller, section 7.5), the knots (double inside) at the segments' end angles, so that
+    the parameter equals the angle at every knot; between knots see :func:`arc_parameters`.
+    """
+    if not (np.isfinite(a0) and np.isfinite(a1) and a0 < a1 <= a0 + 2 * np.pi * (1 + 1e-12)):
+        raise GshadeError(f"arc: expected a0 < a1 <= a0 + 2 pi, got a0={a0!r}, a1={a1!r}")
+    count, delta = _arc_segments(a0, a1)
+    ends = a0 + delta * np.arange(count + 1)
+    middle = ends[:-1] + 0.5 * delta
+    points = np.empty((2 * count + 1, 2))
+    points[0::2] = np.stack([np.cos(ends), np.sin(ends)], -1)
+    points[1::2] = np.stack([np.cos(middle), np.sin(middle)], -1) / np.cos(0.5 * delta)
+    weights = np.ones(2 * count + 1)
+    weights[1::2] = np.cos(0.5 * delta)
+    knots = np.concatenate([[a0] * 3, np.repeat(ends[1:-1], 2), [a1] * 3])
+    knots[-3:] = a1
+    return BSplineCurve(points, 2, knots, weights)
+
+
+def arc_parameters(angle: ArrayLike, a0: float, a1: float) -> NDArray[np.float64]:
+    """The parameters of :func:`arc` (a0, a1) at which it passes through the given angles.
+
+    In a segment from angle b of angle Delta, the rational quadratic with middle weight
+    c = cos(Delta/2) reaches angle b + phi at the local parameter
+    tau = t / (s + t (1 - c)), t = tan(phi / 2), s = sin(Delta/2) (its angle obeys
+    tan(phi/2) = tau s / ((1 - tau) + tau c)); the parameter is b + tau Delta.
+    """
+    angle = np.asarray(angle, dtype=np.float64)
+    count, delta = _arc_segments(a0, a1)
+    k = np.clip(np.floor((angle - a0) / delta), 0, count - 1)
+    start = a0 + k * delta
+    t = np.tan(0.5 * (angle - start))
+    tau = t / (np.sin(0.5 * delta) + t * (1.0 - np.cos(0.5 * delta)))
+    return start + tau * delta
 
 
 def revolve(profile: BSplineCurve) -> BSplinePatch:

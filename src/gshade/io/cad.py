@@ -74,6 +74,12 @@ class CadFace:
         How far (in parameter units) the loops' polylines may lie from the exact curves.
     trimmed : bool
         False when the face is its whole parameter box.
+    arcs : ((a0, a1) or None, (b0, b1) or None)
+        Per parameter, the angle range when the kernel's parameter is an angle (cylinders,
+        cones, spheres, tori read without the kernel's NURBS conversion) and ``patch`` runs
+        along it as :func:`gshade.geometry.revolution.arc`; None when the kernel's parameter
+        is the patch's.  :meth:`to_patch` maps the kernel's (u, v) (its mesh, its trimming
+        curves) to the patch's.
     """
 
     index: int
@@ -86,6 +92,21 @@ class CadFace:
     loops: list[NDArray[np.float64]] = field(default_factory=list)
     loop_tolerance: float = 0.0
     trimmed: bool = False
+    arcs: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
+
+    def to_patch(self, uv: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The patch's parameters (n, 2) of the kernel's (u, v) (n, 2): exact, the same
+        point of the surface (:func:`gshade.geometry.revolution.arc_parameters` along
+        angles)."""
+        if self.arcs == (None, None):
+            return uv
+        from ..geometry.revolution import arc_parameters
+
+        out = np.array(uv, dtype=np.float64)
+        for d, span in enumerate(self.arcs):
+            if span is not None:
+                out[:, d] = arc_parameters(out[:, d], *span)
+        return out
 
     @property
     def inner_loops(self) -> int:

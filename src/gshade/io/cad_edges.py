@@ -111,7 +111,9 @@ def _shared_edges(model: CadModel, samples: int, faces: list[int] | None) -> lis
         if len(mine) < 2:
             continue
         tolerance = float(BRep_Tool.Tolerance_s(edge))
-        curves = {k: _pcurve_points(edge, face, fraction) for k, face in mine}
+        curves = {
+            f: model.faces[f].to_patch(_pcurve_points(edge, face, fraction)) for f, face in mine
+        }
         for a in range(len(mine)):
             for b in range(a + 1, len(mine)):
                 i, j = mine[a][0], mine[b][0]

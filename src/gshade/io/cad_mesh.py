@@ -128,7 +128,7 @@ def mesh_faces(
     count = 0
     for i in chosen:
         try:
-            part = _face_mesh(kernel_faces[i], model.faces[i].patch, i)
+            part = _face_mesh(kernel_faces[i], model.faces[i])
         except GshadeError as exc:
             raise GshadeError(f"{path}: face {i}: {exc}") from None
         except Exception as exc:
@@ -156,8 +156,9 @@ def mesh_faces(
     )
 
 
-def _face_mesh(face: Any, patch: Any, index: int) -> tuple:
-    """One face's (positions, uv, triangles, boundary, node_gap) from its triangulation."""
+def _face_mesh(face: Any, cad: Any) -> tuple:
+    """One face's (positions, uv, triangles, boundary, node_gap) from its triangulation,
+    uv in the face's patch's parameters (:meth:`gshade.io.cad.CadFace.to_patch`)."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_REVERSED
     from OCP.TopLoc import TopLoc_Location
@@ -183,8 +184,12 @@ def _face_mesh(face: Any, patch: Any, index: int) -> tuple:
     if face.Orientation() == TopAbs_REVERSED:
         triangles = triangles[:, ::-1]
     boundary = _boundary(triangles, n)
+    uv = cad.to_patch(uv)
+    patch = cad.patch
     (u0, u1), (v0, v1) = patch.domain
-    exact = patch(np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1))
+    uv = np.stack([np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1)], -1)
+    nodes, uv, triangles, boundary = _split_poles(patch, nodes, uv, triangles, boundary)
+    exact = patch(uv[:, 0], uv[:, 1])
     gaps = np.linalg.norm(exact - nodes, axis=1)[~boundary]
     positions = np.where(boundary[:, None], nodes, exact)
     gap = float(gaps.max()) if gaps.size else 0.0
@@ -192,6 +197,37 @@ def _face_mesh(face: Any, patch: Any, index: int) -> tuple:
     same = (corners[:, [0, 1, 2]] == corners[:, [1, 2, 0]]).all(axis=2).any(axis=1)
     triangles = triangles[~same]  # collapsed at a pole: two corners are the same node
     return positions, uv, np.ascontiguousarray(triangles, np.int32), boundary, gap
+
+
+def _split_poles(patch: Any, nodes: NDArray, uv: NDArray, triangles: NDArray, boundary: NDArray):
+    """A pole node (where p_u or p_v vanishes: the sphere's apex, a cone's tip) once per
+    triangle around it, its free parameter that of the triangle's other corners (their
+    mean): one node for all would spread its one (u, v) over every triangle of the fan, and
+    the (u, v) inside them, which start the exact channels' Newton steps, would be wrong."""
+    d = np.asarray(patch.derivatives(uv[:, 0], uv[:, 1], 1))
+    speed = np.linalg.norm(np.stack([d[1, 0], d[0, 1]]), axis=-1)  # |p_u|, |p_v| per node
+    scale = float(speed.max()) if speed.size else 0.0
+    free = speed < 1e-9 * scale  # (2, n): the parameter that does not move the point
+    pole = free.any(axis=0)
+    corner = pole[triangles]
+    split = corner.any(axis=1) & ~corner.all(axis=1)
+    if not split.any():
+        return nodes, uv, triangles, boundary
+    rows, cols = np.nonzero(corner & split[:, None])
+    others = ~corner[rows]  # the triangle's corners that are not poles
+    mean = (uv[triangles[rows]] * others[..., None]).sum(axis=1) / others.sum(axis=1)[:, None]
+    old = triangles[rows, cols]
+    new_uv = uv[old].copy()
+    for k in (0, 1):  # along the free parameter, the other corners' mean
+        new_uv[:, k] = np.where(free[k, old], mean[:, k], new_uv[:, k])
+    triangles = triangles.copy()
+    triangles[rows, cols] = len(nodes) + np.arange(len(rows))
+    return (
+        np.concatenate([nodes, nodes[old]]),
+        np.concatenate([uv, new_uv]),
+        triangles,
+        np.concatenate([boundary, np.ones(len(rows), bool)]),
+    )
 
 
 def _boundary(triangles: NDArray[np.int64], n: int) -> NDArray[np.bool_]:

@@ -41,6 +41,7 @@ from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
 from .cad import CadFace, CadModel, faces_bounds
+from .cad_quadrics import ANALYTIC_KINDS, analytic_patch
 from .files import read_bytes
 
 __all__ = ["LOOP_TOLERANCE", "read"]
@@ -63,6 +64,8 @@ _KINDS = {
 }
 _EXACT = {"plane", "cylinder", "cone", "sphere", "torus", "bspline", "bezier"}
 _EXACT |= {"revolution", "extrusion"}
+#: The kinds read without the kernel's NURBS conversion (exact all the same).
+_OWN = {"bspline", "bezier", *ANALYTIC_KINDS}
 _NAMES = {".step": "a STEP file", ".stp": "a STEP file", ".iges": "an IGES file"}
 _NAMES |= {".igs": "an IGES file", ".brep": "a BREP file"}
 
@@ -94,20 +97,17 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         )
         faces = _faces(shape)
     _check_valid(shape, faces, path)
-    try:
-        with captured_output():
-            converted = BRepBuilderAPI_NurbsConvert(shape, True).Shape()
-    except Exception as exc:
-        raise GshadeError(
-            f"{path}: the kernel could not convert the faces to NURBS ({_why(exc)})"
-        ) from None
-    nurbs = _faces(converted)
+    if all(_kind(face) in _OWN for face in faces):  # exact NURBS without the kernel's help
+        converted, nurbs = shape, faces
+    else:
+        converted = _converted(shape, path)
+        nurbs = _faces(converted)
     if len(nurbs) != len(faces):
         raise GshadeError(f"{path}: the NURBS conversion gave {len(nurbs)} faces for {len(faces)}")
     out = []
     for index, (face, conv) in enumerate(zip(faces, nurbs, strict=True)):
         try:
-            out.append(_face(index, face, conv))
+            out.append(_face(index, face, conv, own=converted is shape))
         except GshadeError as exc:
             raise GshadeError(f"{path}: face {index}: {exc}") from None
         except Exception as exc:
@@ -342,18 +342,45 @@ def _patch(surface: Any) -> BSplinePatch:
     return BSplinePatch(points, (surface.UDegree(), surface.VDegree()), knots, weights)
 
 
-def _face(index: int, face: Any, conv: Any) -> CadFace:
-    """One face: its kind (from the original), patch, box and loops (from the converted)."""
-    kind = _KINDS.get(BRepAdaptor_Surface(face).GetType(), "other")
-    surface = BRep_Tool.Surface_s(conv)
-    if type(surface).__name__ != "Geom_BSplineSurface":
-        surface = GeomConvert.SurfaceToBSplineSurface_s(surface)
-    patch = _patch(surface)
+def _kind(face: Any) -> str:
+    """The kernel's surface type of a face (see :data:`_KINDS`)."""
+    return _KINDS.get(BRepAdaptor_Surface(face).GetType(), "other")
+
+
+def _converted(shape: TopoDS_Shape, path: Path) -> TopoDS_Shape:
+    """The shape with every face's surface (and its trimming curves) converted to NURBS by
+    the kernel, for surfaces gshade does not build itself (revolution, extrusion, offset)."""
+    try:
+        with captured_output():
+            return BRepBuilderAPI_NurbsConvert(shape, True).Shape()
+    except Exception as exc:
+        raise GshadeError(
+            f"{path}: the kernel could not convert the faces to NURBS ({_why(exc)})"
+        ) from None
+
+
+def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
+    """One face: its kind (from the original), patch, box and loops (from the converted,
+    or, with ``own``, from the original itself (``conv``): then planes and quadrics are built by
+    :func:`gshade.io.cad_quadrics.analytic_patch`, B-spline and Bezier surfaces taken as
+    they are)."""
+    kind = _kind(face)
     u0, u1, v0, v1 = BRepTools.UVBounds_s(conv)
     box = ((float(u0), float(u1)), (float(v0), float(v1)))
+    arcs: Any = (None, None)
+    if own and kind in ANALYTIC_KINDS:
+        patch, arcs = analytic_patch(kind, BRepAdaptor_Surface(face), box)
+    else:
+        surface = BRep_Tool.Surface_s(conv)
+        if type(surface).__name__ != "Geom_BSplineSurface":
+            surface = GeomConvert.SurfaceToBSplineSurface_s(surface)
+        patch = _patch(surface)
     exact = kind in _EXACT
     error = 0.0 if exact else _error(patch, box, face)
     loops, tol = _loops(conv, box)
+    if arcs != (None, None):  # the kernel's (u, v) along angles: the patch's
+        mapping = CadFace(index, kind, patch, box, arcs=arcs)
+        loops = [mapping.to_patch(loop) for loop in loops]
     area = (u1 - u0) * (v1 - v0)
     trimmed = len(loops) != 1 or abs(abs(_area(loops[0])) - area) > 1e-6 * area
     return CadFace(
@@ -367,6 +394,7 @@ def _face(index: int, face: Any, conv: Any) -> CadFace:
         loops=loops,
         loop_tolerance=tol,
         trimmed=bool(trimmed),
+        arcs=arcs,
     )
 
 

@@ -204,7 +204,8 @@ def load_scene(
         The TOML scene file (a regular file of at most 16 MB); surface data files are found
         relative to its directory, and must lie within it (symbolic links resolved).  A CAD
         file (``.step .stp .iges .igs .brep .3dm``) is a scene of its one ``cad`` surface
-        with the default shape, camera and render settings, named after the file's stem.
+        with the default shape (isophotes lit along the automatic view: :data:`CAD_LIGHT`),
+        camera and render settings, named after the file's stem.
     overrides : dict, optional
         Dotted key -> value (see :func:`parse_overrides`), applied to the file's contents
         before validation.  When an override changes ``shape.function`` (or
@@ -229,7 +230,10 @@ def load_scene(
     base = path.parent
     if path.suffix.lower() in CAD_EXTENSIONS:  # a CAD file: a scene of that one surface
         model = path.resolve() if path.is_symlink() else path  # its folder holds it
-        raw: dict[str, Any] = {"surface": [{"type": "cad", "file": model.name}]}
+        raw: dict[str, Any] = {
+            "surface": [{"type": "cad", "file": model.name}],
+            "shape": {"light": list(CAD_LIGHT)},
+        }
         base = model.parent
     elif path.suffix.lower() in OTHER_GEOMETRY:
         raise GshadeError(
@@ -240,6 +244,11 @@ def load_scene(
         raw = read_toml(path, "a scene file (TOML)")
     return _build(raw, str(path), path, base, overrides, data_path)
 
+
+#: The isophotes' light of a CAD file given as a scene: along the automatic camera's view
+#: (not the default z), so that the walls parallel to z of a machined part do not all sit
+#: on a stripe's edge (<n, l> = 0 there), where round-off would pick each pixel's colour.
+CAD_LIGHT = (0.55, -0.75, 0.45)
 
 #: Geometry files that are neither scenes nor readable CAD models (named, not parsed as TOML).
 OTHER_GEOMETRY = frozenset(

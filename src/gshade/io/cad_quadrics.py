@@ -1,0 +1,109 @@
+"""Planes, cylinders, cones, spheres and tori of a CAD model as exact NURBS, built by gshade
+from the kernel's analytic data (no NURBS conversion of the model).
+
+The kernel parametrises these surfaces by lengths and angles (its ``ElSLib``):
+
+- plane:    S(u, v) = O + u X + v Y
+- cylinder: S(u, v) = O + r (cos u X + sin u Y) + v Z
+- cone:     S(u, v) = O + (r + v sin a)(cos u X + sin u Y) + v cos a Z
+- sphere:   S(u, v) = O + r cos v (cos u X + sin u Y) + r sin v Z
+- torus:    S(u, v) = O + (R + r cos v)(cos u X + sin u Y) + r sin v Z
+
+with the surface's frame O, X, Y, Z (X, Y, Z its X, Y and main directions).  Over the
+face's parameter box, each angle runs along the exact rational arc
+:func:`gshade.geometry.revolution.arc` and each length along a line (degree 1); the
+surface is their tensor product (P_ij from the arcs' points, weights w_i w_j; Piegl &
+Tiller, 8.5), exact to round-off.  The patch's parameter equals the kernel's along lengths
+and at the arcs' knots; :meth:`gshade.io.cad.CadFace.to_patch` maps the rest exactly.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry.bspline import BSplinePatch
+from ..geometry.revolution import arc
+
+__all__ = ["ANALYTIC_KINDS", "analytic_patch"]
+
+#: The surface kinds built here.
+ANALYTIC_KINDS = ("plane", "cylinder", "cone", "sphere", "torus")
+
+Box = tuple[tuple[float, float], tuple[float, float]]
+Arcs = tuple[tuple[float, float] | None, tuple[float, float] | None]
+
+
+def _xyz(v: Any) -> NDArray[np.float64]:
+    return np.array([v.X(), v.Y(), v.Z()], dtype=np.float64)
+
+
+def _frame(position: Any) -> tuple[NDArray[np.float64], ...]:
+    """A gp_Ax3's origin, X, Y and main directions."""
+    return (
+        _xyz(position.Location()),
+        _xyz(position.XDirection()),
+        _xyz(position.YDirection()),
+        _xyz(position.Direction()),
+    )
+
+
+def _line(a: float, b: float) -> tuple[NDArray, NDArray, NDArray]:
+    """A parameter that is a length: points (2,) a, b, weights 1, knots of degree 1."""
+    return np.array([a, b]), np.ones(2), np.array([a, a, b, b])
+
+
+def analytic_patch(kind: str, adaptor: Any, box: Box) -> tuple[BSplinePatch, Arcs]:
+    """The exact NURBS of a plane, cylinder, cone, sphere or torus over the face's
+    parameter box, and which of its parameters are angles (their ranges).
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`ANALYTIC_KINDS`.
+    adaptor : BRepAdaptor_Surface
+        The face's surface (in the model's coordinates: the face's location applied).
+    box : ((u0, u1), (v0, v1))
+        The face's parameter box in the kernel's parameters.
+    """
+    (u0, u1), (v0, v1) = box
+    if kind == "plane":
+        O, X, Y, _ = _frame(adaptor.Plane().Position())
+        u, _, ku = _line(u0, u1)
+        v, _, kv = _line(v0, v1)
+        P = O + u[:, None, None] * X + v[None, :, None] * Y
+        return BSplinePatch(P, (1, 1), (ku, kv)), (None, None)
+    ring = arc(u0, u1)  # every other kind turns about its axis with u
+    c, ku = ring.points, ring.knots
+    wu = np.asarray(ring.weights)  # an arc is rational
+    cu, su = c[:, 0, None, None], c[:, 1, None, None]
+    if kind in ("cylinder", "cone"):
+        surface = adaptor.Cylinder() if kind == "cylinder" else adaptor.Cone()
+        O, X, Y, Z = _frame(surface.Position())
+        v, wl, kv = _line(v0, v1)
+        if kind == "cylinder":
+            rho, height = np.full(2, surface.Radius()), v
+        else:
+            a = surface.SemiAngle()
+            rho, height = surface.RefRadius() + v * np.sin(a), v * np.cos(a)
+        P = O + rho[None, :, None] * (cu * X + su * Y) + height[None, :, None] * Z
+        W = wu[:, None] * wl[None, :]
+        return BSplinePatch(P, (2, 1), (ku, kv), W), ((u0, u1), None)
+    # sphere and torus: v turns too, about a circle in the (rho, z) half-plane
+    tube = arc(v0, v1)
+    d, kv = tube.points, tube.knots
+    wv = np.asarray(tube.weights)
+    if kind == "sphere":
+        surface = adaptor.Sphere()
+        O, X, Y, Z = _frame(surface.Position())
+        rho, height = surface.Radius() * d[:, 0], surface.Radius() * d[:, 1]
+    else:
+        surface = adaptor.Torus()
+        O, X, Y, Z = _frame(surface.Position())
+        rho = surface.MajorRadius() + surface.MinorRadius() * d[:, 0]
+        height = surface.MinorRadius() * d[:, 1]
+    P = O + rho[None, :, None] * (cu * X + su * Y) + height[None, :, None] * Z
+    W = wu[:, None] * wv[None, :]
+    return BSplinePatch(P, (2, 2), (ku, kv), W), ((u0, u1), (v0, v1))

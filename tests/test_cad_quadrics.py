@@ -1,0 +1,106 @@
+"""Planes and quadrics read without the kernel's NURBS conversion: gshade's own exact arcs
+(:func:`gshade.geometry.revolution.arc`) and the map from the kernel's angles to their
+parameters, against the kernel's own evaluation of the same faces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gshade.geometry.revolution import arc, arc_parameters
+
+pytest.importorskip("OCP")
+
+from OCP.BRepAdaptor import BRepAdaptor_Surface
+from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+from OCP.BRepLProp import BRepLProp_SLProps
+from OCP.BRepPrimAPI import (
+    BRepPrimAPI_MakeCone,
+    BRepPrimAPI_MakeCylinder,
+    BRepPrimAPI_MakeSphere,
+    BRepPrimAPI_MakeTorus,
+)
+from OCP.gp import gp_Ax1, gp_Ax2, gp_Dir, gp_Pnt, gp_Trsf, gp_Vec
+
+from gshade.io.cad import read_cad
+from gshade.io.cad_occt import _faces
+from gshade.shape import evaluate
+
+from .cad_parts import write_shape
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.floats(-10.0, 10.0),
+    st.floats(1e-3, 2 * np.pi),
+    st.lists(st.floats(0.0, 1.0), min_size=1, max_size=20),
+)
+def test_the_arc_passes_through_each_angle_at_its_parameter(a0, span, fractions):
+    a1 = a0 + span
+    curve = arc(a0, a1)
+    angle = a0 + span * np.asarray(fractions)
+    s = arc_parameters(angle, a0, a1)
+    assert curve.domain == (a0, a1)
+    assert np.all(np.diff(s[np.argsort(angle)]) >= -1e-12)  # monotone
+    expected = np.stack([np.cos(angle), np.sin(angle)], -1)
+    assert np.abs(curve(s) - expected).max() < 1e-12
+
+
+def test_the_arc_parameter_is_the_angle_at_the_knots():
+    s = arc_parameters(np.array([0.0, np.pi / 2, np.pi, 1.5 * np.pi, 2 * np.pi]), 0.0, 2 * np.pi)
+    assert np.allclose(s, [0.0, np.pi / 2, np.pi, 1.5 * np.pi, 2 * np.pi], atol=1e-15)
+    assert not np.isclose(arc_parameters(np.array([0.3]), 0.0, 2 * np.pi)[0], 0.3)
+
+
+def _moved(shape):
+    """The shape turned and shifted: the faces carry a location the reader must apply."""
+    trsf = gp_Trsf()
+    trsf.SetRotation(gp_Ax1(gp_Pnt(1, 2, 3), gp_Dir(1, 1, 0.3)), 0.7)
+    turned = BRepBuilderAPI_Transform(shape, trsf, False).Shape()
+    trsf = gp_Trsf()
+    trsf.SetTranslation(gp_Vec(5, -4, 2))
+    return BRepBuilderAPI_Transform(turned, trsf, False).Shape()
+
+
+def _parts():
+    axis = gp_Ax2(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1))
+    return {
+        "cylinder": BRepPrimAPI_MakeCylinder(axis, 2.0, 5.0, 4.0).Shape(),  # 4 rad of a turn
+        "cone": BRepPrimAPI_MakeCone(axis, 3.0, 1.0, 4.0).Shape(),
+        "sphere": BRepPrimAPI_MakeSphere(axis, 2.5, -0.5, 1.2, 5.0).Shape(),
+        "torus": BRepPrimAPI_MakeTorus(axis, 4.0, 1.0).Shape(),  # full turns both ways
+    }
+
+
+@pytest.mark.parametrize("kind", ["cylinder", "cone", "sphere", "torus"])
+def test_quadric_faces_are_the_kernels_surfaces(tmp_path, kind):
+    """At random kernel (u, v) of each face: our patch at to_patch(u, v) is the kernel's
+    point (to 1e-12 of the size), its normal the kernel's (the same orientation), and its
+    mean curvature the kernel's (BRepLProp)."""
+    shape = _moved(_parts()[kind])
+    model = read_cad(write_shape(shape, tmp_path / f"{kind}.brep"))
+    assert kind in {f.kind for f in model.faces}
+    rng = np.random.default_rng(0)
+    for face, kernel_face in zip(model.faces, _faces(model.shape), strict=True):
+        adaptor = BRepAdaptor_Surface(kernel_face)
+        (u0, u1), (v0, v1) = face.box
+        uv = np.stack([rng.uniform(u0, u1, 25), rng.uniform(v0, v1, 25)], -1)
+        q = face.to_patch(uv)
+        d = face.patch.derivatives(q[:, 0], q[:, 1], 3)
+        H = evaluate("mean", d).f
+        for k, (u, v) in enumerate(uv):
+            props = BRepLProp_SLProps(adaptor, u, v, 2, 1e-12)
+            p = props.Value()
+            assert np.abs(d[0, 0, k] - [p.X(), p.Y(), p.Z()]).max() < 1e-12 * 10
+            if not props.IsNormalDefined():
+                continue
+            n = props.Normal()
+            mine = np.cross(d[1, 0, k], d[0, 1, k])
+            mine /= np.linalg.norm(mine)
+            assert np.abs(mine - [n.X(), n.Y(), n.Z()]).max() < 1e-9
+            if props.IsCurvatureDefined():
+                assert H[k] == pytest.approx(props.MeanCurvature(), abs=1e-9)
+        if face.kind == kind:
+            assert face.arcs[0] is not None
