@@ -162,7 +162,8 @@ class Packing:
         return a, b, c, d
 
     def pack(self, arrays: Mapping[str, NDArray]) -> NDArray[np.float32]:
-        """One (H, W, channels) float32 image of the quantities' (H, W) or (H, W, n) images."""
+        """One (H, W, channels) float32 image of the quantities' (H, W) or (H, W, n) images:
+        no copy when they are already its channels, in order (views of one packed image)."""
         parts = []
         for name, n in self.fields:
             array = arrays[name]
@@ -170,7 +171,32 @@ class Packing:
             if array.shape[-1] != n:
                 raise ValueError(f"Packing: {name} has {array.shape[-1]} channels, expected {n}")
             parts.append(array)
+        whole = _packed_base(parts, self.size)
+        if whole is not None:
+            return whole
         return np.ascontiguousarray(np.concatenate(parts, -1), dtype=np.float32)
+
+
+def _packed_base(parts: list[NDArray], size: int) -> NDArray[np.float32] | None:
+    """The packed float32 (H, W, size) image whose consecutive channels the parts are, in
+    order, or None."""
+    base = parts[0].base
+    if not (
+        isinstance(base, np.ndarray)
+        and base.dtype == np.float32
+        and base.ndim == 3
+        and base.shape[-1] == size
+        and base.flags.c_contiguous
+        and all(p.base is base and p.shape[:2] == base.shape[:2] for p in parts)
+    ):
+        return None
+    start = base.__array_interface__["data"][0]
+    at = 0
+    for p in parts:
+        if p.__array_interface__["data"][0] != start + at * base.itemsize:
+            return None
+        at += p.shape[-1]
+    return base if at == size else None
 
 
 #: the surface: p, p_s, p_t, p_st (3 coordinates each; s, t the normalised parameters)

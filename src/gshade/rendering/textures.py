@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from ..geometry import Patch, irregular_mask, regularised_derivatives
 from ..geometry.patch_groups import domain_spans, grid_derivatives, patch_grid
 from ..shape import ShapeFunction, evaluate
-from .atlas import Atlas
+from .atlas import GEOMETRY, SHAPE, Atlas
 
 __all__ = ["Atlas", "ShapeTextures", "shape_textures"]
 
@@ -104,10 +104,18 @@ def shape_textures(
     """
     T = atlas.tile
     H, W = atlas.height, atlas.width
-    values = [np.zeros((H, W, 3), dtype=np.float32) for _ in functions]
-    valid = [np.zeros((H, W), dtype=np.float32) for _ in functions]
-    twist = [np.zeros((H, W), dtype=np.float32) for _ in functions]
-    geometry = [np.zeros((H, W, 3), dtype=np.float32) for _ in range(4)]
+    # the images are views into the packed textures the integrator reads, written in place
+    # (one copy of the atlas fewer: packing them is then no copy, see Packing.pack)
+    packed = [np.zeros((H, W, SHAPE.size), dtype=np.float32) for _ in functions]
+    f0, f_st = SHAPE.channel("f"), SHAPE.channel("f_st")
+    values = [p[..., f0 : f0 + 3] for p in packed]  # f, f_s, f_t side by side
+    twist = [p[..., f_st] for p in packed]
+    valid = [p[..., SHAPE.channel("valid")] for p in packed]
+    surface = np.zeros((H, W, GEOMETRY.size), dtype=np.float32)
+    geometry = [
+        surface[..., GEOMETRY.channel(q) : GEOMETRY.channel(q) + 3]
+        for q in ("p", "p_s", "p_t", "p_st")
+    ]
     grid = np.linspace(0.0, 1.0, T)
     h = 1.0 / (T - 1)
     order = max(2, max(fn.order for fn, _ in functions) + 1)
