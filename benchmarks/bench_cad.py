@@ -77,7 +77,12 @@ from bench_render import (
     spread,
     stage_command,
 )
-from report import RESULTS, load_average, machine_info, markdown_table, text_table, write_section
+from report import (
+    load_average,
+    machine_info,
+    markdown_table,
+    publish,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_FOLDER = ROOT.parent / "shared" / "data" / "cad"
@@ -516,15 +521,8 @@ def main(argv: list[str] | None = None) -> int:
     notes.append(
         f"Load average (1, 5, 15 min): {load_start} at the start, {load_average()} at the end."
     )
-    print("\n".join(f"{k}: {v}" for k, v in info.items()))
-    for title, columns, rows in tables:
-        print(f"\n{title}\n")
-        print(text_table(columns, rows))
-    print()
-    print("\n".join(f"* {n}" for n in notes))
-    if args.write:
-        write_section(SECTION, section(info, tables, notes, args))
-        print(f"\nwrote {RESULTS}")
+    text = (SECTION, section(info, tables, notes, args)) if args.write else None
+    publish(info, tables, notes, text)
     return 0
 
 

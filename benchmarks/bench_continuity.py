@@ -52,13 +52,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 from report import (
-    RESULTS,
     Timing,
     load_average,
     machine_info,
     markdown_table,
-    text_table,
-    write_section,
+    publish,
 )
 
 from gshade.analysis.continuity import CLASSES, Tolerances, continuity_report, find_junctions
@@ -347,16 +345,13 @@ def main(argv: list[str] | None = None) -> int:
     ]
 
     print()
-    print("\n".join(f"{k}: {v}" for k, v in info.items()))
-    print()
-    print(text_table(FIND_COLUMNS, find_rows(rows)))
-    print()
-    print(text_table(REPORT_COLUMNS, [r.report_cells() for r in rows]))
-    print()
-    print("\n".join(f"* {n}" for n in notes))
-    if args.write:
-        write_section(SECTION, section(info, rows, notes, args))
-        print(f"\nwrote {RESULTS}")
+    tables = [
+        (None, FIND_COLUMNS, find_rows(rows)),
+        (None, REPORT_COLUMNS, [r.report_cells() for r in rows]),
+    ]
+    publish(
+        info, tables, notes, (SECTION, section(info, rows, notes, args)) if args.write else None
+    )
     return 0
 
 

@@ -51,13 +51,11 @@ import numpy as np
 import splipy
 from geomdl import NURBS, BSpline
 from report import (
-    RESULTS,
     Timing,
     machine_info,
     markdown_table,
-    text_table,
+    publish,
     time_interleaved,
-    write_section,
 )
 
 from gshade.geometry import BSplinePatch, gaussian_and_mean_curvature
@@ -404,14 +402,10 @@ def main(argv: list[str] | None = None) -> int:
     ]
 
     info = machine_info([f"splipy {version('splipy')}", f"geomdl {version('geomdl')}"])
-    print("\n".join(f"{k}: {v}" for k, v in info.items()))
-    print()
-    print(text_table(COLUMNS, [r.cells() for r in rows]))
-    print()
-    print("\n".join(f"* {n}" for n in notes))
-    if args.write:
-        write_section(SECTION, section(info, rows, notes, args))
-        print(f"\nwrote {RESULTS}")
+    tables = [(None, COLUMNS, [r.cells() for r in rows])]
+    publish(
+        info, tables, notes, (SECTION, section(info, rows, notes, args)) if args.write else None
+    )
     return 0
 
 

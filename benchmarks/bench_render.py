@@ -70,7 +70,12 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
-from report import RESULTS, load_average, machine_info, markdown_table, text_table, write_section
+from report import (
+    load_average,
+    machine_info,
+    markdown_table,
+    publish,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "scenes" / "teapot-isophotes.toml"
@@ -779,15 +784,8 @@ def main(argv: list[str] | None = None) -> int:
         if sr.failure:
             notes.append(f"Scale {sr.patches} patches: {sr.failure}")
 
-    print("\n".join(f"{k}: {v}" for k, v in info.items()))
-    for title, columns, rows in tables:
-        print(f"\n{title}\n")
-        print(text_table(columns, rows))
-    print()
-    print("\n".join(f"* {n}" for n in notes))
-    if args.write:
-        write_section(SECTION, section(info, tables, notes, args))
-        print(f"\nwrote {RESULTS}")
+    text = (SECTION, section(info, tables, notes, args)) if args.write else None
+    publish(info, tables, notes, text)
     return 0
 
 

@@ -52,14 +52,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 from report import (
-    RESULTS,
     Timing,
     load_average,
     machine_info,
     markdown_table,
-    text_table,
+    publish,
     time_interleaved,
-    write_section,
 )
 
 from gshade.geometry import BezierPatch
@@ -310,14 +308,10 @@ def main(argv: list[str] | None = None) -> int:
         "Targets missed: " + (", ".join(missed) if missed else "none") + ".",
     ]
 
-    print("\n".join(f"{k}: {v}" for k, v in info.items()))
-    print()
-    print(text_table(COLUMNS, [r.cells() for r in rows]))
-    print()
-    print("\n".join(f"* {n}" for n in notes))
-    if args.write:
-        write_section(SECTION, section(info, rows, notes, args))
-        print(f"\nwrote {RESULTS}")
+    tables = [(None, COLUMNS, [r.cells() for r in rows])]
+    publish(
+        info, tables, notes, (SECTION, section(info, rows, notes, args)) if args.write else None
+    )
     return 0
 
 

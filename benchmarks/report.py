@@ -208,6 +208,25 @@ def text_table(columns: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
 # --------------------------------------------------------------------------- RESULTS.md
 
 
+def publish(
+    info: dict[str, str],
+    tables: Sequence[tuple[str | None, Sequence[str], Sequence[Sequence[str]]]],
+    notes: Sequence[str],
+    section: tuple[str, str] | None = None,
+) -> None:
+    """Print a benchmark's machine lines, its tables ((title or None, columns, rows)) and
+    notes; with ``section`` (name, markdown text), also replace its section of RESULTS.md."""
+    print("\n".join(f"{k}: {v}" for k, v in info.items()))
+    for title, columns, rows in tables:
+        print(f"\n{title}\n" if title else "")
+        print(text_table(columns, rows))
+    print()
+    print("\n".join(f"* {n}" for n in notes))
+    if section is not None:
+        write_section(*section)
+        print(f"\nwrote {RESULTS}")
+
+
 def markers(name: str) -> tuple[str, str]:
     """The start and end markers of section ``name`` in RESULTS.md."""
     return f"<!-- {name}:start -->", f"<!-- {name}:end -->"
