@@ -80,7 +80,7 @@ from bench_render import (
 from report import (
     load_average,
     machine_info,
-    markdown_table,
+    markdown_section,
     publish,
 )
 
@@ -437,20 +437,13 @@ def targets(model: Model) -> list[str]:
 
 
 def section(info, tables, notes, args) -> str:
-    lines = [
-        "## CAD files, gshade and the peer (`benchmarks/bench_cad.py`)",
-        "",
+    run = (
         f"Run: `.venv/bin/python benchmarks/bench_cad.py --rounds {args.rounds} --write`; "
-        "whole processes, "
-        f"{WIDTH} x {HEIGHT}, {SPP} spp, one untimed warm-up round, then {args.rounds} "
-        "rounds, gshade and the peer interleaved (the order alternating).",
-        "",
-    ]
-    lines += [f"- {k}: {v}" for k, v in info.items()]
-    for title, columns, rows in tables:
-        lines += ["", f"**{title}**", "", markdown_table(columns, rows)]
-    lines += [""] + [f"- {n}" for n in notes]
-    return "\n".join(lines)
+        f"whole processes, {WIDTH} x {HEIGHT}, {SPP} spp, one untimed warm-up round, then "
+        f"{args.rounds} rounds, gshade and the peer interleaved (the order alternating)."
+    )
+    heading = "CAD files, gshade and the peer (`benchmarks/bench_cad.py`)"
+    return markdown_section(heading, run, info, tables, notes)
 
 
 def main(argv: list[str] | None = None) -> int:

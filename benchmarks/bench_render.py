@@ -73,7 +73,7 @@ import numpy as np
 from report import (
     load_average,
     machine_info,
-    markdown_table,
+    markdown_section,
     publish,
 )
 
@@ -663,19 +663,12 @@ def section(info, tables, notes, args) -> str:
     command = ".venv/bin/python benchmarks/bench_render.py --write" + (
         " --quick" if args.quick else ""
     )
-    lines = [
-        "## Rendering (`benchmarks/bench_render.py`)",
-        "",
+    run = (
         f"Run: `{command}`; every render a fresh process with warm kernel caches; "
         f"{args.repeats} rounds for the teapot, {args.scale_repeats} timed run(s) per sheet "
-        "size (medians).",
-        "",
-    ]
-    lines += [f"- {k}: {v}" for k, v in info.items()]
-    for title, columns, rows in tables:
-        lines += ["", f"**{title}**", "", markdown_table(columns, rows)]
-    lines += [""] + [f"- {n}" for n in notes]
-    return "\n".join(lines)
+        "size (medians)."
+    )
+    return markdown_section("Rendering (`benchmarks/bench_render.py`)", run, info, tables, notes)
 
 
 # --------------------------------------------------------------------------- main

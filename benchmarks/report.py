@@ -208,6 +208,23 @@ def text_table(columns: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
 # --------------------------------------------------------------------------- RESULTS.md
 
 
+def markdown_section(
+    heading: str,
+    run: str,
+    info: dict[str, str],
+    tables: Sequence[tuple[str, Sequence[str], Sequence[Sequence[str]]]],
+    notes: Sequence[str],
+) -> str:
+    """A benchmark's RESULTS.md section: its heading, how it was run, the machine lines, its
+    titled tables and its notes."""
+    lines = [f"## {heading}", "", run, ""]
+    lines += [f"- {k}: {v}" for k, v in info.items()]
+    for title, columns, rows in tables:
+        lines += ["", f"**{title}**", "", markdown_table(columns, rows)]
+    lines += [""] + [f"- {n}" for n in notes]
+    return "\n".join(lines)
+
+
 def publish(
     info: dict[str, str],
     tables: Sequence[tuple[str | None, Sequence[str], Sequence[Sequence[str]]]],
