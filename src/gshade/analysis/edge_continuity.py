@@ -8,8 +8,9 @@ curvature-gradient jump; Kiciak, ch. 2–3) and so the class G0–G3.  A designe
 is G0 with its angle.
 
 A valid B-rep's faces meet within each edge's own tolerance, not exactly: each face's
-points lie within the kernel's tolerance of the edge, so an edge's G0 tolerance is the larger
-of the given one and twice the edge's tolerance.
+points lie within the kernel's tolerance of the edge (or within the distance accuracy the
+file declares, :attr:`gshade.io.cad.CadModel.precision`, where that is larger), so an edge's
+G0 tolerance is the larger of the given one and twice that.
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ def edge_report(
             "curvature_jump": float(jump[m]),
             "curvature_gradient_jump": float(gradient[m]),
         }
-        own = replace(tol, g0=max(tol.g0, 2.0 * edge.tolerance))
+        own = replace(tol, g0=max(tol.g0, 2.0 * max(edge.tolerance, model.precision)))
         out.append(
             Junction(
                 edge.faces,

@@ -119,8 +119,10 @@ class CadModel:
     """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi) (of
     the trimmed faces, sampled: :func:`faces_bounds`).
 
-    ``shape`` is the kernel's NURBS-converted shape, whose faces are ``faces`` in order
-    (STEP, IGES, BREP); None for ``.3dm``.
+    ``shape`` is the kernel's shape, whose faces are ``faces`` in order (STEP, IGES, BREP:
+    as read, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
+    rebuilt from the file's B-rep).  ``precision`` is the distance accuracy the file
+    declares (a STEP file's global uncertainty, model units; 0 where none is declared).
     """
 
     path: Path
@@ -128,6 +130,7 @@ class CadModel:
     unit: str
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
     shape: object | None = None
+    precision: float = 0.0
 
 
 def trimmed_points(
