@@ -244,7 +244,7 @@ def test_step_faces_match_the_kernel_reading_the_same_file(rounded, tmp_path):
 def test_a_step_files_declared_accuracy(rounded, tmp_path):
     """The global uncertainty a STEP file declares, in mm: the kernel's writer declares
     1e-7 mm; an inch file's 1e-5 is 2.54e-4 mm; a file without one declares nothing."""
-    from gshade.io.cad_occt import _step_uncertainty
+    from gshade.io.step_accuracy import step_uncertainty
 
     model = read_cad(write_shape(rounded, tmp_path / "r.step"))
     assert model.precision == pytest.approx(1e-7)
@@ -255,11 +255,11 @@ def test_a_step_files_declared_accuracy(rounded, tmp_path):
         "NAMED_UNIT ( #8 ) );\n#5 = UNCERTAINTY_MEASURE_WITH_UNIT (LENGTH_MEASURE(\n"
         "1.0E-005 ), #7, 'distance_accuracy_value', 'NONE');\nENDSEC;\n"
     )
-    assert _step_uncertainty(inch) == pytest.approx(2.54e-4)
+    assert step_uncertainty(inch) == pytest.approx(2.54e-4)
     metre = tmp_path / "metre.step"
     metre.write_text(
         inch.read_text().replace("( CONVERSION_BASED_UNIT ( 'INCH', #9 )", "( SI_UNIT($,.METRE.)")
     )
-    assert _step_uncertainty(metre) == pytest.approx(1e-2)
+    assert step_uncertainty(metre) == pytest.approx(1e-2)
     (tmp_path / "none.step").write_text("ISO-10303-21;\nDATA;\nENDSEC;\n")
-    assert _step_uncertainty(tmp_path / "none.step") == 0.0
+    assert step_uncertainty(tmp_path / "none.step") == 0.0

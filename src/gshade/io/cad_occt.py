@@ -12,7 +12,6 @@ the session unit, which is set to mm here.  A BREP file carries no unit (``"unkn
 from __future__ import annotations
 
 import itertools
-import re
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +43,7 @@ from ..runtime.native import captured_output
 from .cad import CadFace, CadModel, faces_bounds
 from .cad_quadrics import ANALYTIC_KINDS, analytic_patch
 from .files import read_bytes
+from .step_accuracy import step_uncertainty
 
 __all__ = ["LOOP_TOLERANCE", "read"]
 
@@ -113,7 +113,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             raise GshadeError(f"{path}: face {index}: {exc}") from None
         except Exception as exc:
             raise GshadeError(f"{path}: face {index}: the kernel failed ({_why(exc)})") from None
-    precision = _step_uncertainty(path) if ext in (".step", ".stp") else 0.0
+    precision = step_uncertainty(path) if ext in (".step", ".stp") else 0.0
     return CadModel(
         path=path,
         faces=out,
@@ -306,47 +306,6 @@ def _sew(shape: TopoDS_Shape, path: Path, tolerance: float) -> TopoDS_Shape:
     except Exception as exc:
         raise GshadeError(f"{path}: sewing the faces failed ({_why(exc)})") from None
     return shape if sewn.IsNull() else sewn
-
-
-#: Millimetres per STEP length unit: SI prefixes of the metre, and conversion-based units.
-_SI_PREFIX_MM = {"$": 1000.0, ".KILO.": 1e6, ".DECI.": 100.0, ".CENTI.": 10.0}
-_SI_PREFIX_MM |= {".MILLI.": 1.0, ".MICRO.": 1e-3, ".NANO.": 1e-6}
-_NAMED_UNIT_MM = {"INCH": 25.4, "FOOT": 304.8, "MILLIMETRE": 1.0, "METRE": 1000.0}
-_UNCERTAINTY = re.compile(
-    rb"UNCERTAINTY_MEASURE_WITH_UNIT\s*\(\s*LENGTH_MEASURE\s*\(\s*([-+0-9.Ee]+)\s*\)\s*,"
-    rb"\s*#(\d+)"
-)
-
-
-def _step_uncertainty(path: Path) -> float:
-    """The distance accuracy a STEP file declares (its global uncertainty, in mm; 0 when it
-    declares none or in a unit not understood): faces closer than it count as meeting."""
-    try:
-        text = read_bytes(path, "a STEP file", limit=MAX_DATA_FILE_BYTES)
-    except GshadeError:
-        return 0.0
-    worst = 0.0
-    for value, unit in _UNCERTAINTY.findall(text):
-        entity = re.search(rb"#" + unit + rb"\s*=\s*(.*?);", text, re.S)
-        if entity is None:
-            continue
-        body = entity.group(1).decode("ascii", "replace")
-        si = re.search(r"SI_UNIT\s*\(\s*([.$A-Z]+)\s*,\s*\.METRE\.", body)
-        named = re.search(r"CONVERSION_BASED_UNIT\s*\(\s*'([A-Z]+)'", body.upper())
-        scale = (
-            _SI_PREFIX_MM.get(si.group(1))
-            if si
-            else _NAMED_UNIT_MM.get(named.group(1))
-            if named
-            else None
-        )
-        try:
-            distance = float(value) * scale if scale is not None else 0.0
-        except ValueError:
-            continue
-        if np.isfinite(distance):
-            worst = max(worst, distance)
-    return worst
 
 
 def _rough_bounds(
