@@ -77,6 +77,19 @@ def frame(scene, settings, where: str) -> Framing:
     return Framing(lo, hi, diag, view)
 
 
+def _patch_extents(scene):
+    """Per patch, points standing for the extent its tile covers: its control points (a
+    grid of its surface if it has none); for a CAD face, a 9 x 9 grid of the surface over
+    its box (the rational arcs' control points lie off the surface, overstating it)."""
+    for surface in scene.surfaces:
+        for p in surface.patches:
+            if surface.cad is None and hasattr(p, "points"):
+                yield np.asarray(p.points).reshape(-1, 3)
+            else:
+                n = 9 if surface.cad is not None else 5
+                yield np.asarray(p(*p.parameter_grid(n, n))).reshape(-1, 3)
+
+
 def _extent_points(scene) -> NDArray:
     """Points standing for the surfaces' extent: each patch's 17 x 17 grid, and for CAD
     faces, which use part of their patch's box, the points of the trimmed region."""
@@ -135,9 +148,7 @@ def tile_size(scene, framing: Framing) -> int:
     view, lo, hi = framing.view, framing.lo, framing.hi
     patches = scene.patches
     size = 0.0
-    for p in patches:
-        pts = p.points.reshape(-1, 3) if hasattr(p, "points") else p(*p.parameter_grid(5, 5))
-        pts = pts.reshape(-1, 3)
+    for pts in _patch_extents(scene):
         extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
         depth = float((pts.mean(axis=0) - view.origin) @ view.forward)
         depth = max(depth, NEAREST_FRACTION * float(np.linalg.norm(hi - lo)))
