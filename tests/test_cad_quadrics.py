@@ -13,6 +13,7 @@ from gshade.geometry.revolution import arc, arc_parameters
 
 pytest.importorskip("OCP")
 
+from OCP.BRep import BRep_Tool
 from OCP.BRepAdaptor import BRepAdaptor_Surface
 from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
 from OCP.BRepLProp import BRepLProp_SLProps
@@ -104,3 +105,68 @@ def test_quadric_faces_are_the_kernels_surfaces(tmp_path, kind):
                 assert H[k] == pytest.approx(props.MeanCurvature(), abs=1e-9)
         if face.kind == kind:
             assert face.arcs[0] is not None
+
+
+def _bspline_edge(points, closed: bool = False):
+    """An edge on the cubic B-spline interpolating the points (a weighted one for rational)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
+    from OCP.collections import Array1_gp_Pnt
+    from OCP.GeomAPI import GeomAPI_PointsToBSpline
+
+    array = Array1_gp_Pnt(1, len(points))
+    for i, p in enumerate(points, start=1):
+        array.SetValue(i, gp_Pnt(*p))
+    curve = GeomAPI_PointsToBSpline(array).Curve()
+    return BRepBuilderAPI_MakeEdge(curve).Edge()
+
+
+def _swept_parts():
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism, BRepPrimAPI_MakeRevol
+    from OCP.gp import gp_Ax1
+
+    profile = _bspline_edge([(3, 0, 0), (4, 0, 1), (3.5, 0, 2.5), (4.5, 0, 4), (3, 0, 5)])
+    wave = _bspline_edge([(0, 0, 0), (1, 0.6, 0), (2, -0.4, 0), (3, 0.8, 0), (4, 0, 0)])
+    return {
+        "revolution": BRepPrimAPI_MakeRevol(
+            profile, gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), 4.5
+        ).Shape(),
+        "extrusion": BRepPrimAPI_MakePrism(wave, gp_Vec(0.3, 0.2, 3.0)).Shape(),
+    }
+
+
+@pytest.mark.parametrize("kind", ["revolution", "extrusion"])
+def test_swept_faces_are_the_kernels_surfaces(tmp_path, kind):
+    """A B-spline profile turned by 4.5 rad, a B-spline wave extruded along a slanted
+    direction: read without the kernel's conversion, our patches at to_patch(u, v) are the
+    kernel's points, normals and mean curvatures."""
+    model = read_cad(write_shape(_moved(_swept_parts()[kind]), tmp_path / f"{kind}.brep"))
+    swept = [
+        (face, kernel)
+        for face, kernel in zip(model.faces, _faces(model.shape), strict=True)
+        if face.kind == kind
+    ]
+    assert len(swept) == 1
+    rng = np.random.default_rng(1)
+    for face, kernel_face in swept:
+        adaptor = BRepAdaptor_Surface(kernel_face)
+        # the kept shape is the file's: this face was built by gshade, not converted
+        assert type(BRep_Tool.Surface_s(kernel_face)).__name__ in (
+            "Geom_SurfaceOfRevolution",
+            "Geom_SurfaceOfLinearExtrusion",
+        )
+        (u0, u1), (v0, v1) = face.box
+        uv = np.stack([rng.uniform(u0, u1, 30), rng.uniform(v0, v1, 30)], -1)
+        q = face.to_patch(uv)
+        d = face.patch.derivatives(q[:, 0], q[:, 1], 3)
+        H = evaluate("mean", d).f
+        for k, (u, v) in enumerate(uv):
+            props = BRepLProp_SLProps(adaptor, u, v, 2, 1e-12)
+            p = props.Value()
+            assert np.abs(d[0, 0, k] - [p.X(), p.Y(), p.Z()]).max() < 1e-11
+            n = props.Normal()
+            mine = np.cross(d[1, 0, k], d[0, 1, k])
+            mine /= np.linalg.norm(mine)
+            assert np.abs(mine - [n.X(), n.Y(), n.Z()]).max() < 1e-9
+            assert props.IsCurvatureDefined()
+            assert H[k] == pytest.approx(props.MeanCurvature(), rel=1e-8, abs=1e-9)
+        assert (face.arcs[0] is not None) == (kind == "revolution")

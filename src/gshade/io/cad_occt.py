@@ -41,7 +41,7 @@ from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
 from .cad import CadFace, CadModel, faces_bounds
-from .cad_quadrics import ANALYTIC_KINDS, analytic_patch
+from .cad_quadrics import analytic_patch, builds
 from .files import read_bytes
 from .step_accuracy import step_uncertainty
 
@@ -65,8 +65,6 @@ _KINDS = {
 }
 _EXACT = {"plane", "cylinder", "cone", "sphere", "torus", "bspline", "bezier"}
 _EXACT |= {"revolution", "extrusion"}
-#: The kinds read without the kernel's NURBS conversion (exact all the same).
-_OWN = {"bspline", "bezier", *ANALYTIC_KINDS}
 _NAMES = {".step": "a STEP file", ".stp": "a STEP file", ".iges": "an IGES file"}
 _NAMES |= {".igs": "an IGES file", ".brep": "a BREP file"}
 
@@ -98,7 +96,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         )
         faces = _faces(shape)
     _check_valid(shape, faces, path)
-    if all(_kind(face) in _OWN for face in faces):  # exact NURBS without the kernel's help
+    if all(_own(face) for face in faces):  # exact NURBS without the kernel's help
         converted, nurbs = shape, faces
     else:
         converted = _converted(shape, path)
@@ -356,6 +354,12 @@ def _kind(face: Any) -> str:
     return _KINDS.get(BRepAdaptor_Surface(face).GetType(), "other")
 
 
+def _own(face: Any) -> bool:
+    """Whether gshade reads the face's surface exactly without the kernel's conversion."""
+    kind = _kind(face)
+    return kind in ("bspline", "bezier") or builds(kind, BRepAdaptor_Surface(face))
+
+
 def _converted(shape: TopoDS_Shape, path: Path) -> TopoDS_Shape:
     """The shape with every face's surface (and its trimming curves) converted to NURBS by
     the kernel, for surfaces gshade does not build itself (revolution, extrusion, offset)."""
@@ -377,7 +381,7 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
     u0, u1, v0, v1 = BRepTools.UVBounds_s(conv)
     box = ((float(u0), float(u1)), (float(v0), float(v1)))
     arcs: Any = (None, None)
-    if own and kind in ANALYTIC_KINDS:
+    if own and kind not in ("bspline", "bezier"):
         patch, arcs = analytic_patch(kind, BRepAdaptor_Surface(face), box)
     else:
         surface = BRep_Tool.Surface_s(conv)

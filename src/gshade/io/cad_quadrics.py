@@ -1,5 +1,6 @@
-"""Planes, cylinders, cones, spheres and tori of a CAD model as exact NURBS, built by gshade
-from the kernel's analytic data (no NURBS conversion of the model).
+"""Planes, cylinders, cones, spheres, tori, and surfaces of revolution and extrusion of lines
+and B-spline curves of a CAD model as exact NURBS, built by gshade from the kernel's data (no
+NURBS conversion of the model).
 
 The kernel parametrises these surfaces by lengths and angles (its ``ElSLib``):
 
@@ -8,8 +9,13 @@ The kernel parametrises these surfaces by lengths and angles (its ``ElSLib``):
 - cone:     S(u, v) = O + (r + v sin a)(cos u X + sin u Y) + v cos a Z
 - sphere:   S(u, v) = O + r cos v (cos u X + sin u Y) + r sin v Z
 - torus:    S(u, v) = O + (R + r cos v)(cos u X + sin u Y) + r sin v Z
+- extrusion:  S(u, v) = C(u) + v D
+- revolution: S(u, v) = A + a(v) Z + cos u r(v) + sin u (Z x r(v)), C(v) = A + a(v) Z + r(v)
 
-with the surface's frame O, X, Y, Z (X, Y, Z its X, Y and main directions).  Over the
+with the surface's frame O, X, Y, Z (X, Y, Z its X, Y and main directions), the basis curve
+C (a line, or a B-spline or Bezier curve: its own poles, weights and knots, the same
+parameter), the extrusion's direction D and the revolution's axis (A, Z) (a right-handed turn
+by u of the curve's poles, which is exact for a rational curve too).  Over the
 face's parameter box, each angle runs along the exact rational arc
 :func:`gshade.geometry.revolution.arc` and each length along a line (degree 1); the
 surface is their tensor product (P_ij from the arcs' points, weights w_i w_j; Piegl &
@@ -27,10 +33,12 @@ from numpy.typing import NDArray
 from ..geometry.bspline import BSplinePatch
 from ..geometry.revolution import arc
 
-__all__ = ["ANALYTIC_KINDS", "analytic_patch"]
+__all__ = ["ANALYTIC_KINDS", "analytic_patch", "builds"]
 
-#: The surface kinds built here.
-ANALYTIC_KINDS = ("plane", "cylinder", "cone", "sphere", "torus")
+#: The surface kinds built here (extrusions and revolutions of some basis curves: see
+#: :func:`builds`).
+ANALYTIC_KINDS = ("plane", "cylinder", "cone", "sphere", "torus", "extrusion", "revolution")
+_SWEPT = ("extrusion", "revolution")
 
 Box = tuple[tuple[float, float], tuple[float, float]]
 Arcs = tuple[tuple[float, float] | None, tuple[float, float] | None]
@@ -55,9 +63,78 @@ def _line(a: float, b: float) -> tuple[NDArray, NDArray, NDArray]:
     return np.array([a, b]), np.ones(2), np.array([a, a, b, b])
 
 
+def builds(kind: str, adaptor: Any) -> bool:
+    """Whether :func:`analytic_patch` builds this face's surface (a swept surface only when
+    its basis curve is a line, a B-spline or a Bezier curve)."""
+    if kind not in ANALYTIC_KINDS:
+        return False
+    if kind not in _SWEPT:
+        return True
+    from OCP.GeomAbs import GeomAbs_CurveType as T
+
+    curve_type = adaptor.BasisCurve().GetType()
+    return curve_type in (T.GeomAbs_Line, T.GeomAbs_BSplineCurve, T.GeomAbs_BezierCurve)
+
+
+def _basis_curve(adaptor: Any, lo: float, hi: float) -> tuple[NDArray, NDArray, NDArray, int]:
+    """The swept surface's basis curve as (poles (n, 3), weights (n,), knots, degree), in
+    the kernel's parameter: a line over [lo, hi], or the B-spline (Bezier) curve itself
+    (periodic ones unrolled)."""
+    from OCP.GeomAbs import GeomAbs_CurveType as T
+    from OCP.GeomConvert import GeomConvert
+
+    curve = adaptor.BasisCurve()
+    if curve.GetType() == T.GeomAbs_Line:
+        line = curve.Line()
+        origin, direction = _xyz(line.Location()), _xyz(line.Direction())
+        t, w, k = _line(lo, hi)
+        return origin + t[:, None] * direction, w, k, 1
+    geom = curve.BSpline() if curve.GetType() == T.GeomAbs_BSplineCurve else curve.Bezier()
+    if type(geom).__name__ != "Geom_BSplineCurve":
+        geom = GeomConvert.CurveToBSplineCurve_s(geom)
+    if geom.IsPeriodic():
+        geom = geom.Copy()
+        geom.SetNotPeriodic()
+    n = geom.NbPoles()
+    poles = np.array([_xyz(geom.Pole(i)) for i in range(1, n + 1)])
+    weights = np.array([geom.Weight(i) for i in range(1, n + 1)], dtype=np.float64)
+    sequence = geom.KnotSequence()
+    knots = np.array([sequence.Value(i) for i in range(sequence.Lower(), sequence.Upper() + 1)])
+    return poles, weights, knots, int(geom.Degree())
+
+
+def _swept(kind: str, adaptor: Any, box: Box) -> tuple[BSplinePatch, Arcs]:
+    """An extrusion (u along the curve, v along D) or a revolution (u the angle, v along
+    the curve) as the tensor product of its basis curve with a line or an arc."""
+    (u0, u1), (v0, v1) = box
+    if kind == "extrusion":
+        C, wc, kc, p = _basis_curve(adaptor, u0, u1)
+        D = _xyz(adaptor.Direction())
+        v, wl, kv = _line(v0, v1)
+        P = C[:, None, :] + v[None, :, None] * D
+        W = wc[:, None] * wl[None, :]
+        return BSplinePatch(P, (p, 1), (kc, kv), W), (None, None)
+    axis = adaptor.AxeOfRevolution()
+    A, Z = _xyz(axis.Location()), _xyz(axis.Direction())
+    C, wc, kc, p = _basis_curve(adaptor, v0, v1)
+    axial = (C - A) @ Z
+    R = C - A - axial[:, None] * Z  # from the axis to each pole, across it
+    ring = arc(u0, u1)
+    c, wu = ring.points, np.asarray(ring.weights)
+    P = (
+        A
+        + axial[None, :, None] * Z
+        + c[:, 0, None, None] * R[None, :, :]
+        + c[:, 1, None, None] * np.cross(Z, R)[None, :, :]
+    )
+    W = wu[:, None] * wc[None, :]
+    return BSplinePatch(P, (2, p), (ring.knots, kc), W), ((u0, u1), None)
+
+
 def analytic_patch(kind: str, adaptor: Any, box: Box) -> tuple[BSplinePatch, Arcs]:
-    """The exact NURBS of a plane, cylinder, cone, sphere or torus over the face's
-    parameter box, and which of its parameters are angles (their ranges).
+    """The exact NURBS of a plane, cylinder, cone, sphere, torus (over the face's parameter
+    box) or swept surface (:func:`builds`; over its basis curve's domain along the curve),
+    and which of its parameters are angles (their ranges).
 
     Parameters
     ----------
@@ -69,6 +146,8 @@ def analytic_patch(kind: str, adaptor: Any, box: Box) -> tuple[BSplinePatch, Arc
         The face's parameter box in the kernel's parameters.
     """
     (u0, u1), (v0, v1) = box
+    if kind in _SWEPT:
+        return _swept(kind, adaptor, box)
     if kind == "plane":
         O, X, Y, _ = _frame(adaptor.Plane().Position())
         u, _, ku = _line(u0, u1)
