@@ -53,6 +53,13 @@ def exact_channels(
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
     u, v, d, _ = surface_hits(patches, patch_index, u, v, *view.pixel_rays(hit // W, hit % W))
+    slipped = _slipped_through(A, hit, H, W)
+    if slipped.size:
+        found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W)
+        hit = np.concatenate([hit, found[0]])
+        patch_index = np.concatenate([patch_index, found[1]])
+        u, v = np.concatenate([u, found[2]]), np.concatenate([v, found[3]])
+        d = np.concatenate([d, found[4]], axis=2)
     normal = unit_normal(d)
     n = normal.n
     if not normal.regular.all():  # limits at collapsed edges need higher derivatives
@@ -76,6 +83,62 @@ def exact_channels(
     out["u"], out["v"] = U, V
     out["patch"] = patch_of.reshape(H, W)
     return {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in out.items()}
+
+
+#: Newton steps from a neighbour's hit for a centre ray that slipped between two surfaces.
+SLIPPED_STEPS = 4
+
+
+def _slipped_through(A: NDArray, hit: NDArray, H: int, W: int) -> NDArray:
+    """Fully covered pixels whose centre ray met no surface in the data pass: it slipped
+    through a crack between separately tessellated surfaces (or patches) that no sample of
+    the pixel saw, so the surface is there."""
+    covered = np.zeros(H * W, bool)
+    covered[hit] = True
+    return np.flatnonzero((A.ravel() >= 1.0) & ~covered)
+
+
+def _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view: View, H: int, W: int):
+    """Exact hits for the slipped centre rays: Newton steps on the patches of the pixel's
+    neighbours that were hit, from their (u, v); the first that settles.  Returns the
+    pixels found and their patch, u, v and derivatives."""
+    where = np.full(H * W, -1, dtype=np.int64)  # pixel -> its place among the hits
+    where[hit] = np.arange(hit.size)
+    found: dict[int, tuple] = {}
+    rows, cols = slipped // W, slipped % W
+    for dr, dc in ((0, -1), (0, 1), (-1, 0), (1, 0), (-1, -1), (-1, 1), (1, -1), (1, 1)):
+        todo = np.array([k for k in range(slipped.size) if int(slipped[k]) not in found])
+        if todo.size == 0:
+            break
+        r, c = rows[todo] + dr, cols[todo] + dc
+        inside = (r >= 0) & (r < H) & (c >= 0) & (c < W)
+        source = np.where(inside, where[np.where(inside, r * W + c, 0)], -1)
+        ok = source >= 0
+        if not ok.any():
+            continue
+        pixels, source = slipped[todo[ok]], source[ok]
+        index, su, sv = patch_index[source], u[source], v[source]
+        rays = view.pixel_rays(pixels // W, pixels % W)
+        su, sv, d, settled = surface_hits(patches, index, su, sv, *rays, steps=SLIPPED_STEPS)
+        for k in np.flatnonzero(settled):
+            found[int(pixels[k])] = (int(index[k]), su[k], sv[k], d[:, :, k])
+    if not found:
+        return (
+            np.empty(0, np.int64),
+            np.empty(0, np.int64),
+            np.empty(0),
+            np.empty(0),
+            np.empty((2, 2, 0, 3)),
+        )
+    keys = np.array(sorted(found), dtype=np.int64)
+    values = [found[int(k)] for k in keys]
+    return (
+        keys,
+        np.array([x[0] for x in values], dtype=np.int64),
+        np.array([x[1] for x in values]),
+        np.array([x[2] for x in values]),
+        np.stack([x[3] for x in values], axis=2),
+    )
 
 
 def refuse_non_finite(where: str, channels: dict[str, NDArray]) -> None:

@@ -35,16 +35,21 @@ SETTLED = 1e-7
 TINY = 1e-300
 
 
-def _newton_numpy(patch: Patch, u, v, origin, direction):
-    """One float64 Newton step on one patch; (u, v, derivatives (2, 2, N, 3), settled)."""
+def _newton_numpy(patch: Patch, u, v, origin, direction, steps: int = 1):
+    """``steps`` float64 Newton steps on one patch; (u, v, derivatives (2, 2, N, 3),
+    settled)."""
     (u0, u1), (v0, v1) = patch.domain
     d = patch.derivatives(u, v, 1)
-    t, r = ray_residual(d[0, 0], origin, direction, NUMPY)
     scale = np.linalg.norm(d[0, 0] - origin, axis=1)
-    du, dv, dt, _ = newton_step(d[1, 0], d[0, 1], direction, r, NUMPY, TINY)
-    uu = np.clip(u + du, u0, u1)
-    vv = np.clip(v + dv, v0, v1)
-    t = t + dt
+    uu, vv = u, v
+    for step in range(steps):
+        if step:
+            d = patch.derivatives(uu, vv, 1)
+        t, r = ray_residual(d[0, 0], origin, direction, NUMPY)
+        du, dv, dt, _ = newton_step(d[1, 0], d[0, 1], direction, r, NUMPY, TINY)
+        uu = np.clip(uu + du, u0, u1)
+        vv = np.clip(vv + dv, v0, v1)
+        t = t + dt
     d = patch.derivatives(uu, vv, 1)
     residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
     settled = residual <= SETTLED * np.maximum(scale, 1e-300)
@@ -139,8 +144,10 @@ def surface_hits(
     origin: NDArray,
     direction: NDArray,
     backend_name: str = "auto",
+    steps: int = 1,
 ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """One exact Newton step for each ray (origin, direction) from (u, v) on patch index.
+    """One exact Newton step for each ray (origin, direction) from (u, v) on patch index
+    (``steps`` of them, through numpy, for starts farther away).
 
     Returns the parameters (u, v) (N,), the derivatives of order <= 1 there (2, 2, N, 3) and
     whether the step settled (N,); unsettled points keep their start parameters.
@@ -155,7 +162,7 @@ def surface_hits(
     origin = np.broadcast_to(origin, (N, 3))
     direction = np.broadcast_to(direction, (N, 3))
     groups, others = bezier_groups(patches)
-    if backend(backend_name) != "drjit":
+    if backend(backend_name) != "drjit" or steps != 1:
         groups, others = {}, list(range(len(patches)))
     for members in groups.values():
         lookup = np.full(len(patches), -1, dtype=np.int64)
@@ -177,6 +184,8 @@ def surface_hits(
         for sel in np.split(rest, np.flatnonzero(np.diff(index[rest])) + 1):
             if sel.size:
                 patch = patches[int(index[sel[0]])]
-                result = _newton_numpy(patch, u_out[sel], v_out[sel], origin[sel], direction[sel])
+                result = _newton_numpy(
+                    patch, u_out[sel], v_out[sel], origin[sel], direction[sel], steps
+                )
                 u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
     return u_out, v_out, d, settled
