@@ -1,4 +1,7 @@
-"""Stripes (anti-aliasing against supersampling) and colour maps."""
+"""Stripes (anti-aliasing against supersampling and the exact mean) and colour maps."""
+
+import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -42,6 +45,10 @@ WIDTHS = st.floats(-3.0, 3.0).filter(lambda x: x == 0 or abs(x) > 1e-9)
 @example(s=-1.25, a=1e-8, b=1e-8, duty=0.5)  # found with --hypothesis-seed=12 and 24
 @example(s=0.3, a=1.5e-9, b=1.5e-9, duty=0.5)
 @example(s=0.75, a=3e-6, b=3e-7, duty=0.5)  # two-D filter, far from an edge
+@example(s=1.203125, a=1e-8, b=1e-8, duty=0.375)  # issue 14: 0.98879 where the mean is 1
+@example(s=0.375, a=1e-8, b=1e-8, duty=0.375)  # on a fall, a tiny footprint: 1/2
+@example(s=2.0, a=1e-8, b=0.0, duty=0.375)  # on a rise, one-D: 1/2
+@example(s=-0.625, a=1.5e-9, b=1e-9, duty=0.375)  # on a fall below 0
 def test_pixel_box_filter_is_the_mean_over_the_pixel(s, a, b, duty):
     """s linear over a square pixel: the coverage is the exact mean of the stripe indicator."""
     x = (np.arange(512) + 0.5) / 512 - 0.5
@@ -90,6 +97,127 @@ def test_the_renderer_draws_a_tiny_footprint_stripe_as_it_is(tmp_path):
     dark = image.channels["R"][covered] / image.channels["A"][covered]
     assert covered.sum() > 1000
     np.testing.assert_allclose(dark, DARK[0], atol=1e-3)
+
+
+def exact_mean(s, a, b, duty):
+    """The exact mean of the stripe indicator over the square pixel, s + a X + b Y with X, Y
+    uniform on [-1/2, 1/2], in rational arithmetic from the float arguments: the dark
+    intervals [k, k + duty) overlapped with the pixel, edge by edge, through the area of
+    the part of the pixel below each edge (the trapezoid distribution's CDF)."""
+    s, d = Fraction(s), Fraction(duty)
+    a, b = sorted((abs(Fraction(a)), abs(Fraction(b))), reverse=True)
+    hi, lo = (a + b) / 2, (a - b) / 2
+
+    def below(x):  # the area of {a X + b Y < x} in the unit square
+        if x <= -hi:
+            return Fraction(0)
+        if x >= hi:
+            return Fraction(1)
+        if x <= -lo:  # a < 0 not reached: a >= b and a > 0 here
+            return (x + hi) ** 2 / (2 * a * b)
+        if x <= lo:
+            return Fraction(1, 2) + x / a
+        return 1 - (hi - x) ** 2 / (2 * a * b)
+
+    if a == 0:
+        return float(s - math.floor(s) < d)
+    total = Fraction(0)
+    for k in range(math.floor(s - hi) - 1, math.ceil(s + hi) + 1):
+        total += below(k + d - s) - below(k - s)
+    return float(total)
+
+
+TINY = [0.0, 1e-12, 1e-8]
+EDGES = [0.0, 0.375, 1.0, -0.625, 1e6, 1e6 + 0.375, -1e6 + 0.375, 123456.0]
+
+
+@pytest.mark.parametrize("edge", EDGES)
+@pytest.mark.parametrize("width", TINY)
+def test_tiny_footprints_are_the_exact_mean_to_1e_6(edge, width):
+    """Footprints of 0, 1e-12 and 1e-8 periods on, next to and away from stripe edges (also
+    at s ~ 1e6): the coverage is the exact mean of the indicator (not the difference of
+    antiderivatives over O(1) arguments, which cancels to ~1e-16 / (a b))."""
+    duty = 0.375
+    for offset in (0.0, 0.3, -0.3, 0.7, 3.0, -3.0, 0.25, 1e4):
+        s = edge + offset * width if offset != 1e4 else edge + 0.2
+        for a, b in ((width, width), (width, 0.4 * width), (width, 1e-3 * width), (width, 0.0)):
+            got = float(stripe_coverage(s, a, b, duty=duty))
+            assert abs(got - exact_mean(s, a, b, duty)) < 1e-6, (s, a, b)
+
+
+def test_the_issue_example_is_exact():
+    """Issue 14: stripe_coverage(1.203125, 1e-8, 1e-8, duty=0.375) gave 0.98879."""
+    assert stripe_coverage(1.203125, 1e-8, 1e-8, duty=0.375) == 1.0
+    assert exact_mean(1.203125, 1e-8, 1e-8, 0.375) == 1.0
+
+
+def test_negative_s_next_to_an_edge_keeps_its_last_bit():
+    """For -1/2 < s < 0, s - floor(s) rounds; a footprint of 1e-15 periods at that edge must
+    still see where s lies (the rounding error of fract(s) is carried)."""
+    for s, duty in ((-0.3, 0.7), (-0.3 + 2**-54, 0.7), (-(2**-60), 0.5), (-0.4, 0.6)):
+        for a, b in ((1e-15, 1e-15), (1e-16, 0.0), (3e-16, 1e-16)):
+            got = float(stripe_coverage(s, a, b, duty=duty))
+            assert abs(got - exact_mean(s, a, b, duty)) < 1e-6, (s, a, b, duty)
+
+
+def test_thin_pixels_across_many_stripes_are_exact():
+    """|ds/dy| far below |ds/dx| (the gradient along a pixel axis): the exact mean, not the
+    box of width a + b (off by up to ~b / a)."""
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        s, a = rng.uniform(-50, 50), 10 ** rng.uniform(-1, 1.5)
+        b, duty = a * 10 ** rng.uniform(-12, -2), rng.uniform(0.1, 0.9)
+        got = float(stripe_coverage(s, a, b, duty=duty))
+        assert abs(got - exact_mean(s, a, b, duty)) < 1e-6, (s, a, b, duty)
+
+
+# footprints from 1e-15 to 30 periods (and 0): log-uniform, so that tiny ones are drawn
+LOG_WIDTHS = st.one_of(st.just(0.0), st.floats(-15.0, 1.5).map(lambda e: 10.0**e))
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    s=st.one_of(st.floats(-100, 100), st.integers(-(10**6), 10**6).map(float)),
+    nudge=st.floats(-2.0, 2.0),
+    a=LOG_WIDTHS,
+    ratio=st.one_of(st.just(0.0), st.just(1.0), st.floats(1e-12, 1.0)),
+    duty=st.sampled_from([0.5, 0.375, 0.1, 0.9]) | st.floats(0.1, 0.9),
+)
+@example(s=1.0, nudge=0.203125 / 1e-8, a=1e-8, ratio=1.0, duty=0.375)  # issue 14: s=1.203125
+@example(s=-1.0, nudge=-0.25 / 1e-8, a=1e-8, ratio=1.0, duty=0.5)
+@example(s=0.0, nudge=0.3, a=1e-12, ratio=1.0, duty=0.375)
+@example(s=1e6, nudge=0.375 / 1e-8, a=1e-8, ratio=0.0, duty=0.375)
+def test_coverage_is_the_exact_mean_to_1e_6(s, nudge, a, ratio, duty):
+    """Any footprint, any position (s is an edge-ish value plus ``nudge`` footprints): the
+    coverage is the exact mean of the indicator over the pixel to 1e-6."""
+    s = float(s + nudge * a)
+    b = a * ratio
+    got = float(stripe_coverage(s, a, b, duty=duty))
+    assert abs(got - exact_mean(s, a, b, duty)) < 1e-6
+
+
+def test_tiny_footprints_are_the_same_on_drjit():
+    """The renderer's Dr.Jit path of the same formula, at tiny footprints next to edges and
+    a duty that is not a float32 number (a select of two Python numbers is float32 there)."""
+    from gshade.shape.kernels import backend
+
+    if backend() != "drjit":
+        pytest.skip("no usable libLLVM here")
+    from drjit.llvm import Float64
+
+    from gshade.display.colour import coverage_formula
+    from gshade.runtime.backend import drjit_ops
+
+    rng = np.random.default_rng(2)
+    edges = rng.integers(-1000, 1000, 4000) + rng.choice([0.0, 0.4], 4000)
+    a = 10 ** rng.uniform(-13, -1, 4000)
+    b = a * rng.choice([0.0, 1e-3, 0.5, 1.0], 4000)
+    s = edges + a * rng.uniform(-1, 1, 4000)
+    s[:500] = rng.uniform(-0.5, 0.0, 500)
+    got = np.array(coverage_formula(Float64(s), Float64(a), Float64(b), 0.4, drjit_ops()))
+    np.testing.assert_allclose(got, stripe_coverage(s, a, b, duty=0.4), rtol=0, atol=1e-12)
+    for i in range(0, 4000, 97):
+        assert abs(got[i] - exact_mean(s[i], a[i], b[i], 0.4)) < 1e-6
 
 
 def test_pixel_box_filter_against_256_samples_on_average():
