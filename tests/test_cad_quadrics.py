@@ -75,40 +75,47 @@ def _parts():
     }
 
 
+def _agrees_with_the_kernel(face, kernel_face, rng, samples: int) -> None:
+    """At random kernel (u, v) of the face: our patch at to_patch(u, v) is the kernel's
+    point, its unit normal the kernel's (the same orientation), its mean curvature the
+    kernel's (BRepLProp), wherever the kernel defines them."""
+    adaptor = BRepAdaptor_Surface(kernel_face)
+    (u0, u1), (v0, v1) = face.box
+    uv = np.stack([rng.uniform(u0, u1, samples), rng.uniform(v0, v1, samples)], -1)
+    q = face.to_patch(uv)
+    d = face.patch.derivatives(q[:, 0], q[:, 1], 3)
+    H = evaluate("mean", d).f
+    for k, (u, v) in enumerate(uv):
+        props = BRepLProp_SLProps(adaptor, u, v, 2, 1e-12)
+        p = props.Value()
+        assert np.abs(d[0, 0, k] - [p.X(), p.Y(), p.Z()]).max() < 1e-11
+        if not props.IsNormalDefined():
+            continue
+        n = props.Normal()
+        mine = np.cross(d[1, 0, k], d[0, 1, k])
+        mine /= np.linalg.norm(mine)
+        assert np.abs(mine - [n.X(), n.Y(), n.Z()]).max() < 1e-9
+        if props.IsCurvatureDefined():
+            assert H[k] == pytest.approx(props.MeanCurvature(), rel=1e-8, abs=1e-9)
+
+
 @pytest.mark.parametrize("kind", ["cylinder", "cone", "sphere", "torus"])
 def test_quadric_faces_are_the_kernels_surfaces(tmp_path, kind):
     """At random kernel (u, v) of each face: our patch at to_patch(u, v) is the kernel's
-    point (to 1e-12 of the size), its normal the kernel's (the same orientation), and its
+    point (to 1e-11), its normal the kernel's (the same orientation), and its
     mean curvature the kernel's (BRepLProp)."""
     shape = _moved(_parts()[kind])
     model = read_cad(write_shape(shape, tmp_path / f"{kind}.brep"))
     assert kind in {f.kind for f in model.faces}
     rng = np.random.default_rng(0)
     for face, kernel_face in zip(model.faces, _faces(model.shape), strict=True):
-        adaptor = BRepAdaptor_Surface(kernel_face)
-        (u0, u1), (v0, v1) = face.box
-        uv = np.stack([rng.uniform(u0, u1, 25), rng.uniform(v0, v1, 25)], -1)
-        q = face.to_patch(uv)
-        d = face.patch.derivatives(q[:, 0], q[:, 1], 3)
-        H = evaluate("mean", d).f
-        for k, (u, v) in enumerate(uv):
-            props = BRepLProp_SLProps(adaptor, u, v, 2, 1e-12)
-            p = props.Value()
-            assert np.abs(d[0, 0, k] - [p.X(), p.Y(), p.Z()]).max() < 1e-12 * 10
-            if not props.IsNormalDefined():
-                continue
-            n = props.Normal()
-            mine = np.cross(d[1, 0, k], d[0, 1, k])
-            mine /= np.linalg.norm(mine)
-            assert np.abs(mine - [n.X(), n.Y(), n.Z()]).max() < 1e-9
-            if props.IsCurvatureDefined():
-                assert H[k] == pytest.approx(props.MeanCurvature(), abs=1e-9)
+        _agrees_with_the_kernel(face, kernel_face, rng, 25)
         if face.kind == kind:
             assert face.arcs[0] is not None
 
 
-def _bspline_edge(points, closed: bool = False):
-    """An edge on the cubic B-spline interpolating the points (a weighted one for rational)."""
+def _bspline_edge(points):
+    """An edge on the cubic B-spline approximating the points."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
     from OCP.collections import Array1_gp_Pnt
     from OCP.GeomAPI import GeomAPI_PointsToBSpline
@@ -148,25 +155,10 @@ def test_swept_faces_are_the_kernels_surfaces(tmp_path, kind):
     assert len(swept) == 1
     rng = np.random.default_rng(1)
     for face, kernel_face in swept:
-        adaptor = BRepAdaptor_Surface(kernel_face)
         # the kept shape is the file's: this face was built by gshade, not converted
         assert type(BRep_Tool.Surface_s(kernel_face)).__name__ in (
             "Geom_SurfaceOfRevolution",
             "Geom_SurfaceOfLinearExtrusion",
         )
-        (u0, u1), (v0, v1) = face.box
-        uv = np.stack([rng.uniform(u0, u1, 30), rng.uniform(v0, v1, 30)], -1)
-        q = face.to_patch(uv)
-        d = face.patch.derivatives(q[:, 0], q[:, 1], 3)
-        H = evaluate("mean", d).f
-        for k, (u, v) in enumerate(uv):
-            props = BRepLProp_SLProps(adaptor, u, v, 2, 1e-12)
-            p = props.Value()
-            assert np.abs(d[0, 0, k] - [p.X(), p.Y(), p.Z()]).max() < 1e-11
-            n = props.Normal()
-            mine = np.cross(d[1, 0, k], d[0, 1, k])
-            mine /= np.linalg.norm(mine)
-            assert np.abs(mine - [n.X(), n.Y(), n.Z()]).max() < 1e-9
-            assert props.IsCurvatureDefined()
-            assert H[k] == pytest.approx(props.MeanCurvature(), rel=1e-8, abs=1e-9)
+        _agrees_with_the_kernel(face, kernel_face, rng, 30)
         assert (face.arcs[0] is not None) == (kind == "revolution")

@@ -10,6 +10,8 @@ import pytest
 from gshade.io.image import write_exr
 from gshade.regression.comparison import Thresholds, compare
 
+from .exr_files import write_windowed
+
 
 def image(seed=0, shape=(32, 48)):
     rng = np.random.default_rng(seed)
@@ -218,7 +220,7 @@ def noisy(rng, mean, sd, runs=8):
 
 
 def test_z_test_passes_noise_and_fails_a_change():
-    from gshade.regression.comparison import z_test
+    from gshade.regression.statistical import z_test
 
     rng = np.random.default_rng(1)
     truth = rng.random((40, 50))
@@ -268,3 +270,171 @@ def test_top_level_compare_is_the_function_even_after_the_module_is_imported():
 
     a = image()
     assert gshade.compare(a, dict(a)).verdict == "PASS"
+
+
+# --------------------------------------------------------------------------- issue 14, point 5
+
+
+def strict_json(text):
+    def refuse(constant):
+        raise AssertionError(f"not strict JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_offset_data_window_compares_by_position(tmp_path):
+    a = image(shape=(8, 8))
+    ref = write_windowed(tmp_path / "ref.exr", a)
+    shifted = write_windowed(tmp_path / "shifted.exr", a, origin=(2, 0), display=(0, 0, 7, 7))
+    code, out, err = cli(shifted, ref, "--json")
+    assert (code, err) == (2, "")  # it used to pass: the data window was ignored
+    data = strict_json(out)
+    assert data["window"] == [0, 0, 9, 7] and data["display_window"] == [0, 0, 7, 7]
+    assert data["pixels"] == 80 and data["size"] == [10, 8]
+    result = compare(shifted, ref)
+    # pixels outside a data window read 0 (as idiff): x = 0, 1 is the reference alone
+    r = result.per_channel["R"]
+    assert r.max_error == pytest.approx(
+        np.abs(np.pad(a["R"], ((0, 0), (0, 2))) - np.pad(a["R"], ((0, 0), (2, 0)))).max()
+    )
+
+
+def test_windows_place_pixels_in_image_coordinates(tmp_path):
+    a = image(shape=(6, 5))
+    b = {k: v.copy() for k, v in a.items()}
+    b["G"][4, 1] += 0.5
+    display = (0, 0, 15, 11)
+    ref = write_windowed(tmp_path / "ref.exr", a, origin=(7, 3), display=display)
+    test = write_windowed(tmp_path / "test.exr", b, origin=(7, 3), display=display)
+    result = compare(test, ref, thresholds=Thresholds(fail=0.1, warn=0.1))
+    assert result.verdict == "FAILURE" and result.failing == 1 and result.pixels == 30
+    assert result.overall.max_at == (8, 7) and result.per_channel["G"].max_at == (8, 7)
+    # a crop of the reference in its own, smaller data window matches it pixel for pixel
+    full = {c: np.zeros((12, 16), np.float32) for c in "RGB"}
+    for c in "RGB":
+        full[c][3:9, 7:12] = a[c]
+    whole = write_windowed(tmp_path / "whole.exr", full, display=display)
+    assert compare(ref, whole).verdict == "PASS"
+    assert compare(whole, ref).verdict == "PASS"
+
+
+@pytest.mark.parametrize(
+    ("origin", "display", "message"),
+    [
+        ((0, 0), (0, 0, 9, 7), "expected the reference's size 8x8, got 10x8"),
+        ((2, 1), (2, 1, 9, 8), "expected the reference's display window (0, 0)-(7, 7)"),
+    ],
+)
+def test_different_display_windows_are_a_size_mismatch(tmp_path, origin, display, message):
+    a = image(shape=(8, 8))
+    ref = write_windowed(tmp_path / "ref.exr", a)
+    test = write_windowed(tmp_path / "test.exr", a, origin=origin, display=display)
+    d = tmp_path / "d.exr"
+    code, out, err = cli(test, ref, "--json", "--diff", d)
+    assert (code, out) == (3, "") and message in err and err.count("\n") == 1
+    assert not d.exists()
+
+
+def test_data_windows_far_apart_are_a_size_mismatch_not_a_giant_array(tmp_path):
+    a = image(shape=(4, 4))
+    ref = write_windowed(tmp_path / "ref.exr", a, display=(0, 0, 7, 7))
+    far = write_windowed(tmp_path / "far.exr", a, origin=(10**9, 10**9), display=(0, 0, 7, 7))
+    code, out, err = cli(far, ref)
+    assert (code, out) == (3, "") and "expected data windows near" in err
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    ("where", "value", "counts"),
+    [
+        ("test", np.nan, (1, 0)),
+        ("reference", np.inf, (0, 1)),
+        ("test", -np.inf, (1, 0)),
+        ("both", np.inf, (1, 1)),
+        ("both", np.nan, (1, 1)),
+    ],
+)
+def test_json_is_strict_with_counts_of_nonfinite_pixels(tmp_path, where, value, counts):
+    a = image()
+    b = {k: v.copy() for k, v in a.items()}
+    if where in ("test", "both"):
+        b["G"][2, 9] = value
+    if where in ("reference", "both"):
+        a["G"][2, 9] = value
+    write_exr(tmp_path / "ref.exr", a)
+    write_exr(tmp_path / "test.exr", b)
+    code, out, err = cli(tmp_path / "test.exr", tmp_path / "ref.exr", "--json")
+    assert (code, err) == (2, "")  # NaN or infinity never matches: FAILURE
+    data = strict_json(out)
+    for block in (data["per_channel"]["G"], data["overall"], data["per_group"]["RGB"]):
+        assert block["nonfinite"] == 1
+        assert (block["nonfinite_test"], block["nonfinite_reference"]) == counts
+        assert block["max_at"] == [9, 2] and block["max_channel"] == "G"
+        assert block["max_error"] is None and block["psnr"] is None and block["rmse"] is None
+    assert data["per_channel"]["R"]["nonfinite"] == 0
+    assert data["nonfinite_pixels"] == {"either": 1, "test": counts[0], "reference": counts[1]}
+    assert data["all_values"]["mean_error"] is None
+    text = compare(tmp_path / "test.exr", tmp_path / "ref.exr").summary()
+    assert f"1 pixel NaN or infinite (test {counts[0]}, reference {counts[1]})" in text
+
+
+def test_every_metrics_dictionary_is_strict_json(tmp_path):
+    from gshade.regression.check import CheckResult
+    from gshade.regression.report import write_report
+    from gshade.regression.statistical import z_test
+
+    a = {c: np.zeros((8, 8), np.float32) for c in ("R", "G", "B", "R.var", "G.var", "B.var")}
+    b = {k: v.copy() for k, v in a.items()}
+    b["R"][0, 0], b["G"][1, 1], b["B.var"][2, 2] = np.nan, -np.inf, np.inf
+    results = [compare(a, dict(a)), compare(b, a), compare(a, b), z_test(b, a), z_test(a, a)]
+    for r in results:
+        json.dumps(r.as_dict(), allow_nan=False)
+    checks = [
+        CheckResult(f"s{k}", tmp_path / f"s{k}.toml", r.verdict, r.summary(), comparison=r)
+        for k, r in enumerate(results)
+    ]
+    write_report(checks, tmp_path / "report")
+    summary = strict_json((tmp_path / "report" / "summary.json").read_text())
+    nonfinite = {s["name"]: s["metrics"]["nonfinite_pixels"]["either"] for s in summary["scenes"]}
+    assert nonfinite == {"s0": 0, "s1": 2, "s2": 2, "s3": 2, "s4": 0}
+
+
+def test_a_tie_names_the_channel_at_the_reported_pixel():
+    ref = {c: np.full((8, 8), 0.25, np.float32) for c in "RGB"}
+    test = {k: v.copy() for k, v in ref.items()}
+    test["R"][5, 5] = 0.75  # R: 0.5 at (5, 5)
+    test["G"][1, 6] = 0.75  # G: 0.5 at (6, 1), first in row-major order
+    result = compare(test, ref)
+    assert result.per_channel["R"].max_error == result.per_channel["G"].max_error == 0.5
+    assert result.overall.max_at == (6, 1) and result.overall.max_channel == "G"
+    assert "max error 0.5 at (6, 1) in G" in result.summary()  # it said "in R"
+    assert result.as_dict()["max_channel"] == "G"
+    # a tie at one pixel: the first channel in the compared order
+    test["B"][1, 6] = 0.75
+    assert compare(test, ref, channels=["B", "G", "R"]).overall.max_channel == "B"
+    assert compare(test, ref, channels=["R", "G", "B"]).overall.max_channel == "G"
+
+
+def test_json_says_what_overall_mean_rmse_and_psnr_mean(tmp_path):
+    a = image(shape=(8, 8))
+    b = {k: v.copy() for k, v in a.items()}
+    b["R"][1, 2] += 0.5
+    b["B"][3, 4] += 0.25
+    write_exr(tmp_path / "ref.exr", a)
+    write_exr(tmp_path / "test.exr", b)
+    data = strict_json(cli(tmp_path / "test.exr", tmp_path / "ref.exr", "--json")[1])
+    definitions = data["definitions"]
+    for key in ("overall", "mean_error", "rmse", "psnr", "all_values", "nonfinite", "null"):
+        assert isinstance(definitions[key], str) and definitions[key]
+    assert "worst channel" in definitions["overall"]
+    values = np.stack([b[c].astype(float) - a[c] for c in "RGB"])
+    # overall: over pixels, each pixel's worst channel; all_values: over every value (idiff)
+    worst = np.abs(values).max(axis=0)
+    assert data["overall"]["mean_error"] == pytest.approx(worst.mean())
+    assert data["overall"]["rmse"] == pytest.approx(np.sqrt((worst**2).mean()))
+    v = data["all_values"]
+    assert v["values"] == 3 * 64 and v["mean_error"] == pytest.approx(np.abs(values).mean())
+    assert v["rmse"] == pytest.approx(np.sqrt((values**2).mean()))
+    peak = max(1.0, *(float(np.abs(x[c]).max()) for x in (a, b) for c in "RGB"))
+    assert v["peak"] == pytest.approx(peak)
+    assert v["psnr"] == pytest.approx(20 * np.log10(peak / v["rmse"]))

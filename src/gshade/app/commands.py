@@ -266,13 +266,20 @@ def compare(args: argparse.Namespace) -> int:
         print(f"gshade: error: {exc}", file=sys.stderr)
         return EXIT_STATUS["MISMATCH"]
     if args.json:
-        print(json.dumps(result.as_dict(), indent=2))
+        # non-finite metrics are null (as_dict): the output is always strict JSON
+        print(json.dumps(result.as_dict(), indent=2, allow_nan=False))
     else:
         for name, m in {**result.per_channel, **result.per_group}.items():
             at = f" at ({m.max_at[0]}, {m.max_at[1]})" if m.max_at else ""
             print(
                 f"  {name:>6}: max {m.max_error:.6g}{at}, mean {m.mean_error:.6g}, "
                 f"RMSE {m.rmse:.6g}, PSNR {m.psnr:.4g} dB (range {m.data_range:.4g})"
+            )
+        v = result.all_values
+        if v is not None:
+            print(
+                f"  values: mean {v.mean_error:.6g}, RMSE {v.rmse:.6g}, PSNR {v.psnr:.4g} dB "
+                f"(peak {v.peak:.4g}; over all {v.values} pixel values, as idiff)"
             )
         print(result.summary())
     return result.exit_status

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
@@ -26,12 +27,14 @@ from .files import read_bytes
 from .outputs import atomic_write
 
 __all__ = [
+    "ExrWindow",
     "atomic_write",
     "exr_writer",
     "linear_to_srgb",
     "png_writer",
     "read_exr",
     "read_exr_header",
+    "read_exr_windows",
     "write_exr",
     "write_png",
 ]
@@ -220,6 +223,36 @@ def _plain(value: object) -> object:
     return value
 
 
+@dataclass(frozen=True)
+class ExrWindow:
+    """An EXR data or display window: the pixels (x_min, y_min) to (x_max, y_max), both
+    included, in the image's pixel coordinates."""
+
+    x_min: int
+    y_min: int
+    x_max: int
+    y_max: int
+
+    @property
+    def width(self) -> int:
+        return self.x_max - self.x_min + 1
+
+    @property
+    def height(self) -> int:
+        return self.y_max - self.y_min + 1
+
+    @classmethod
+    def of_shape(cls, shape: tuple[int, ...]) -> ExrWindow:
+        """The window at the origin of an array of shape (height, width)."""
+        return cls(0, 0, int(shape[1]) - 1, int(shape[0]) - 1)
+
+    def __str__(self) -> str:
+        return (
+            f"({self.x_min}, {self.y_min})-({self.x_max}, {self.y_max}) "
+            f"({self.width}x{self.height})"
+        )
+
+
 def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], dict[str, object]]:
     """Read an OpenEXR file (its first part).
 
@@ -241,6 +274,15 @@ def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], d
     GshadeError
         If the file is missing, unreadable, not an OpenEXR file, truncated or corrupt.
     """
+    channels, header, _, _ = read_exr_windows(path)
+    return channels, header
+
+
+def read_exr_windows(
+    path: str | os.PathLike,
+) -> tuple[dict[str, NDArray[np.float32]], dict[str, object], ExrWindow, ExrWindow]:
+    """:func:`read_exr`, and the file's data window (where the channels' pixels lie: row 0,
+    column 0 of each array is its (x_min, y_min)) and display window."""
     path = Path(path)
     magic = read_bytes(path, "an OpenEXR file", size=4)
     if magic != _EXR_MAGIC:
@@ -270,7 +312,26 @@ def read_exr(path: str | os.PathLike) -> tuple[dict[str, NDArray[np.float32]], d
             )
         channels[name] = np.ascontiguousarray(pixels, dtype=np.float32)
     header = {k: _plain(v) for k, v in raw_header.items() if k not in _STRUCTURAL}
-    return channels, header
+    shape = next(iter(channels.values())).shape if channels else (0, 0)
+    data = _window(raw_header.get("dataWindow")) or ExrWindow.of_shape(shape)
+    display = _window(raw_header.get("displayWindow")) or data
+    if channels and (data.height, data.width) != shape:
+        raise GshadeError(
+            f"{path}: expected pixels filling the data window {data}, got {shape[1]}x{shape[0]}"
+        )
+    return channels, header, data, display
+
+
+def _window(value: object) -> ExrWindow | None:
+    """An EXR box attribute ((x_min, y_min), (x_max, y_max)) as a window; None if it is not
+    one."""
+    try:
+        box = np.asarray(value, dtype=np.int64)
+    except (TypeError, ValueError):
+        return None
+    if box.shape != (2, 2):
+        return None
+    return ExrWindow(int(box[0, 0]), int(box[0, 1]), int(box[1, 0]), int(box[1, 1]))
 
 
 def read_exr_header(path: str | os.PathLike) -> dict[str, object]:

@@ -27,8 +27,8 @@ from .comparison import (
     Thresholds,
     UnreadableImage,
     compare,
-    z_test,
 )
+from .statistical import z_test
 
 if TYPE_CHECKING:
     from ..rendering.rendered_image import RenderedImage
@@ -220,7 +220,7 @@ def check(
 
     ``statistical`` (or a scene's ``[check] statistical = true``) renders ``runs`` times with
     independent seeds and compares with a z-test against the reference's variances
-    (:func:`gshade.regression.comparison.z_test`) instead of thresholds: for noisy ``lit``
+    (:func:`gshade.regression.statistical.z_test`) instead of thresholds: for noisy ``lit``
     renders across machines or variants."""
     references = Path(references)
     if not references.is_dir():

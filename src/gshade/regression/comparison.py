@@ -11,6 +11,17 @@ difference is then infinite).  FAILURE if more than ``failpercent`` % of the pix
 by more than ``fail``, or any by more than ``hardfail``; else WARNING if more than
 ``warnpercent`` % differ by more than ``warn``; else PASS.
 
+Images are compared by position, as idiff does: EXR data windows are honoured (the compared
+pixels are the union of the two data windows, a pixel outside an image's data window reads
+0, coordinates are the images' own) and the display windows must be equal.
+
+"Overall" (and a channel group's) metrics are those of each pixel's difference, the worst
+channel's: its largest value, and its mean, RMSE and PSNR over the pixels; the PSNR's data
+range is that of each pixel's largest reference value over the channels.  idiff's own
+figures, over every compared value (pixel x channel) with its PSNR peak max(1, largest
+magnitude), are :class:`ValueMetrics` (``all_values``).  :data:`DEFINITIONS` says so in
+``--json``, where non-finite numbers are null.
+
 Exit statuses of ``gshade compare`` (:data:`EXIT_STATUS`): idiff's 0 PASS, 1 WARNING,
 2 FAILURE, 3 size or channel mismatch, 4 unreadable file; and 5 for a usage error (a bad
 argument, an output that cannot be written), so that 2 always means "the images differ".
@@ -19,41 +30,75 @@ argument, an output that cannot be written), so that 2 always means "the images 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from ..io.image import ExrWindow
+from .image_pairs import (
+    ChannelMismatch,
+    UnreadableImage,
+    aligned_channels,
+    load_channels,
+    load_image,
+)
 
 __all__ = [
+    "DEFINITIONS",
     "EXIT_STATUS",
     "ChannelMismatch",
     "Comparison",
     "Thresholds",
+    "UnreadableImage",
     "UsageError",
+    "ValueMetrics",
     "channel_groups",
     "compare",
     "heat_map",
     "load_channels",
-    "z_test",
+    "pixel_metrics",
 ]
 
 #: Exit statuses of ``gshade compare``: idiff's 0-4, and 5 for usage errors.
 EXIT_STATUS = {"PASS": 0, "WARNING": 1, "FAILURE": 2, "MISMATCH": 3, "UNREADABLE": 4, "USAGE": 5}
 
+#: What the metrics mean: ``--json`` and ``summary.json`` carry this as ``definitions``.
+DEFINITIONS = {
+    "pixels": "the compared pixels: the union of the two images' data windows ('window', "
+    "inclusive x_min, y_min, x_max, y_max), where a pixel outside an image's data window "
+    "reads 0; the display windows are equal",
+    "pixel difference": "a pixel's largest absolute difference over the compared channels "
+    "(idiff's); infinite where either image is NaN or infinite in a compared channel (never "
+    "a match); failing_pixels and warning_pixels count the pixels whose difference exceeds "
+    "fail and warn",
+    "per_channel": "metrics of one channel's absolute differences, over the pixels",
+    "overall": "metrics of the pixel difference (each pixel's worst channel), over the pixels; "
+    "per_group: the same over a group's channels (RGB, P, N, uv)",
+    "max_error": "the largest absolute difference; max_at: its pixel (x, y) in the image's "
+    "pixel coordinates, the first in row-major order on ties; max_channel: the first "
+    "compared channel with that difference at that pixel",
+    "mean_error": "the mean of the absolute differences over the pixels (overall: of the "
+    "pixel differences, not of every value)",
+    "rmse": "the square root of the mean squared absolute difference, over the same values as "
+    "mean_error",
+    "psnr": "20 log10(data_range / rmse) in dB; data_range: max - min of the reference's "
+    "finite values (overall and groups: of each pixel's largest reference value over the "
+    "channels), 1 where that is 0",
+    "all_values": "idiff's mean error, RMS error and PSNR: over every compared value (pixel x "
+    "channel); the PSNR's peak is max(1, the largest magnitude in either image)",
+    "nonfinite": "pixels where the test or the reference is NaN or infinite (in the channel; "
+    "overall and groups: in any of their channels); nonfinite_test and nonfinite_reference "
+    "count each image's",
+    "null": "a value that is not a finite number: the PSNR of equal channels (+inf); the "
+    "errors, mean, RMSE and PSNR where a pixel is NaN or infinite (see nonfinite); an "
+    "infinite hardfail",
+}
+
 
 class UsageError(GshadeError):
     """A bad argument of a comparison (thresholds, channels, difference-image targets)."""
-
-
-class ChannelMismatch(GshadeError):
-    """The images differ in size, or a compared channel is missing."""
-
-
-class UnreadableImage(GshadeError):
-    """An image file could not be read."""
 
 
 @dataclass(frozen=True)
@@ -83,15 +128,33 @@ class Thresholds:
 
 @dataclass
 class ChannelMetrics:
-    """Error metrics of one channel (or of all compared channels together)."""
+    """Error metrics of one channel, or of the pixel difference (each pixel's worst channel)
+    of a group of channels or of all compared channels (see :data:`DEFINITIONS`)."""
 
     max_error: float
-    max_at: tuple[int, int] | None  # (x, y) of the largest error
+    max_at: tuple[int, int] | None  # (x, y) of the largest error, None if there is none
     mean_error: float
     rmse: float
     psnr: float
     data_range: float
-    nonfinite: int
+    nonfinite: int  # pixels non-finite in either image
+    nonfinite_test: int = 0  # pixels non-finite in the test image
+    nonfinite_reference: int = 0  # pixels non-finite in the reference
+    #: the channel of the largest error (the first compared channel with it at max_at)
+    max_channel: str | None = None
+
+
+@dataclass
+class ValueMetrics:
+    """idiff's mean error, RMS error and PSNR: over every compared value (pixel x channel),
+    with the PSNR's ``peak`` max(1, the largest magnitude in either image).  Infinite (JSON
+    null) where a value is NaN or infinite."""
+
+    mean_error: float
+    rmse: float
+    psnr: float
+    peak: float
+    values: int
 
 
 @dataclass
@@ -100,7 +163,7 @@ class Comparison:
 
     verdict: str
     channels: list[str]
-    size: tuple[int, int]  # (width, height)
+    size: tuple[int, int]  # (width, height) of the compared pixels (see window)
     thresholds: Thresholds
     per_channel: dict[str, ChannelMetrics]
     overall: ChannelMetrics
@@ -116,6 +179,11 @@ class Comparison:
     #: "thresholds" (idiff's rule) or "z-test" (:func:`z_test`: ``pixels`` counts
     #: pixel-channels and ``failing`` the rejected ones)
     test: str = "thresholds"
+    #: idiff's per-value mean, RMS error and PSNR (None for the z-test)
+    all_values: ValueMetrics | None = None
+    #: the compared pixels (the union of the data windows) and the images' display window
+    window: ExrWindow | None = None
+    display_window: ExrWindow | None = None
 
     @property
     def heat_scale(self) -> float:
@@ -153,6 +221,17 @@ class Comparison:
             "overall": asdict(self.overall),
             "per_channel": {k: asdict(v) for k, v in self.per_channel.items()},
             "per_group": {k: asdict(v) for k, v in self.per_group.items()},
+            "test": self.test,
+            "max_channel": self.overall.max_channel,
+            "nonfinite_pixels": {
+                "either": self.overall.nonfinite,
+                "test": self.overall.nonfinite_test,
+                "reference": self.overall.nonfinite_reference,
+            },
+            "all_values": asdict(self.all_values) if self.all_values is not None else None,
+            "window": _box(self.window),
+            "display_window": _box(self.display_window),
+            "definitions": DEFINITIONS,
         }
         return _plain(out)
 
@@ -168,19 +247,27 @@ class Comparison:
             )
         where = ""
         if o.max_at is not None:
-            worst = max(self.per_channel, key=lambda c: _order(self.per_channel[c].max_error))
-            where = f" at ({o.max_at[0]}, {o.max_at[1]}) in {worst}"
+            where = f" at ({o.max_at[0]}, {o.max_at[1]}) in {o.max_channel}"
         ssim = f", SSIM {self.ssim:.5f}" if self.ssim is not None else ""
+        nonfinite = ""
+        if o.nonfinite:
+            nonfinite = (
+                f"; {o.nonfinite} pixel{'s' if o.nonfinite != 1 else ''} NaN or infinite "
+                f"(test {o.nonfinite_test}, reference {o.nonfinite_reference})"
+            )
         return (
             f"{self.verdict}: {self.failing_percent:.4g}% of {self.pixels} pixels over "
             f"{self.thresholds.fail:g} (warn {self.warning_percent:.4g}% over "
             f"{self.thresholds.warn:g}); max error {o.max_error:.4g}{where}, mean "
-            f"{o.mean_error:.4g}, RMSE {o.rmse:.4g}, PSNR {o.psnr:.4g} dB{ssim}"
+            f"{o.mean_error:.4g}, RMSE {o.rmse:.4g}, PSNR {o.psnr:.4g} dB (per pixel: the "
+            f"worst channel){ssim}{nonfinite}"
         )
 
 
-def _order(x: float) -> float:
-    return float("inf") if x != x else x
+def _box(window: ExrWindow | None) -> list[int] | None:
+    if window is None:
+        return None
+    return [window.x_min, window.y_min, window.x_max, window.y_max]
 
 
 def _plain(x):
@@ -211,32 +298,32 @@ def channel_groups(channels: list[str]) -> dict[str, list[str]]:
     return groups
 
 
-def load_channels(image) -> tuple[dict[str, NDArray], str]:
-    """Channels of a path (EXR), a :class:`~gshade.rendering.rendered_image.RenderedImage`
-    or a dict of arrays."""
-    if isinstance(image, (str, os.PathLike)):
-        from ..io.image import read_exr
+def pixel_metrics(
+    diff: NDArray,
+    ref: NDArray,
+    *,
+    origin: tuple[int, int] = (0, 0),
+    test_finite: ArrayLike | None = None,
+    reference_finite: ArrayLike | None = None,
+    magnitudes: NDArray | None = None,
+    names: list[str] | None = None,
+) -> ChannelMetrics:
+    """Metrics of |test - ref| (NaN/Inf where either is non-finite, counted as infinite).
 
-        try:
-            channels, _ = read_exr(image)
-        except GshadeError as exc:
-            raise UnreadableImage(str(exc)) from None
-        return channels, str(image)
-    if hasattr(image, "channels"):
-        return dict(image.channels), "<image>"
-    if isinstance(image, dict):
-        return image, "<channels>"
-    raise GshadeError(f"image: expected an EXR path, an image or a dict of channels, got {image!r}")
-
-
-def _metrics(diff: NDArray, ref: NDArray) -> ChannelMetrics:
-    """Metrics of |test - ref| (NaN/Inf where either is non-finite, counted as infinite)."""
+    ``origin`` is the image coordinates of the arrays' first pixel; ``test_finite`` and
+    ``reference_finite`` say where each image is finite (for the per-image counts); with
+    ``magnitudes`` (..., channel) and their ``names``, the channel of the largest error is
+    the first one reaching it at its pixel."""
     finite = np.isfinite(diff)
     nonfinite = int(diff.size - np.count_nonzero(finite))
+    counts = [
+        int(diff.size - np.count_nonzero(f)) if f is not None else nonfinite
+        for f in (test_finite, reference_finite)
+    ]
     d = np.where(finite, np.abs(diff), np.inf)
     if d.size == 0:
         return ChannelMetrics(0.0, None, 0.0, 0.0, float("inf"), 0.0, 0)
-    flat = int(np.argmax(d))
+    flat = int(np.argmax(d))  # the first largest, in row-major order
     y, x = np.unravel_index(flat, d.shape[:2])
     max_error = float(d.flat[flat])
     good = d[finite]
@@ -252,8 +339,33 @@ def _metrics(diff: NDArray, ref: NDArray) -> ChannelMetrics:
         psnr = float("inf")
     else:
         psnr = float(20 * np.log10(data_range / rmse))
-    at = (int(x), int(y)) if max_error > 0 else None
-    return ChannelMetrics(max_error, at, mean, rmse, psnr, data_range, nonfinite)
+    at = (int(x) + origin[0], int(y) + origin[1]) if max_error > 0 else None
+    channel = None
+    if at is not None and names:
+        # the first of the channels (in the compared order) with the largest error there
+        first = 0 if magnitudes is None else int(np.argmax(magnitudes[y, x] == max_error))
+        channel = names[first]
+    return ChannelMetrics(
+        max_error, at, mean, rmse, psnr, data_range, nonfinite, counts[0], counts[1], channel
+    )
+
+
+def _value_metrics(
+    ta: NDArray[np.float64], tb: NDArray[np.float64], magnitude: NDArray[np.float64]
+) -> ValueMetrics:
+    """idiff's figures over every value of the stacked channels (..., channel)."""
+    values = int(magnitude.size)
+    finite = np.isfinite(ta) & np.isfinite(tb)
+    peak = 1.0
+    if np.any(finite):
+        peak = max(1.0, float(np.abs(ta[finite]).max()), float(np.abs(tb[finite]).max()))
+    if not finite.all():
+        inf = float("inf")
+        return ValueMetrics(inf, inf, -inf, peak, values)
+    mean = float(magnitude.mean()) if values else 0.0
+    rmse = float(np.sqrt(np.mean(magnitude**2))) if values else 0.0
+    psnr = float("inf") if rmse == 0 else float(20 * np.log10(peak / rmse))
+    return ValueMetrics(mean, rmse, psnr, peak, values)
 
 
 def _tone_map(rgb: NDArray) -> NDArray:
@@ -272,10 +384,14 @@ def compare(
 ) -> Comparison:
     """Compare a test image with a reference (paths, rendered images or channel dicts).
 
+    EXR images are compared by position: over the union of their data windows (a pixel
+    outside an image's data window reads 0), with coordinates (``max_at``) in the images'
+    pixel space; their display windows must be equal.
+
     Raises
     ------
     ChannelMismatch
-        Different sizes, or a requested channel missing from either image.
+        Different sizes (display windows), or a requested channel missing from either image.
     UnreadableImage
         A file that cannot be read as EXR.
     UsageError
@@ -285,45 +401,43 @@ def compare(
     channels = list(channels)
     if not channels or not all(isinstance(c, str) and c for c in channels):
         raise UsageError(f"channels: expected one or more channel names, got {channels!r}")
-    a, name_a = load_channels(test)
-    b, name_b = load_channels(reference)
-    for name, image in ((name_a, a), (name_b, b)):
-        missing = [c for c in channels if c not in image]
-        if missing:
-            raise ChannelMismatch(
-                f"{name}: expected channel(s) {', '.join(missing)}, found "
-                f"{', '.join(sorted(image)) or 'none'}"
-            )
-    shape_a, shape_b = a[channels[0]].shape, b[channels[0]].shape
-    if shape_a != shape_b:
-        raise ChannelMismatch(
-            f"{name_a}: expected the reference's size {shape_b[1]}x{shape_b[0]}, "
-            f"got {shape_a[1]}x{shape_a[0]}"
-        )
+    a, b, window, display = aligned_channels(load_image(test), load_image(reference), channels)
+    origin = (window.x_min, window.y_min)
     per_channel = {}
     diffs = []
     for c in channels:
-        ta = np.asarray(a[c], dtype=np.float64)
-        tb = np.asarray(b[c], dtype=np.float64)
+        ta, tb = a[c], b[c]
+        fa, fb = np.isfinite(ta), np.isfinite(tb)
         with np.errstate(invalid="ignore", over="ignore"):
             diff = ta - tb
-        diff[~(np.isfinite(ta) & np.isfinite(tb))] = np.nan
-        per_channel[c] = _metrics(diff, tb)
+        diff[~(fa & fb)] = np.nan
+        per_channel[c] = pixel_metrics(
+            diff, tb, origin=origin, test_finite=fa, reference_finite=fb, names=[c]
+        )
         diffs.append(diff)
     stack = np.stack(diffs, -1)
     magnitude = np.where(np.isfinite(stack), np.abs(stack), np.inf)
     pixel = magnitude.max(axis=-1)  # idiff: the worst channel of each pixel
-    overall = _metrics(
-        np.where(np.isinf(pixel), np.nan, pixel),
-        np.stack([np.asarray(b[c], dtype=np.float64) for c in channels], -1).max(axis=-1),
-    )
+    test_values = np.stack([a[c] for c in channels], -1)
+    reference_values = np.stack([b[c] for c in channels], -1)
+
+    def worst_of(idx: list[int]) -> ChannelMetrics:
+        worst = magnitude[..., idx].max(axis=-1)
+        return pixel_metrics(
+            np.where(np.isinf(worst), np.nan, worst),
+            reference_values[..., idx].max(axis=-1),
+            origin=origin,
+            test_finite=np.isfinite(test_values[..., idx]).all(axis=-1),
+            reference_finite=np.isfinite(reference_values[..., idx]).all(axis=-1),
+            magnitudes=magnitude[..., idx],
+            names=[channels[k] for k in idx],
+        )
+
+    overall = worst_of(list(range(len(channels))))
     per_group = {}
     for group, members in channel_groups(channels).items():
         if len(members) > 1:
-            idx = [channels.index(c) for c in members]
-            worst = magnitude[..., idx].max(axis=-1)
-            refs = np.stack([np.asarray(b[c], dtype=np.float64) for c in members], -1)
-            per_group[group] = _metrics(np.where(np.isinf(worst), np.nan, worst), refs.max(axis=-1))
+            per_group[group] = worst_of([channels.index(c) for c in members])
     n = pixel.size
     nonfinite = np.isinf(pixel)  # NaN or infinity in either image: never a match
     failing = int(np.count_nonzero(nonfinite | (pixel > thresholds.fail)))
@@ -338,14 +452,14 @@ def compare(
     if {"R", "G", "B"} <= set(channels):
         from skimage.metrics import structural_similarity
 
-        ta = _tone_map(np.stack([a[c] for c in "RGB"], -1).astype(np.float64))
-        tb = _tone_map(np.stack([b[c] for c in "RGB"], -1).astype(np.float64))
+        ta = _tone_map(np.stack([a[c] for c in "RGB"], -1))
+        tb = _tone_map(np.stack([b[c] for c in "RGB"], -1))
         if min(ta.shape[:2]) >= 7:
             ssim = float(structural_similarity(ta, tb, data_range=1.0, channel_axis=-1))
     return Comparison(
         verdict=verdict,
         channels=channels,
-        size=(shape_a[1], shape_a[0]),
+        size=(window.width, window.height),
         thresholds=thresholds,
         per_channel=per_channel,
         overall=overall,
@@ -356,6 +470,9 @@ def compare(
         difference=stack,
         pixel_difference=pixel,
         per_group=per_group,
+        all_values=_value_metrics(test_values, reference_values, magnitude),
+        window=window,
+        display_window=display,
     )
 
 
@@ -369,73 +486,3 @@ def heat_map(comparison: Comparison) -> NDArray[np.uint8]:
     rgba = matplotlib.colormaps["inferno"](np.clip(pixel / comparison.heat_scale, 0, 1))
     rgba[np.isinf(pixel)] = (1, 0, 1, 1)
     return np.round(rgba[..., :3] * 255).astype(np.uint8)
-
-
-def z_test(
-    test,
-    reference,
-    *,
-    channels=("R", "G", "B"),
-    significance: float = 0.01,
-    required_percent: float = 99.75,
-) -> Comparison:
-    """Statistical comparison of noisy renders, as Mitsuba's own render tests do.
-
-    Both images carry, for each compared channel C, the per-pixel mean in C and the variance
-    of that mean in ``C.var`` (from independent runs).  Each pixel-channel gets a two-sided
-    Welch z-test, z = (mu_test - mu_ref) / sqrt(var_test + var_ref), with the significance
-    level Šidák-corrected for the number of tests, 1 - (1 - significance)^(1 / M).  PASS if
-    at least ``required_percent`` % of the pixel-channels pass (and none is NaN), else
-    FAILURE.  The failing count is that of the pixel-channels rejected.
-    """
-    from scipy.special import erfc
-
-    a, name_a = load_channels(test)
-    b, name_b = load_channels(reference)
-    channels = list(channels)
-    needed = channels + [f"{c}.var" for c in channels]
-    for name, image in ((name_a, a), (name_b, b)):
-        missing = [c for c in needed if c not in image]
-        if missing:
-            raise ChannelMismatch(
-                f"{name}: the statistical test needs channel(s) {', '.join(missing)} (means "
-                "and variances from several runs)"
-            )
-    if a[channels[0]].shape != b[channels[0]].shape:
-        sa, sb = a[channels[0]].shape, b[channels[0]].shape
-        raise ChannelMismatch(
-            f"{name_a}: expected the reference's size {sb[1]}x{sb[0]}, got {sa[1]}x{sa[0]}"
-        )
-    diff = np.stack([np.asarray(a[c], float) - np.asarray(b[c], float) for c in channels], -1)
-    var = np.stack(
-        [np.asarray(a[f"{c}.var"], float) + np.asarray(b[f"{c}.var"], float) for c in channels], -1
-    )
-    tiny = 1e-12
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.abs(diff) / np.sqrt(np.maximum(var, 0.0) + tiny)
-    p = erfc(z / np.sqrt(2.0))
-    tests = p.size
-    level = 1.0 - (1.0 - significance) ** (1.0 / tests)
-    rejected = ~(p >= level)  # NaN never passes
-    failing = int(np.count_nonzero(rejected))
-    passing_percent = 100.0 * (tests - failing) / tests
-    verdict = "PASS" if passing_percent >= required_percent else "FAILURE"
-    magnitude = np.where(np.isfinite(diff), np.abs(diff), np.inf)
-    pixel = magnitude.max(axis=-1)
-    per_channel = {
-        c: _metrics(diff[..., k], np.asarray(b[c], float)) for k, c in enumerate(channels)
-    }
-    return Comparison(
-        verdict=verdict,
-        channels=channels,
-        size=(pixel.shape[1], pixel.shape[0]),
-        thresholds=Thresholds(failpercent=100.0 - required_percent),
-        per_channel=per_channel,
-        overall=_metrics(np.where(np.isinf(pixel), np.nan, pixel), np.zeros_like(pixel)),
-        failing=failing,
-        warning=failing,
-        pixels=tests,
-        difference=diff,
-        pixel_difference=pixel,
-        test="z-test",
-    )

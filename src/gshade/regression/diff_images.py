@@ -28,7 +28,8 @@ __all__ = [
 
 def diff_exr_writer(comparison: Comparison, path: str | os.PathLike) -> Callable[[str], None]:
     """The absolute differences, one channel per compared channel (non-finite as NaN), as
-    a function writing them as EXR to a file name (``path`` names the target in errors)."""
+    a function writing them as EXR to a file name (``path`` names the target in errors).
+    The header's ``gshade:diff_window`` says where the compared pixels lie in the images."""
     from ..io.image import exr_writer
 
     difference = comparison.difference
@@ -36,7 +37,11 @@ def diff_exr_writer(comparison: Comparison, path: str | os.PathLike) -> Callable
     channels = {
         c: np.abs(difference[..., k]).astype(np.float32) for k, c in enumerate(comparison.channels)
     }
-    return exr_writer(path, channels, header={"gshade:diff_of": ",".join(comparison.channels)})
+    header = {"gshade:diff_of": ",".join(comparison.channels)}
+    w = comparison.window
+    if w is not None:  # the compared pixels' place in the images (x_min,y_min,x_max,y_max)
+        header["gshade:diff_window"] = f"{w.x_min},{w.y_min},{w.x_max},{w.y_max}"
+    return exr_writer(path, channels, header=header)
 
 
 def diff_png_writer(comparison: Comparison) -> Callable[[str], None]:
