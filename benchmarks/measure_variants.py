@@ -6,9 +6,11 @@ table) with
 ``llvm_ad_rgb`` twice and with ``scalar_rgb`` once, and the images are compared with
 ``gshade.compare`` over the check channels: the largest per-pixel difference, the share of
 pixels over 0.02 and over 1e-3, and SSIM on the picture.  Re-renders in one variant are
-expected to be bit-identical (fixed seed, box filter); the two variants draw different
-random numbers, which matters for ``lit`` pictures (soft light is sampled) and not for
-``flat`` ones (strata centres, no randomness).
+expected to be bit-identical (fixed seed, box filter).  ``flat`` and ``lit`` pictures use no
+random numbers (samples at the strata centres; ``lit`` shades with a head light, a constant
+ambient term and a key light with one deterministic shadow ray), so the variants differ
+only by float rounding; ``soft`` lighting samples the sky, and the two variants draw
+different random numbers for it (measure it with ``--set render.lighting=soft``).
 
 Run from the repository root: ``.venv/bin/python benchmarks/measure_variants.py --write``
 (several minutes: the scalar variant runs gshade's integrator in Python, per sample).
@@ -26,7 +28,7 @@ from report import machine_info, markdown_table, text_table, write_section
 import gshade
 from gshade.regression.check import CHECK_DEFAULTS, find_scenes
 from gshade.regression.comparison import Thresholds, compare
-from gshade.scene import load_scene
+from gshade.scene import load_scene, parse_overrides
 
 COLUMNS = [
     "Scene",
@@ -39,8 +41,8 @@ COLUMNS = [
 ]
 
 
-def measure(path):
-    scene = load_scene(path)
+def measure(path, overrides=None):
+    scene = load_scene(path, overrides or None)
     settings = {**CHECK_DEFAULTS, **scene.check}
     kw = dict(width=settings["width"], height=settings["height"], spp=settings["spp"])
     channels = [c for c in settings["channels"]]
@@ -55,12 +57,20 @@ def measure(path):
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scene key in every scene, e.g. render.lighting=soft",
+    )
     parser.add_argument("scenes", nargs="*", help="scene files (default: scenes/)")
     args = parser.parse_args()
     rows = []
     worst = {"flat": [0.0, 0.0], "lit": [0.0, 0.0]}
+    overrides = parse_overrides(args.set)
     for path in find_scenes(args.scenes or None):
-        scene, same, cross = measure(path)
+        scene, same, cross = measure(path, overrides)
         lighting = scene.render.lighting
         rows.append(
             [
@@ -73,7 +83,7 @@ def main() -> int:
                 "-" if cross.ssim is None else f"{cross.ssim:.4f}",
             ]
         )
-        w = worst[lighting]
+        w = worst.setdefault(lighting, [0.0, 0.0])
         w[0] = max(w[0], cross.failing_percent)
         w[1] = max(w[1], cross.warning_percent)
         print(" | ".join(rows[-1]), flush=True)
@@ -84,8 +94,10 @@ def main() -> int:
         "(unless a scene's [check] says otherwise); differences are per pixel, the largest "
         "over the channels (idiff's rule).",
         "Worst share of pixels differing by more than 0.02 between the variants: "
-        f"flat {worst['flat'][0]:.3f} %, lit {worst['lit'][0]:.3f} %; by more than 1e-3: "
-        f"flat {worst['flat'][1]:.3f} %, lit {worst['lit'][1]:.3f} %.",
+        + ", ".join(f"{k} {w[0]:.3f} %" for k, w in worst.items())
+        + "; by more than 1e-3: "
+        + ", ".join(f"{k} {w[1]:.3f} %" for k, w in worst.items())
+        + ".",
     ]
     print(text_table(COLUMNS, rows))
     print("\n".join(notes))

@@ -194,7 +194,7 @@ def test_statistical_check_separates_sampling_noise_from_a_change(tmp_path):
         path.write_text(
             f'name = "lit"\n[[surface]]\ntype = "newell"\nfile = "teapot.txt"\n[shape]\n'
             f'function = "isophotes"\nlight = {light}\nperiod = 0.1\n[render]\n'
-            f'lighting = "lit"\nseed = {seed}\n[check]\nwidth = 64\nheight = 48\nspp = 4\n'
+            f'lighting = "soft"\nseed = {seed}\n[check]\nwidth = 64\nheight = 48\nspp = 4\n'
             "runs = 6\n"
         )
         return path

@@ -338,11 +338,11 @@ def test_a_render_with_non_finite_values_is_refused(tmp_path, monkeypatch):
 
     def poisoned(*args):
         channels = real(*args)
-        channels["f"][0, 0] = np.nan
+        channels["f"][0, 0] = np.nan  # the samples' mean: f.mean from 0.3 on
         return channels
 
     monkeypatch.setattr(pipeline, "exact_channels", poisoned)
-    with pytest.raises(GshadeError, match=r"non-finite values \(1 pixels of f\)"):
+    with pytest.raises(GshadeError, match=r"non-finite values \(1 pixels of f.mean\)"):
         render(load_scene(_write(tmp_path, SPHERE + SMALL)))
 
 

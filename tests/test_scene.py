@@ -565,7 +565,7 @@ BAD = {
     ),
     "lighting unknown": (
         SPHERE + '[render]\nlighting = "dark"\n',
-        r'\[render\] lighting: expected one of "lit", "flat", got "dark"',
+        r'\[render\] lighting: expected one of "lit", "flat", "soft", got "dark"',
     ),
     "variant unknown": (
         SPHERE + '[render]\nvariant = "cuda_rgb"\n',

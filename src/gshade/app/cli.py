@@ -84,6 +84,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(G0 red, G1 orange, G2 green, G3 blue)",
     )
     render.add_argument(
+        "--aovs",
+        metavar="NAMES",
+        help="extra EXR channels: shape functions' exact values at the pixel centres, "
+        "e.g. mean,gaussian (scene key render.aovs)",
+    )
+    render.add_argument(
         "--set",
         action="append",
         default=[],
@@ -140,7 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--statistical",
         action="store_true",
         help="render each scene several times and compare by a z-test against the "
-        "reference's variances (for noisy lit renders)",
+        "reference's variances (for noisy soft-lit renders)",
     )
     chk.set_defaults(run=commands.check)
 

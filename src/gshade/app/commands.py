@@ -38,6 +38,9 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
         value = getattr(args, key, None)
         if value is not None:
             overrides[f"render.{key}"] = value
+    aovs = getattr(args, "aovs", None)
+    if aovs is not None:
+        overrides["render.aovs"] = [n.strip() for n in aovs.split(",") if n.strip()]
     return overrides
 
 

@@ -8,10 +8,19 @@ the hit onto the surface interpolated from the atlas (one Newton step), interpol
 (f, f_s, f_t) there, and turns f into a colour per sample: anti-aliased stripes (the box
 filter of :func:`gshade.display.colour.coverage_formula` over the sample's footprint, from the
 ray differentials and the exact derivatives), a colour map (a lookup table of a matplotlib
-map), or both.  ``flat`` lighting returns that colour; ``lit`` puts it on a two-sided diffuse
-surface under soft light (sky occlusion from one cosine-distributed ray, a shadowed key light
-and a head light).  AOV ``f`` is f at hits and 0 elsewhere, so that its pixel mean divided
-by the coverage A is the mean over the samples that hit.
+map), or both.  ``flat`` lighting returns that colour c.  ``lit`` puts it on a two-sided
+diffuse surface under deterministic light, with no random numbers in the shading::
+
+    c · (AMBIENT + HEAD · max(n·v, 0) + KEY · V(l) · max(n·l, 0))
+
+(n the normal turned towards the viewer, v the direction to the eye, l the key light's
+direction, V(l) one shadow ray towards the key light: 0 or 1), so that a lit picture has no
+grain and is the same in every variant.  ``soft`` is the earlier soft light, which samples
+the sky: ``c · (0.45 · S + 0.45 · V(l) · max(n·l, 0) + 0.25 · max(n·v, 0))`` with S the
+visibility along one cosine-distributed random ray per sample (ambient occlusion; grainy at
+a few samples per pixel, and different between variants).  AOV ``f`` is f at hits and 0
+elsewhere, so that its pixel mean divided by the coverage A is the mean over the samples
+that hit.
 
 ``gshade_data`` (:data:`DATA_PLUGIN`): the hit's atlas coordinates after the same Newton
 step, for the per-pixel data channels that gshade then evaluates exactly (P, N, u, v, patch).
@@ -57,6 +66,11 @@ _P_S = [GEOMETRY.channel("p_s", c) for c in range(3)]
 _P_T = [GEOMETRY.channel("p_t", c) for c in range(3)]
 _F, _F_S, _F_T = SHAPE.hermite_channels("f"), SHAPE.channel("f_s"), SHAPE.channel("f_t")
 _VALID = SHAPE.channel("valid")
+
+#: ``lit``'s weights: a constant ambient term, a head light (at the eye) and the key light
+AMBIENT, HEAD, KEY = 0.3, 0.4, 0.45
+#: ``soft``'s weights: sky (one random cosine-distributed ray), key light, head light
+SOFT_SKY, SOFT_KEY, SOFT_HEAD = 0.45, 0.45, 0.25
 
 #: Rays this close to the interpolated tangent plane (|det [p_s p_t -d]| at most this, in
 #: float32) keep the mesh's parameters.
@@ -206,7 +220,7 @@ def _define(mi):
         def configure(self, settings, geometry, values, lut):
             self.configure_atlas(settings, geometry)
             self.display = DISPLAY_CODES[settings.display]
-            self.lit = settings.lighting == "lit"
+            self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
             self.values = values[0]  # f, f_s, f_t, f_st, valid
             if self.display == BOTH:
                 self.colour_values = values[1]
@@ -238,6 +252,24 @@ def _define(mi):
             slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
             return f, slopes, bilinear(corners, a, b, _VALID) > 0.5
 
+        def _light(self, scene, sampler, si, ray, hit):
+            """The diffuse shading factor (see the module's docstring): deterministic for
+            ``lit``; ``soft`` adds the sky's visibility along one random ray."""
+            n = si.sh_frame.n
+            n = dr.select(dr.dot(n, ray.d) > 0, -n, n)  # two-sided: face the viewer
+            key_cos = ops.maximum(dr.dot(n, self.key), 0.0)
+            # one shadow ray towards the (directional) key light
+            key = dr.select(
+                scene.ray_test(si.spawn_ray(self.key), hit & (key_cos > 0)), 0.0, key_cos
+            )
+            head = ops.maximum(-dr.dot(n, ray.d), 0.0)
+            if self.lighting == "soft":
+                frame = mi.Frame3f(n)
+                sky_dir = frame.to_world(mi.warp.square_to_cosine_hemisphere(sampler.next_2d()))
+                sky = dr.select(scene.ray_test(si.spawn_ray(sky_dir), hit), 0.0, 1.0)
+                return SOFT_SKY * sky + SOFT_KEY * key + SOFT_HEAD * head
+            return AMBIENT + KEY * key + HEAD * head
+
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
             hit = active & si.is_valid()
@@ -260,18 +292,8 @@ def _define(mi):
                     colour = self._lookup(g) * (1.0 - 0.65 * cov)
                     defined = defined & colour_defined
             colour = dr.select(defined, colour, Color3f(UNDEFINED))
-            if self.lit:
-                n = si.sh_frame.n
-                n = dr.select(dr.dot(n, ray.d) > 0, -n, n)  # two-sided: face the viewer
-                frame = mi.Frame3f(n)
-                sky_dir = frame.to_world(mi.warp.square_to_cosine_hemisphere(sampler.next_2d()))
-                sky = dr.select(scene.ray_test(si.spawn_ray(sky_dir), hit), 0.0, 1.0)
-                key_cos = ops.maximum(dr.dot(n, self.key), 0.0)
-                key = dr.select(
-                    scene.ray_test(si.spawn_ray(self.key), hit & (key_cos > 0)), 0.0, key_cos
-                )
-                head = ops.maximum(-dr.dot(n, ray.d), 0.0)
-                colour = colour * (0.45 * sky + 0.45 * key + 0.25 * head)
+            if self.lighting != "flat":
+                colour = colour * self._light(scene, sampler, si, ray, hit)
             colour = dr.select(hit, colour, Color3f(0.0))
             return colour, hit, [dr.select(hit, f, 0.0)]
 

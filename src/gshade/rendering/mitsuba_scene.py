@@ -78,13 +78,14 @@ def mitsuba_scene(
         {
             "type": "scene",
             "integrator": shape_integrator,
-            # flat pictures are data: sample symmetrically so that f's pixel mean is exact for f
-            # linear across the pixel; lit ones jitter (soft light needs random samples anyway)
+            # sample symmetrically (strata centres, no random numbers) so that f's pixel mean
+            # is exact for f linear across the pixel and flat and lit pictures are the same
+            # in every variant; soft light jitters (it needs random samples anyway)
             "sensor": view.sensor(
                 mi,
                 settings.spp,
                 settings.seed,
-                "symmetric" if settings.lighting == "flat" else "jittered",
+                "jittered" if settings.lighting == "soft" else "symmetric",
             ),
             "surface": _mesh(mi, mesh, atlas),
         }

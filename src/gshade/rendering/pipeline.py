@@ -36,6 +36,7 @@ from ..limits import MAX_SAMPLES
 from ..runtime.variant import select_variant
 from .atlas import Atlas
 from .camera import View
+from .centre_values import centre_values
 from .channels import exact_channels, refuse_non_finite
 from .mitsuba_scene import mitsuba_scene, render_data, render_shape
 from .rendered_image import RenderedImage
@@ -104,6 +105,10 @@ def render(scene, **overrides) -> RenderedImage:
     lap("render_data")
 
     channels = exact_channels(image, data, atlas, scene.patches, view)
+    channels["f.mean"] = channels["f"]  # the samples' mean, what the pixel's colour shows
+    channels.update(
+        centre_values(channels, scene.patches, _exact_functions(scene, settings, functions))
+    )
     lap("exact_channels")
     refuse_non_finite(where, channels)
     if junctions is not None:
@@ -158,6 +163,20 @@ def _settings(scene):
             f"{spp} = {settings.width * settings.height * spp}"
         )
     return settings, where
+
+
+def _exact_functions(scene, settings, functions) -> dict:
+    """The functions evaluated exactly at the pixel centres, by channel: ``f`` the striped
+    (or only) one, ``f2`` the colour-mapped one of ``display = "both"``, and each
+    ``render.aovs`` name with the scene's parameters for it."""
+    from ..shape import get_shape_function
+
+    out = {"f": functions[0]}
+    if len(functions) > 1:
+        out["f2"] = functions[1]
+    for name in settings.aovs:
+        out[name] = (get_shape_function(name), scene.shape.params_for(name))
+    return out
 
 
 def _length_unit(scene) -> str:

@@ -20,7 +20,23 @@ from ..display import Legend
 
 __all__ = ["CHANNELS", "RenderedImage", "straight_rgb"]
 
-CHANNELS = ("R", "G", "B", "A", "f", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "u", "v", "patch")
+CHANNELS = (
+    "R",
+    "G",
+    "B",
+    "A",
+    "f",
+    "f.mean",
+    "P.X",
+    "P.Y",
+    "P.Z",
+    "N.X",
+    "N.Y",
+    "N.Z",
+    "u",
+    "v",
+    "patch",
+)
 
 
 def straight_rgb(channels: dict[str, NDArray]) -> NDArray[np.float64]:
@@ -66,7 +82,8 @@ class RenderedImage:
         a file name given later (see :func:`gshade.io.image.exr_writer`)."""
         from ..io.image import exr_writer
 
-        return exr_writer(path, {k: self.channels[k] for k in CHANNELS}, header=self.metadata)
+        names = [*CHANNELS, *(k for k in self.channels if k not in CHANNELS)]  # f2, aovs
+        return exr_writer(path, {k: self.channels[k] for k in names}, header=self.metadata)
 
     def png_writer(self, path: str | os.PathLike) -> Callable[[str], None]:
         """The picture as an sRGB PNG with alpha, as a function writing it to a file name

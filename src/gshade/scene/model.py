@@ -32,7 +32,7 @@ __all__ = [
 ]
 
 DISPLAYS = ("stripes", "colormap", "both")
-LIGHTINGS = ("lit", "flat")
+LIGHTINGS = ("lit", "flat", "soft")
 CAMERA_TYPES = ("perspective", "orthographic")
 
 
@@ -171,6 +171,7 @@ class RenderSettings:
     chord_tolerance: float
     texture_resolution: int | None
     junctions: bool = False
+    aovs: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

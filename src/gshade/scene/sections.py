@@ -9,7 +9,7 @@ from dataclasses import asdict
 from typing import Any
 
 from ..display import validate_colormap, validate_range
-from ..errors import GshadeError, show
+from ..errors import GshadeError, one_of, show, suggest
 from ..limits import (
     MAX_IMAGE_SIDE,
     MAX_SEED,
@@ -69,7 +69,13 @@ RENDER_KEYS = declare_keys(
     Key("width", f"integer 1–{MAX_IMAGE_SIDE}", 1024, "image width in pixels"),
     Key("height", f"integer 1–{MAX_IMAGE_SIDE}", 768, "image height in pixels"),
     Key("spp", f"integer 1–{MAX_SPP}", 16, "samples per pixel"),
-    Key("lighting", alternatives(LIGHTINGS), "lit", "lit by a soft light, or flat"),
+    Key(
+        "lighting",
+        alternatives(LIGHTINGS),
+        "lit",
+        "lit: diffuse under a head light and a key light with a shadow ray, no noise; flat: the "
+        "exact colours; soft: as lit with random sky occlusion (grainy, differs by variant)",
+    ),
     Key("variant", alternatives(VARIANTS), "auto", "the Mitsuba variant"),
     Key("seed", f"integer 0–{MAX_SEED}", 0, "the sampler's seed"),
     Key(
@@ -93,6 +99,13 @@ RENDER_KEYS = declare_keys(
         "automatic (from the screen size)",
     ),
     Key("junctions", "true | false", False, "draw the junctions coloured by continuity class"),
+    Key(
+        "aovs",
+        "list of shape function names",
+        (),
+        "extra EXR channels: each function's exact value at the pixel centres",
+        "none",
+    ),
 )
 #: gshade check's settings; the defaults are those of gshade.regression.check (CHECK_DEFAULTS and
 #: DEFAULT_THRESHOLDS), which the parser leaves out: [check] keeps the keys given.
@@ -243,7 +256,25 @@ def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
             "texture_resolution", minimum=1, maximum=MAX_TEXTURE_RESOLUTION
         ),
         junctions=t.boolean("junctions"),
+        aovs=_aovs(t),
     )
+
+
+def _aovs(t: Table) -> tuple[str, ...]:
+    """``render.aovs``: distinct shape-function names (extra channels of exact values)."""
+    names = t.raw("aovs")
+    if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
+        raise t.error("aovs", f"expected a list of shape function names, got {show(names)}")
+    for name in names:
+        if name not in SHAPE_FUNCTIONS:
+            raise t.error(
+                "aovs",
+                f"expected names of {one_of(tuple(SHAPE_FUNCTIONS))}, got {show(name)}"
+                + suggest(name, tuple(SHAPE_FUNCTIONS)),
+            )
+    if len(set(names)) != len(names):
+        raise t.error("aovs", f"expected each name once, got {show(names)}")
+    return tuple(names)
 
 
 def validate_render_settings(settings: RenderSettings, source: str = "render") -> RenderSettings:

@@ -1,0 +1,55 @@
+"""Shape functions' exact values at each pixel's centre hit: the point P, N, u, v describe.
+
+The picture's colour is the mean over the pixel's samples of the (interpolated) function;
+the data channels are exact at the point where the ray through the pixel centre meets the
+surface.  Here every function asked for is evaluated there, from the patch's exact
+derivatives at (patch, u, v) (Kiciak, ch. 6: shape functions of order k need derivatives
+of order k; at collapsed edges their regularised limits): ``f`` for the striped (or only)
+function, ``f2`` for the colour-mapped one of
+``display = "both"``, and one channel per ``render.aovs`` name.  Pixels whose centre ray
+meets no surface hold 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry import Patch, regularised_derivatives
+from ..shape import ShapeFunction, evaluate
+
+__all__ = ["centre_values"]
+
+
+def centre_values(
+    channels: dict[str, NDArray[np.float32]],
+    patches: list[Patch] | tuple[Patch, ...],
+    functions: dict[str, tuple[ShapeFunction, dict]],
+) -> dict[str, NDArray[np.float32]]:
+    """Per channel name, its function's exact value at each pixel's centre hit.
+
+    Parameters
+    ----------
+    channels : dict
+        The exact channels (``patch``, ``u``, ``v``) of a render.
+    patches : sequence of Patch
+        The scene's patches, as the ``patch`` channel numbers them.
+    functions : dict
+        Channel name -> (shape function, its parameters).
+    """
+    patch = np.rint(channels["patch"]).astype(np.int64).ravel()
+    u = channels["u"].astype(np.float64).ravel()
+    v = channels["v"].astype(np.float64).ravel()
+    out = {name: np.zeros(patch.size) for name in functions}
+    order = max((fn.order for fn, _ in functions.values()), default=0) + 1
+    for k in np.unique(patch[patch >= 0]).tolist():
+        at = np.flatnonzero(patch == k)
+        p = patches[k]
+        (u0, u1), (v0, v1) = p.domain
+        d = regularised_derivatives(p, np.clip(u[at], u0, u1), np.clip(v[at], v0, v1), order).d
+        for name, (fn, params) in functions.items():
+            out[name][at] = evaluate(
+                fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
+            ).f
+    shape = channels["patch"].shape
+    return {name: values.reshape(shape).astype(np.float32) for name, values in out.items()}
