@@ -25,6 +25,7 @@ __all__ = [
     "INSTALL",
     "CadFace",
     "CadModel",
+    "arc_map",
     "faces_bounds",
     "read_cad",
     "trimmed_points",
@@ -95,18 +96,8 @@ class CadFace:
     arcs: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
 
     def to_patch(self, uv: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The patch's parameters (n, 2) of the kernel's (u, v) (n, 2): exact, the same
-        point of the surface (:func:`gshade.geometry.revolution.arc_parameters` along
-        angles)."""
-        if self.arcs == (None, None):
-            return uv
-        from ..geometry.revolution import arc_parameters
-
-        out = np.array(uv, dtype=np.float64)
-        for d, span in enumerate(self.arcs):
-            if span is not None:
-                out[:, d] = arc_parameters(out[:, d], *span)
-        return out
+        """The patch's parameters (n, 2) of the kernel's (u, v) (n, 2) (:func:`arc_map`)."""
+        return arc_map(uv, self.arcs)
 
     @property
     def inner_loops(self) -> int:
@@ -131,6 +122,25 @@ class CadModel:
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
     shape: object | None = None
     precision: float = 0.0
+
+
+def arc_map(
+    uv: NDArray[np.float64],
+    arcs: tuple[tuple[float, float] | None, tuple[float, float] | None],
+) -> NDArray[np.float64]:
+    """Kernel parameters (n, 2) as a patch's whose parameters run along exact rational arcs
+    (``arcs``: per parameter its angle range, or None where the kernel's parameter is the
+    patch's): exact, the same point of the surface
+    (:func:`gshade.geometry.revolution.arc_parameters` along angles)."""
+    if arcs == (None, None):
+        return uv
+    from ..geometry.revolution import arc_parameters
+
+    out = np.array(uv, dtype=np.float64)
+    for d, span in enumerate(arcs):
+        if span is not None:
+            out[:, d] = arc_parameters(out[:, d], *span)
+    return out
 
 
 def trimmed_points(

@@ -188,8 +188,9 @@ def _face_mesh(face: Any, cad: Any) -> tuple:
     patch = cad.patch
     (u0, u1), (v0, v1) = patch.domain
     uv = np.stack([np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1)], -1)
-    nodes, uv, triangles, boundary = _split_poles(patch, nodes, uv, triangles, boundary)
-    exact = patch(uv[:, 0], uv[:, 1])
+    d = np.asarray(patch.derivatives(uv[:, 0], uv[:, 1], 1))  # once: points and speeds
+    exact = d[0, 0]
+    nodes, exact, uv, triangles, boundary = _split_poles(d, nodes, exact, uv, triangles, boundary)
     gaps = np.linalg.norm(exact - nodes, axis=1)[~boundary]
     positions = np.where(boundary[:, None], nodes, exact)
     gap = float(gaps.max()) if gaps.size else 0.0
@@ -199,12 +200,14 @@ def _face_mesh(face: Any, cad: Any) -> tuple:
     return positions, uv, np.ascontiguousarray(triangles, np.int32), boundary, gap
 
 
-def _split_poles(patch: Any, nodes: NDArray, uv: NDArray, triangles: NDArray, boundary: NDArray):
-    """A pole node (where p_u or p_v vanishes: the sphere's apex, a cone's tip) once per
-    triangle around it, its free parameter that of the triangle's other corners (their
-    mean): one node for all would spread its one (u, v) over every triangle of the fan, and
-    the (u, v) inside them, which start the exact channels' Newton steps, would be wrong."""
-    d = np.asarray(patch.derivatives(uv[:, 0], uv[:, 1], 1))
+def _split_poles(
+    d: NDArray, nodes: NDArray, exact: NDArray, uv: NDArray, triangles: NDArray, boundary: NDArray
+):
+    """A pole node (where p_u or p_v vanishes, by the patch's derivatives ``d`` at the
+    nodes: the sphere's apex, a cone's tip) once per triangle around it, its free parameter
+    that of the triangle's other corners (their mean): one node for all would spread its one
+    (u, v) over every triangle of the fan, and the (u, v) inside them, which start the exact
+    channels' Newton steps, would be wrong.  The copies are boundary nodes at the pole."""
     speed = np.linalg.norm(np.stack([d[1, 0], d[0, 1]]), axis=-1)  # |p_u|, |p_v| per node
     scale = float(speed.max()) if speed.size else 0.0
     free = speed < 1e-9 * scale  # (2, n): the parameter that does not move the point
@@ -212,7 +215,7 @@ def _split_poles(patch: Any, nodes: NDArray, uv: NDArray, triangles: NDArray, bo
     corner = pole[triangles]
     split = corner.any(axis=1) & ~corner.all(axis=1)
     if not split.any():
-        return nodes, uv, triangles, boundary
+        return nodes, exact, uv, triangles, boundary
     rows, cols = np.nonzero(corner & split[:, None])
     others = ~corner[rows]  # the triangle's corners that are not poles
     mean = (uv[triangles[rows]] * others[..., None]).sum(axis=1) / others.sum(axis=1)[:, None]
@@ -224,6 +227,7 @@ def _split_poles(patch: Any, nodes: NDArray, uv: NDArray, triangles: NDArray, bo
     triangles[rows, cols] = len(nodes) + np.arange(len(rows))
     return (
         np.concatenate([nodes, nodes[old]]),
+        np.concatenate([exact, exact[old]]),
         np.concatenate([uv, new_uv]),
         triangles,
         np.concatenate([boundary, np.ones(len(rows), bool)]),

@@ -40,7 +40,7 @@ from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
-from .cad import CadFace, CadModel, faces_bounds
+from .cad import CadFace, CadModel, arc_map, faces_bounds
 from .cad_quadrics import analytic_patch, builds
 from .files import read_bytes
 from .step_accuracy import step_uncertainty
@@ -391,9 +391,7 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
     exact = kind in _EXACT
     error = 0.0 if exact else _error(patch, box, face)
     loops, tol = _loops(conv, box)
-    if arcs != (None, None):  # the kernel's (u, v) along angles: the patch's
-        mapping = CadFace(index, kind, patch, box, arcs=arcs)
-        loops = [mapping.to_patch(loop) for loop in loops]
+    loops = [arc_map(loop, arcs) for loop in loops]  # the kernel's (u, v): the patch's
     area = (u1 - u0) * (v1 - v0)
     trimmed = len(loops) != 1 or abs(abs(_area(loops[0])) - area) > 1e-6 * area
     return CadFace(

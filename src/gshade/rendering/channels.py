@@ -104,41 +104,28 @@ def _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view: View, 
     pixels found and their patch, u, v and derivatives."""
     where = np.full(H * W, -1, dtype=np.int64)  # pixel -> its place among the hits
     where[hit] = np.arange(hit.size)
-    found: dict[int, tuple] = {}
+    index = np.full(slipped.size, -1, dtype=np.int64)  # the patch found, -1: none yet
+    su, sv = np.zeros(slipped.size), np.zeros(slipped.size)
+    d = np.zeros((2, 2, slipped.size, 3))
     rows, cols = slipped // W, slipped % W
     for dr, dc in ((0, -1), (0, 1), (-1, 0), (1, 0), (-1, -1), (-1, 1), (1, -1), (1, 1)):
-        todo = np.array([k for k in range(slipped.size) if int(slipped[k]) not in found])
-        if todo.size == 0:
-            break
-        r, c = rows[todo] + dr, cols[todo] + dc
-        inside = (r >= 0) & (r < H) & (c >= 0) & (c < W)
+        r, c = rows + dr, cols + dc
+        inside = (r >= 0) & (r < H) & (c >= 0) & (c < W) & (index < 0)
         source = np.where(inside, where[np.where(inside, r * W + c, 0)], -1)
-        ok = source >= 0
-        if not ok.any():
+        todo = np.flatnonzero(source >= 0)
+        if not todo.size:
             continue
-        pixels, source = slipped[todo[ok]], source[ok]
-        index, su, sv = patch_index[source], u[source], v[source]
+        s = source[todo]
+        pixels = slipped[todo]
         rays = view.pixel_rays(pixels // W, pixels % W)
-        su, sv, d, settled = surface_hits(patches, index, su, sv, *rays, steps=SLIPPED_STEPS)
-        for k in np.flatnonzero(settled):
-            found[int(pixels[k])] = (int(index[k]), su[k], sv[k], d[:, :, k])
-    if not found:
-        return (
-            np.empty(0, np.int64),
-            np.empty(0, np.int64),
-            np.empty(0),
-            np.empty(0),
-            np.empty((2, 2, 0, 3)),
+        tu, tv, td, settled = surface_hits(
+            patches, patch_index[s], u[s], v[s], *rays, steps=SLIPPED_STEPS
         )
-    keys = np.array(sorted(found), dtype=np.int64)
-    values = [found[int(k)] for k in keys]
-    return (
-        keys,
-        np.array([x[0] for x in values], dtype=np.int64),
-        np.array([x[1] for x in values]),
-        np.array([x[2] for x in values]),
-        np.stack([x[3] for x in values], axis=2),
-    )
+        done = todo[settled]
+        index[done], su[done], sv[done] = patch_index[s][settled], tu[settled], tv[settled]
+        d[:, :, done] = td[:, :, settled]
+    found = index >= 0
+    return slipped[found], index[found], su[found], sv[found], d[:, :, found]
 
 
 def refuse_non_finite(where: str, channels: dict[str, NDArray]) -> None:
