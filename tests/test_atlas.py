@@ -113,14 +113,14 @@ def test_packing_names_the_channels():
 
 
 @pytest.fixture
-def integrators(atlas):
-    from gshade.rendering.integrator import IntegratorSettings, make_integrators
+def integrator(atlas):
+    from gshade.rendering.integrator import IntegratorSettings, make_integrator
     from gshade.runtime.variant import select_variant
 
     if select_variant("auto") != "llvm_ad_rgb":
         pytest.skip("the vectorised Dr.Jit lookup needs the llvm_ad_rgb variant")
     settings = IntegratorSettings(display="stripes", lighting="flat", atlas=atlas)
-    return make_integrators(settings, known_textures(atlas), None)
+    return make_integrator(settings, known_textures(atlas), None)
 
 
 def surface_interactions(xy):
@@ -132,8 +132,8 @@ def surface_interactions(xy):
     return si, mi.Bool(np.ones(len(xy), dtype=bool))
 
 
-def test_the_integrators_lookup_gives_back_the_values(atlas, integrators):
-    shape, _ = integrators
+def test_the_integrators_lookup_gives_back_the_values(atlas, integrator):
+    shape = integrator
     k, st = sample_points(np.random.default_rng(3))
     s, t = st[:, 0], st[:, 1]
     si, hit = surface_interactions(atlas.texcoords(k, st))
@@ -145,12 +145,11 @@ def test_the_integrators_lookup_gives_back_the_values(atlas, integrators):
     np.testing.assert_array_equal(np.array(defined), k != 1)
 
 
-def test_the_integrators_newton_step_lands_on_the_interpolated_surface(atlas, integrators):
-    """From a start near (s, t), the ray through p(k, s, t) leads the data integrator's one
+def test_the_integrators_newton_step_lands_on_the_interpolated_surface(atlas, integrator):
+    """From a start near (s, t), the ray through p(k, s, t) leads the integrator's one
     Newton step (through the surface textures) to the atlas coordinates of (k, s, t)."""
     import mitsuba as mi
 
-    _, data = integrators
     rng = np.random.default_rng(4)
     k, st = sample_points(rng)
     target = p_of(k, st[:, 0], st[:, 1])
@@ -164,7 +163,7 @@ def test_the_integrators_newton_step_lands_on_the_interpolated_surface(atlas, in
     si.p = vector(mi.Point3f, target)  # the mesh hit: here on the surface itself
     d = np.broadcast_to(direction, target.shape)
     ray = mi.Ray3f(vector(mi.Point3f, target - 4.0 * d), vector(mi.Vector3f, d))
-    data._onto_surface(si, ray, hit)
+    integrator._onto_surface(si, ray, hit)
     uv = np.stack([np.array(si.uv.x), np.array(si.uv.y)], -1)
     np.testing.assert_allclose(uv, atlas.texcoords(k, st), atol=2e-6)
 

@@ -1,5 +1,5 @@
-"""The exact channels' assembly: from synthetic shape and data films, an atlas, patches and a
-view, every channel comes out at the right pixel with the patch's own values."""
+"""The exact channels' assembly: from synthetic picture and centre-pass films, an atlas,
+patches and a view, every channel comes out at the right pixel with the patch's own values."""
 
 import numpy as np
 import pytest
@@ -9,7 +9,7 @@ from gshade.geometry import BezierPatch
 from gshade.rendering.atlas import Atlas
 from gshade.rendering.camera import View
 from gshade.rendering.channels import exact_channels, refuse_non_finite
-from gshade.rendering.integrator import DATA_FILM, SHAPE_FILM
+from gshade.rendering.integrator import SHAPE_FILM
 from gshade.rendering.rendered_image import CHANNELS
 
 H, W = 30, 44  # not square: rows and columns must not be swapped
@@ -44,8 +44,9 @@ def view():
 
 
 def films(atlas, surfaces, camera):
-    """Shape and data films, and what each pixel should get: the patch hit by the ray
-    through the pixel centre, its normalised parameters (exact: x = s + k, y = t)."""
+    """The picture's and the centre pass's films, and what each pixel should get: the patch
+    hit by the ray through the pixel centre, its normalised parameters (exact: x = s + k,
+    y = t)."""
     rng = np.random.default_rng(12)
     rows, cols = np.divmod(np.arange(H * W), W)
     origin, _ = camera.pixel_rays(rows, cols)
@@ -53,7 +54,7 @@ def films(atlas, surfaces, camera):
     k = np.where(x < 1.0, 0, 1)
     s, t = x - k, y
     hit = (x > 0.0) & (x < 2.0) & (y > 0.0) & (y < 1.0)
-    hit[rng.random(H * W) < 0.1] = False  # some pixels the data pass missed
+    hit[rng.random(H * W) < 0.1] = False  # some pixels the centre pass missed
     image = np.zeros((H, W, len(SHAPE_FILM)), np.float32)
     coverage = rng.choice([0.0, 0.25, 1.0], (H, W))
     for c in "RGB":
@@ -61,12 +62,12 @@ def films(atlas, surfaces, camera):
     image[..., SHAPE_FILM.index("A")] = coverage
     f_mean = rng.normal(size=(H, W))
     image[..., SHAPE_FILM.index("f")] = f_mean * coverage  # the film sums f over samples
-    data = np.zeros((H, W, len(DATA_FILM)), np.float32)
-    # the data pass's start: within float32 round-off of the exact parameters
+    data = np.zeros((H, W, len(SHAPE_FILM)), np.float32)
+    # the centre pass's start: within float32 round-off of the exact parameters
     start = np.clip(np.stack([s, t], -1) + rng.uniform(-1e-6, 1e-6, (H * W, 2)), 0, 1)
     xy = atlas.texcoords(k, start)
-    for name, values in (("x", xy[:, 0]), ("y", xy[:, 1]), ("hit", hit)):
-        data[..., DATA_FILM.index(name)] = np.where(hit, values, 0.0).reshape(H, W)
+    for name, values in (("x", xy[:, 0]), ("y", xy[:, 1]), ("A", hit)):
+        data[..., SHAPE_FILM.index(name)] = np.where(hit, values, 0.0).reshape(H, W)
     return image, data, hit.reshape(H, W), k.reshape(H, W), s.reshape(H, W), t.reshape(H, W)
 
 
@@ -74,7 +75,10 @@ def test_every_channel_at_its_pixel():
     surfaces, camera = patches(), view()
     atlas = Atlas.for_patches(2, 9)
     image, data, hit, k, s, t = films(atlas, surfaces, camera)
-    out = exact_channels(image, data, atlas, surfaces, camera)
+    film = image.copy()
+    for c in ("x", "y"):  # the centre pass's coordinates beside the samples' picture
+        film[..., SHAPE_FILM.index(c)] = data[..., SHAPE_FILM.index(c)]
+    out = exact_channels(film, data[..., SHAPE_FILM.index("A")] > 0.5, atlas, surfaces, camera)
     assert list(out) == [c for c in CHANNELS if c != "f.mean"]  # the pipeline adds it
     assert all(a.shape == (H, W) and a.dtype == np.float32 for a in out.values())
     A = image[..., SHAPE_FILM.index("A")]
@@ -84,7 +88,7 @@ def test_every_channel_at_its_pixel():
     covered = A > 0
     np.testing.assert_allclose(out["f"][covered], f_sum[covered] / A[covered], rtol=1e-6)
     assert np.all(out["f"][~covered] == 0)
-    # pixels the data pass missed: no surface data, unless the pixel is fully covered and its
+    # pixels the centre pass missed: no surface data, unless the pixel is fully covered and its
     # centre ray meets a surface (it slipped through): then its exact hit, from a neighbour's
     rows, cols = np.divmod(np.arange(H * W), W)
     x, y = camera.pixel_rays(rows, cols)[0][:, :2].T

@@ -152,7 +152,7 @@ def test_renders_are_bit_identical():
         assert np.array_equal(a[name], b[name]), name
 
 
-STAGES = ["setup", "tessellate", "textures", "scene", "render", "render_data", "exact_channels"]
+STAGES = ["setup", "tessellate", "textures", "scene", "render", "supersample", "exact_channels"]
 
 
 def test_timings_name_the_stages():
@@ -163,12 +163,14 @@ def test_timings_name_the_stages():
     assert list(with_junctions) == [STAGES[0], "junctions", *STAGES[1:]]
 
 
-def test_the_integrators_are_mitsuba_plugins_by_name():
+def test_the_integrator_and_the_pixel_sensor_are_mitsuba_plugins_by_name():
     import mitsuba as mi
 
-    from gshade.rendering.integrator import DATA_FILM, DATA_PLUGIN, SHAPE_FILM, SHAPE_PLUGIN
+    from gshade.rendering.integrator import SHAPE_FILM, SHAPE_PLUGIN
+    from gshade.rendering.pixel_sensor import PIXELS_PLUGIN
 
-    gshade.render(parse_scene(SPHERE.replace("512", "8")), spp=1)  # registers them
-    shape, data = (mi.load_dict({"type": name}) for name in (SHAPE_PLUGIN, DATA_PLUGIN))
-    assert list(shape.aov_names()) == list(SHAPE_FILM[4:]) == ["f"]
-    assert list(data.aov_names()) == list(DATA_FILM[4:]) == ["x", "y", "hit"]
+    gshade.render(parse_scene(SPHERE.replace("512", "8")), spp=4)  # registers them
+    shape = mi.load_dict({"type": SHAPE_PLUGIN})
+    assert list(shape.aov_names()) == list(SHAPE_FILM[4:]) == ["f", "x", "y", "flags", "f_x", "f_y"]
+    film = {"type": "hdrfilm", "width": 2, "height": 1}
+    assert "PixelSensor" in str(mi.load_dict({"type": PIXELS_PLUGIN, "film": film}))

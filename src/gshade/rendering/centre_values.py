@@ -37,19 +37,22 @@ def centre_values(
     functions : dict
         Channel name -> (shape function, its parameters).
     """
+    shape = channels["patch"].shape
     patch = np.rint(channels["patch"]).astype(np.int64).ravel()
-    u = channels["u"].astype(np.float64).ravel()
-    v = channels["v"].astype(np.float64).ravel()
-    out = {name: np.zeros(patch.size) for name in functions}
-    order = max((fn.order for fn, _ in functions.values()), default=0) + 1
-    for k in np.unique(patch[patch >= 0]).tolist():
-        at = np.flatnonzero(patch == k)
-        p = patches[k]
+    hits = np.flatnonzero(patch >= 0)
+    order = hits[np.argsort(patch[hits], kind="stable")]  # the hits, patch by patch
+    out = {name: np.zeros(patch.size, dtype=np.float32) for name in functions}
+    highest = max((fn.order for fn, _ in functions.values()), default=0) + 1
+    for at in np.split(order, np.flatnonzero(np.diff(patch[order])) + 1):
+        if not at.size:
+            continue
+        p = patches[int(patch[at[0]])]
         (u0, u1), (v0, v1) = p.domain
-        d = regularised_derivatives(p, np.clip(u[at], u0, u1), np.clip(v[at], v0, v1), order).d
+        u = np.clip(channels["u"].ravel()[at].astype(np.float64), u0, u1)
+        v = np.clip(channels["v"].ravel()[at].astype(np.float64), v0, v1)
+        d = regularised_derivatives(p, u, v, highest).d
         for name, (fn, params) in functions.items():
             out[name][at] = evaluate(
                 fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
             ).f
-    shape = channels["patch"].shape
-    return {name: values.reshape(shape).astype(np.float32) for name, values in out.items()}
+    return {name: values.reshape(shape) for name, values in out.items()}

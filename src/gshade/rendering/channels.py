@@ -1,11 +1,12 @@
 """The EXR channels of a render, assembled exactly per pixel.
 
-From the shape pass (R G B A and the sum of f over the pixel's samples) come the picture,
-the coverage and f, the mean over the samples that hit.  From the data pass (the atlas
-coordinates where the ray through each pixel centre meets the interpolated surface) come the
-patch and a start for one exact Newton step (:func:`gshade.rendering.surface_hits.surface_hits`):
-P, the unit normal N = p_u x p_v / |p_u x p_v| (its limit at collapsed edges), u and v are
-the exact patch's at the point where that ray meets it.
+From the picture's film (R G B A and the sum of f over the pixel's samples) come the
+picture, the coverage and f, the mean over the samples that hit.  From the centre pass (the
+atlas coordinates where the ray through each pixel centre meets the interpolated surface)
+come the patch and a start for one exact Newton step
+(:func:`gshade.rendering.surface_hits.surface_hits`): P, the unit normal
+N = p_u x p_v / |p_u x p_v| (its limit at collapsed edges), u and v are the exact patch's at
+the point where that ray meets it.
 """
 
 from __future__ import annotations
@@ -18,15 +19,18 @@ from ..geometry import Patch, patch_normals, unit_normal
 from ..geometry.patch import unit_to_domain
 from .atlas import Atlas
 from .camera import View
-from .integrator import DATA_FILM, SHAPE_FILM
+from .integrator import SHAPE_FILM
 from .surface_hits import surface_hits
 
-__all__ = ["exact_channels", "refuse_non_finite"]
+__all__ = ["PICTURE", "exact_channels", "refuse_non_finite"]
+
+#: the film's channels that all the pixel's samples make (the rest come from its centre)
+PICTURE = ("R", "G", "B", "A", "f")
 
 
 def exact_channels(
-    image: NDArray,
-    data: NDArray,
+    film: NDArray,
+    hit: NDArray,
     atlas: Atlas,
     patches: list[Patch] | tuple[Patch, ...],
     view: View,
@@ -36,23 +40,28 @@ def exact_channels(
 
     Parameters
     ----------
-    image : ndarray, shape (H, W, 5)
-        The shape pass's film (:data:`gshade.rendering.integrator.SHAPE_FILM`).
-    data : ndarray, shape (H, W, 7)
-        The data pass's film (:data:`gshade.rendering.integrator.DATA_FILM`).
+    film : ndarray, shape (H, W, channels)
+        The render's film, channels :data:`gshade.rendering.integrator.SHAPE_FILM`: the
+        picture (R G B A and the sum of f, :data:`PICTURE`) from all samples, the atlas
+        coordinates x, y from the centre pass.
+    hit : ndarray, shape (H, W)
+        Where the centre pass's rays met the surface.
     atlas, patches, view
-        The atlas the data pass's coordinates address, its patches, the camera.
+        The atlas the centre pass's coordinates address, its patches, the camera.
     """
-    H, W = image.shape[:2]
-    A = image[..., SHAPE_FILM.index("A")]
-    f = np.where(A > 0, image[..., SHAPE_FILM.index("f")] / np.where(A > 0, A, 1.0), 0.0)
-    x, y, hit_flag = (DATA_FILM.index(c) for c in ("x", "y", "hit"))
-    hit = np.flatnonzero(data[..., hit_flag].ravel() > 0.5)
-    xy = np.stack([data[..., x], data[..., y]], -1).reshape(-1, 2)
-    patch_index, st = atlas.locate(xy[hit].astype(np.float64))
+    H, W = film.shape[:2]
+    A = film[..., SHAPE_FILM.index("A")]
+    f = np.where(A > 0, film[..., SHAPE_FILM.index("f")] / np.where(A > 0, A, 1.0), 0.0)
+    hit = np.flatnonzero(hit.ravel())
+    x, y = (film[..., SHAPE_FILM.index(c)].ravel()[hit] for c in ("x", "y"))
+    patch_index, st = atlas.locate(np.stack([x, y], -1).astype(np.float64))
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
-    u, v, d, _ = surface_hits(patches, patch_index, u, v, *view.pixel_rays(hit // W, hit % W))
+    d = np.empty((2, 2, hit.size, 3))
+    for block in range(0, hit.size, BLOCK):  # in blocks: the steps' temporaries stay small
+        at = slice(block, block + BLOCK)
+        rays = view.pixel_rays(hit[at] // W, hit[at] % W)
+        u[at], v[at], d[:, :, at], _ = surface_hits(patches, patch_index[at], u[at], v[at], *rays)
     slipped = _slipped_through(A, hit, H, W)
     if slipped.size:
         found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W)
@@ -67,30 +76,26 @@ def exact_channels(
         for k in np.unique(patch_index[irr]):
             at = irr[patch_index[irr] == k]
             n[at] = patch_normals(patches[k], u[at], v[at]).n
-    P = np.zeros((H * W, 3))
-    N = np.zeros((H * W, 3))
-    U = np.zeros(H * W)
-    V = np.zeros(H * W)
-    patch_of = np.full(H * W, -1.0)
-    P[hit], N[hit], U[hit], V[hit], patch_of[hit] = d[0, 0], n, u, v, patch_index
-    P, N = P.reshape(H, W, 3), N.reshape(H, W, 3)
-    U, V = U.reshape(H, W), V.reshape(H, W)
-    out = {c: image[..., SHAPE_FILM.index(c)] for c in "RGB"}
-    out["A"], out["f"] = A, f
-    for name, arr in (("P", P), ("N", N)):
-        for c, axis in enumerate("XYZ"):
-            out[f"{name}.{axis}"] = arr[..., c]
-    out["u"], out["v"] = U, V
-    out["patch"] = patch_of.reshape(H, W)
-    return {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in out.items()}
+    out = {c: np.ascontiguousarray(film[..., SHAPE_FILM.index(c)]) for c in "RGB"}
+    out["A"], out["f"] = np.ascontiguousarray(A), f.astype(np.float32)
+    per_hit = {f"P.{axis}": d[0, 0][:, c] for c, axis in enumerate("XYZ")}
+    per_hit.update({f"N.{axis}": n[:, c] for c, axis in enumerate("XYZ")})
+    per_hit.update(u=u, v=v, patch=patch_index)
+    for name, values in per_hit.items():  # written into float32 images, 0 (patch -1) off
+        channel = np.full(H * W, -1.0 if name == "patch" else 0.0, dtype=np.float32)
+        channel[hit] = values
+        out[name] = channel.reshape(H, W)
+    return out
 
 
+#: Centre rays per block of exact Newton steps.
+BLOCK = 1 << 16
 #: Newton steps from a neighbour's hit for a centre ray that slipped between two surfaces.
 SLIPPED_STEPS = 4
 
 
 def _slipped_through(A: NDArray, hit: NDArray, H: int, W: int) -> NDArray:
-    """Fully covered pixels whose centre ray met no surface in the data pass: it slipped
+    """Fully covered pixels whose centre ray met no surface in the centre pass: it slipped
     through a crack between separately tessellated surfaces (or patches) that no sample of
     the pixel saw, so the surface is there."""
     covered = np.zeros(H * W, bool)

@@ -1,15 +1,14 @@
-"""gshade's Mitsuba integrators: shape colours from exact shape-function textures, and the
-data pass.
+"""gshade's Mitsuba integrator: shape colours from exact shape-function textures, and what
+the exact channels and the choice of supersampled pixels need.
 
-Two integrators, registered with Mitsuba by name, share the atlas and the surface textures:
-
-``gshade_shape`` (:data:`SHAPE_PLUGIN`): for every camera ray it intersects the mesh, moves
-the hit onto the surface interpolated from the atlas (one Newton step), interpolates
-(f, f_s, f_t) there, and turns f into a colour per sample: anti-aliased stripes (the box
-filter of :func:`gshade.display.colour.coverage_formula` over the sample's footprint, from the
-ray differentials and the exact derivatives), a colour map (a lookup table of a matplotlib
-map), or both.  ``flat`` lighting returns that colour c.  ``lit`` puts it on a two-sided
-diffuse surface under deterministic light, with no random numbers in the shading::
+``gshade_shape`` (:data:`SHAPE_PLUGIN`, registered with Mitsuba by name): for every camera
+ray it intersects the mesh, moves the hit onto the surface interpolated from the atlas (one
+Newton step), interpolates (f, f_s, f_t) there, and turns f into a colour per sample:
+anti-aliased stripes (the box filter of :func:`gshade.display.colour.coverage_formula` over
+the sample's footprint, from the ray differentials and the exact derivatives), a colour map
+(a lookup table of a matplotlib map), or both.  ``flat`` lighting returns that colour c.
+``lit`` puts it on a two-sided diffuse surface under deterministic light, with no random
+numbers in the shading::
 
     c · (AMBIENT + HEAD · max(n·v, 0) + KEY · V(l) · max(n·l, 0))
 
@@ -18,12 +17,16 @@ direction, V(l) one shadow ray towards the key light: 0 or 1), so that a lit pic
 grain and is the same in every variant.  ``soft`` is the earlier soft light, which samples
 the sky: ``c · (0.45 · S + 0.45 · V(l) · max(n·l, 0) + 0.25 · max(n·v, 0))`` with S the
 visibility along one cosine-distributed random ray per sample (ambient occlusion; grainy at
-a few samples per pixel, and different between variants).  AOV ``f`` is f at hits and 0
-elsewhere, so that its pixel mean divided by the coverage A is the mean over the samples
-that hit.
+a few samples per pixel, and different between variants).
 
-``gshade_data`` (:data:`DATA_PLUGIN`): the hit's atlas coordinates after the same Newton
-step, for the per-pixel data channels that gshade then evaluates exactly (P, N, u, v, patch).
+Its AOVs (:data:`SHAPE_FILM`), 0 where the ray meets nothing: ``f``, so that its pixel mean
+divided by the coverage A is the mean over the samples that hit; ``x``, ``y``, the hit's atlas
+coordinates after the Newton step, a close start for gshade's own exact Newton step
+(:mod:`gshade.rendering.surface_hits`) when the sample is the pixel's centre; ``flags``,
+1 where f (and the colour function) is defined plus 2 where the key light faces the point but
+is shadowed; ``f_x``, ``f_y``, the derivatives of f along the image's columns and rows, per
+pixel.  From one sample at each pixel centre,
+these tell where the picture is discontinuous (:mod:`gshade.rendering.supersampling`).
 
 Traced into one kernel in the ``llvm_ad_rgb`` variant (as fast as Mitsuba's own plugins);
 run per sample in ``scalar_rgb``.
@@ -43,22 +46,21 @@ from .newton import newton_step
 from .textures import ShapeTextures
 
 __all__ = [
-    "DATA_FILM",
-    "DATA_PLUGIN",
     "SHAPE_FILM",
     "SHAPE_PLUGIN",
     "IntegratorSettings",
-    "make_integrators",
+    "make_integrator",
 ]
 
 STRIPES, COLORMAP, BOTH = 0, 1, 2
 DISPLAY_CODES = {"stripes": STRIPES, "colormap": COLORMAP, "both": BOTH}
 
-#: the Mitsuba plugin names of the two integrators
-SHAPE_PLUGIN, DATA_PLUGIN = "gshade_shape", "gshade_data"
-#: the film channels each integrator's render gives: R G B A, then its AOVs
-SHAPE_FILM = ("R", "G", "B", "A", "f")
-DATA_FILM = ("R", "G", "B", "A", "x", "y", "hit")
+#: the Mitsuba plugin name of the integrator
+SHAPE_PLUGIN = "gshade_shape"
+#: the film channels a render gives: R G B A, then the integrator's AOVs
+SHAPE_FILM = ("R", "G", "B", "A", "f", "x", "y", "flags", "f_x", "f_y")
+#: ``flags``: f (and the colour function) defined; the key light shadowed
+DEFINED, SHADOWED = 1, 2
 
 #: the packed textures' channels that the integrators read (see gshade.rendering.atlas)
 _P = [GEOMETRY.hermite_channels("p", c) for c in range(3)]
@@ -95,11 +97,10 @@ class IntegratorSettings:
 _REGISTERED: set[str] = set()
 
 
-def make_integrators(
+def make_integrator(
     settings: IntegratorSettings, textures: ShapeTextures, lut: np.ndarray | None
-) -> tuple[Any, Any]:
-    """The shape and the data integrators for the active Mitsuba variant, sharing one
-    texture of the surface.
+) -> Any:
+    """The shape integrator for the active Mitsuba variant.
 
     ``textures``: the atlas images of the surface and of the functions (the striped or
     primary one first; for ``display == 'both'`` the colour-mapped one second).  ``lut``:
@@ -109,7 +110,7 @@ def make_integrators(
 
     variant = mi.variant()
     if variant is None:
-        raise RuntimeError("make_integrators: no Mitsuba variant is set (select_variant first)")
+        raise RuntimeError("make_integrator: no Mitsuba variant is set (select_variant first)")
     if variant not in _REGISTERED:
         _register(mi)
         _REGISTERED.add(variant)
@@ -117,22 +118,7 @@ def make_integrators(
     values = [_texture(mi, SHAPE.pack(textures.function(k))) for k in range(len(textures.values))]
     shape = mi.load_dict({"type": SHAPE_PLUGIN})
     shape.configure(settings, geometry, values, lut)
-    # in a scalar variant every Python integrator warns that it is slow: once a render
-    scalar = variant.startswith("scalar")
-    data = _load_quietly(mi, DATA_PLUGIN) if scalar else mi.load_dict({"type": DATA_PLUGIN})
-    data.configure(settings, geometry)
-    return shape, data
-
-
-def _load_quietly(mi, plugin: str):
-    """The plugin, loaded with Mitsuba's warnings off."""
-    logger = mi.logger()
-    level = logger.log_level()
-    logger.set_log_level(mi.LogLevel.Error)
-    try:
-        return mi.load_dict({"type": plugin})
-    finally:
-        logger.set_log_level(level)
+    return shape
 
 
 def _texture(mi, data: np.ndarray):
@@ -148,10 +134,9 @@ def _texture(mi, data: np.ndarray):
 
 
 def _register(mi) -> None:
-    """Define the integrators for the active variant and register them with Mitsuba."""
-    shape, data = _define(mi)
+    """Define the integrator for the active variant and register it with Mitsuba."""
+    shape = _define(mi)
     mi.register_integrator(SHAPE_PLUGIN, lambda props: shape(props))
-    mi.register_integrator(DATA_PLUGIN, lambda props: data(props))
 
 
 def _define(mi):
@@ -176,7 +161,7 @@ def _define(mi):
         return x if scalar else dr.opaque(Float, x)
 
     class AtlasIntegrator(mi.SamplingIntegrator):
-        """What both integrators share: the atlas and the surface's texture, the cell
+        """The atlas and the surface's texture, the cell
         lookup and the Newton step onto the interpolated surface."""
 
         def to_string(self):
@@ -253,22 +238,23 @@ def _define(mi):
             return f, slopes, bilinear(corners, a, b, _VALID) > 0.5
 
         def _light(self, scene, sampler, si, ray, hit):
-            """The diffuse shading factor (see the module's docstring): deterministic for
-            ``lit``; ``soft`` adds the sky's visibility along one random ray."""
+            """The diffuse shading factor (see the module's docstring) and whether the key
+            light is shadowed (it faces the point, the shadow ray is blocked): deterministic
+            for ``lit``; ``soft`` adds the sky's visibility along one random ray."""
             n = si.sh_frame.n
             n = dr.select(dr.dot(n, ray.d) > 0, -n, n)  # two-sided: face the viewer
             key_cos = ops.maximum(dr.dot(n, self.key), 0.0)
             # one shadow ray towards the (directional) key light
-            key = dr.select(
-                scene.ray_test(si.spawn_ray(self.key), hit & (key_cos > 0)), 0.0, key_cos
-            )
+            facing = hit & (key_cos > 0)
+            shadowed = scene.ray_test(si.spawn_ray(self.key), facing)
+            key = dr.select(shadowed, 0.0, key_cos)
             head = ops.maximum(-dr.dot(n, ray.d), 0.0)
             if self.lighting == "soft":
                 frame = mi.Frame3f(n)
                 sky_dir = frame.to_world(mi.warp.square_to_cosine_hemisphere(sampler.next_2d()))
                 sky = dr.select(scene.ray_test(si.spawn_ray(sky_dir), hit), 0.0, 1.0)
-                return SOFT_SKY * sky + SOFT_KEY * key + SOFT_HEAD * head
-            return AMBIENT + KEY * key + HEAD * head
+                return SOFT_SKY * sky + SOFT_KEY * key + SOFT_HEAD * head, facing & shadowed
+            return AMBIENT + KEY * key + HEAD * head, facing & shadowed
 
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
@@ -276,12 +262,12 @@ def _define(mi):
             si.compute_uv_partials(ray)
             self._onto_surface(si, ray, hit)
             f, (f_s, f_t), defined = self._shape_value(si, hit, self.values)
+            # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates
+            fx = f_s * si.duv_dx.x * self.ks + f_t * si.duv_dx.y * self.kt
+            fy = f_s * si.duv_dy.x * self.ks + f_t * si.duv_dy.y * self.kt
             if self.display == COLORMAP:
                 colour = self._lookup(f)
             else:
-                # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates
-                fx = f_s * si.duv_dx.x * self.ks + f_t * si.duv_dx.y * self.kt
-                fy = f_s * si.duv_dy.x * self.ks + f_t * si.duv_dy.y * self.kt
                 s = Float64(f) / Float64(self.period) + Float64(self.phase)
                 a = Float64(fx) / Float64(self.period)
                 b = Float64(fy) / Float64(self.period)
@@ -292,33 +278,23 @@ def _define(mi):
                     colour = self._lookup(g) * (1.0 - 0.65 * cov)
                     defined = defined & colour_defined
             colour = dr.select(defined, colour, Color3f(UNDEFINED))
+            shadowed = dr.zeros(mi.Bool)
             if self.lighting != "flat":
-                colour = colour * self._light(scene, sampler, si, ray, hit)
+                light, shadowed = self._light(scene, sampler, si, ray, hit)
+                colour = colour * light
             colour = dr.select(hit, colour, Color3f(0.0))
-            return colour, hit, [dr.select(hit, f, 0.0)]
-
-    class DataIntegrator(AtlasIntegrator):
-        """AOVs x, y, hit: the atlas coordinates of the surface point on each ray, a close
-        start for gshade's own exact Newton step (:mod:`gshade.rendering.surface_hits`)."""
-
-        def configure(self, settings, geometry):
-            self.configure_atlas(settings, geometry)
-
-        def aov_names(self):
-            return list(DATA_FILM[4:])
-
-        def sample(self, scene, sampler, ray, medium=None, active=True):
-            si = scene.ray_intersect(ray, active)
-            hit = active & si.is_valid()
-            self._onto_surface(si, ray, hit)
+            flags = dr.select(defined, 1.0, 0.0) + dr.select(shadowed, 2.0, 0.0)
             return (
-                Color3f(0.0),
+                colour,
                 hit,
                 [
+                    dr.select(hit, f, 0.0),
                     dr.select(hit, si.uv.x, 0.0),
                     dr.select(hit, si.uv.y, 0.0),
-                    dr.select(hit, Float(1.0), Float(0.0)),
+                    dr.select(hit, flags, 0.0),
+                    dr.select(hit, fx, 0.0),
+                    dr.select(hit, fy, 0.0),
                 ],
             )
 
-    return ShapeIntegrator, DataIntegrator
+    return ShapeIntegrator

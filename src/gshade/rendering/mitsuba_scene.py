@@ -1,8 +1,10 @@
-"""The Mitsuba side of a render: the mesh, the two integrators, the scene and its passes.
+"""The Mitsuba side of a render: the mesh, the integrator, the scene and its passes.
 
-The shape pass renders R G B A and f with ``spp`` samples per pixel (box filter, fixed
-seed); the data pass sends one ray through each pixel centre for the atlas coordinates of
-the surface point it meets (see :mod:`gshade.rendering.integrator`).
+The centre pass sends one ray through each pixel centre (its footprint the whole pixel): the
+picture, and the atlas coordinates of the surface point it meets, where the picture is
+discontinuous (see :mod:`gshade.rendering.integrator`).  The supersampling pass renders
+``spp`` samples per pixel (box filter, at the strata centres) at the pixels listed, or at
+every pixel (:func:`render_uniform`).
 """
 
 from __future__ import annotations
@@ -15,20 +17,27 @@ from numpy.typing import NDArray
 
 from .atlas import Atlas
 from .camera import View
-from .integrator import IntegratorSettings, make_integrators
+from .integrator import IntegratorSettings, make_integrator
+from .pixel_sensor import pixel_list_sensor
 from .style import DisplayStyle
 from .tessellate import TriangleMesh
 from .textures import ShapeTextures
 
-__all__ = ["MitsubaScene", "mitsuba_scene", "render_data", "render_shape"]
+__all__ = [
+    "MitsubaScene",
+    "mitsuba_scene",
+    "render_centres",
+    "render_pixels_of",
+    "render_uniform",
+]
 
 
 @dataclass(frozen=True)
 class MitsubaScene:
-    """A loaded Mitsuba scene (mesh, sensor, shape integrator) and the data integrator."""
+    """A loaded Mitsuba scene (mesh, camera with its ``spp`` sampler, integrator)."""
 
     scene: Any
-    data_integrator: Any
+    sampler: dict
 
 
 def _mesh(mi, mesh: TriangleMesh, atlas: Atlas):
@@ -73,46 +82,62 @@ def mitsuba_scene(
         atlas=atlas,
         key_light=view.key_light(),
     )
-    shape_integrator, data_integrator = make_integrators(integrator_settings, tex, style.lut)
+    sensor = view.sensor(
+        mi, settings.spp, settings.seed, "jittered" if settings.lighting == "soft" else "symmetric"
+    )
     scene = mi.load_dict(
         {
             "type": "scene",
-            "integrator": shape_integrator,
+            "integrator": make_integrator(integrator_settings, tex, style.lut),
             # sample symmetrically (strata centres, no random numbers) so that f's pixel mean
             # is exact for f linear across the pixel and flat and lit pictures are the same
             # in every variant; soft light jitters (it needs random samples anyway)
-            "sensor": view.sensor(
-                mi,
-                settings.spp,
-                settings.seed,
-                "jittered" if settings.lighting == "soft" else "symmetric",
-            ),
+            "sensor": sensor,
             "surface": _mesh(mi, mesh, atlas),
         }
     )
-    return MitsubaScene(scene, data_integrator)
+    return MitsubaScene(scene, sensor["sampler"])
 
 
-def render_shape(scene: MitsubaScene, settings) -> NDArray[np.float32]:
-    """The shape pass: the film (H, W, 5), channels
-    :data:`gshade.rendering.integrator.SHAPE_FILM`."""
-    import mitsuba as mi
-
-    sensor = scene.scene.sensors()[0]
-    mi.render(scene.scene, seed=settings.seed, spp=settings.spp)
-    return np.array(sensor.film().bitmap(), dtype=np.float32)
-
-
-def render_data(scene: MitsubaScene, view: View, settings) -> NDArray[np.float32]:
-    """The data pass, one ray through each pixel centre: the film (H, W, 7), channels
-    :data:`gshade.rendering.integrator.DATA_FILM`."""
-    import drjit as dr
+def render_centres(scene: MitsubaScene, view: View, settings) -> NDArray[np.float32]:
+    """The centre pass, one ray through each pixel centre: the film (H, W, channels),
+    channels :data:`gshade.rendering.integrator.SHAPE_FILM`."""
     import mitsuba as mi
 
     sensor = mi.load_dict(view.sensor(mi, 1, settings.seed, sampler="centre"))
-    mi.render(
-        scene.scene, sensor=sensor, integrator=scene.data_integrator, seed=settings.seed, spp=1
-    )
-    data = np.array(sensor.film().bitmap(), dtype=np.float32)
+    mi.render(scene.scene, sensor=sensor, seed=settings.seed, spp=1)
+    return _developed(sensor)
+
+
+def render_pixels_of(
+    scene: MitsubaScene, view: View, settings, pixels: NDArray[np.int64]
+) -> NDArray[np.float32]:
+    """The supersampling pass at ``pixels`` (flat indices): (n, channels), ``spp`` samples
+    each, the values a render of the whole film would give there."""
+    import mitsuba as mi
+
+    camera = scene.scene.sensors()[0]
+    width, height = view.image_width, view.image_height
+    sensor = pixel_list_sensor(camera, pixels, width, height, scene.sampler)
+    mi.render(scene.scene, sensor=sensor, seed=settings.seed, spp=settings.spp)
+    film = _developed(sensor)
+    return film.reshape(-1, film.shape[-1])[: len(pixels)]
+
+
+def render_uniform(scene: MitsubaScene, settings) -> NDArray[np.float32]:
+    """The supersampling pass at every pixel: the film (H, W, channels)."""
+    import mitsuba as mi
+
+    mi.render(scene.scene, seed=settings.seed, spp=settings.spp)
+    return _developed(scene.scene.sensors()[0])
+
+
+def _developed(sensor) -> NDArray[np.float32]:
+    """The sensor's film as a numpy array (H, W, channels); Dr.Jit's memory of the render
+    handed back to the system, so that what follows in numpy does not add to it."""
+    import drjit as dr
+
+    film = np.asarray(sensor.film().develop())  # a view of Dr.Jit's float32 array, no copy
     dr.sync_thread()
-    return data
+    dr.flush_malloc_cache()
+    return film

@@ -10,10 +10,14 @@
 3. ``textures``: the shape function (and the colour function) with exact derivatives on one
    atlas tile per patch (:mod:`gshade.rendering.textures`), and the display style: colour
    range, stripe period, colour map (:mod:`gshade.rendering.style`).
-4. ``scene``: the Mitsuba mesh, the two integrators and the scene
-   (:mod:`gshade.rendering.mitsuba_scene`).
-5. ``render``: R G B A and f from ``spp`` samples per pixel (box filter, fixed seed).
-6. ``render_data``: one pass through the pixel centres for the atlas coordinates.
+4. ``scene``: the Mitsuba mesh, the integrator and the scene
+   (:mod:`gshade.rendering.mitsuba_scene`), and the pixels crossed by the mesh's silhouette
+   and boundary edges (:mod:`gshade.rendering.supersampling`).
+5. ``render``: one sample through each pixel centre, filtering stripes over the whole pixel:
+   the picture, and the atlas coordinates of the surface points.
+6. ``supersample``: ``spp`` samples per pixel (box filter, at the strata centres) where the
+   picture is discontinuous (``sampling = "edges"``) or everywhere (``"uniform"``, and
+   always for ``soft`` light): R G B A and f there.
 7. ``exact_channels``: P, N, u, v and the patch, exact at the pixel centres
    (:mod:`gshade.rendering.channels`).
 
@@ -37,11 +41,13 @@ from ..runtime.variant import select_variant
 from .atlas import Atlas
 from .camera import View
 from .centre_values import centre_values
-from .channels import exact_channels, refuse_non_finite
-from .mitsuba_scene import mitsuba_scene, render_data, render_shape
+from .channels import PICTURE, exact_channels, refuse_non_finite
+from .integrator import SHAPE_FILM
+from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
 from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_size, validate_memory
 from .style import display_style, legend, shape_functions, trimmed_region
+from .supersampling import discontinuous_pixels, silhouette_pixels
 from .tessellate import TriangleMesh, join_meshes, tessellate, tessellate_faces
 from .textures import shape_textures
 
@@ -97,14 +103,31 @@ def render(scene, **overrides) -> RenderedImage:
 
     view = framing.view
     mitsuba = mitsuba_scene(mesh, atlas, tex, style, view, settings, scene.shape)
+    uniform = settings.sampling == "uniform" or settings.lighting == "soft"
+    silhouettes = None if uniform else silhouette_pixels(mesh, view)
     del mesh, tex, region  # Mitsuba holds its own copies: free ours before rendering
     lap("scene")
-    image = render_shape(mitsuba, settings)
+    film = render_centres(mitsuba, view, settings)
     lap("render")
-    data = render_data(mitsuba, view, settings)
-    lap("render_data")
+    hit = film[..., SHAPE_FILM.index("A")] > 0.5  # where the centre rays meet the surface
+    if uniform:
+        picture = render_uniform(mitsuba, settings)[..., : len(PICTURE)]
+        film[..., : len(PICTURE)] = picture
+    else:
+        # a jump of f this small does not show: a thousandth of a stripe or of the colours
+        scale = style.value_range[1] - style.value_range[0]
+        unseen = 1e-3 * float(scale if scene.shape.display == "colormap" else style.period)
+        stripes = None
+        if scene.shape.display != "colormap":
+            stripes = (float(style.period), scene.shape.phase, scene.shape.duty)
+        marked = silhouettes | discontinuous_pixels(film, atlas, unseen, stripes)
+        pixels = np.flatnonzero(marked)
+        if pixels.size and settings.spp > 1:
+            picture = render_pixels_of(mitsuba, view, settings, pixels)[:, : len(PICTURE)]
+            film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
+    lap("supersample")
 
-    channels = exact_channels(image, data, atlas, scene.patches, view)
+    channels = exact_channels(film, hit, atlas, scene.patches, view)
     channels["f.mean"] = channels["f"]  # the samples' mean, what the pixel's colour shows
     channels.update(
         centre_values(channels, scene.patches, _exact_functions(scene, settings, functions))

@@ -3,7 +3,7 @@ checks that the surfaces' scale and the render's memory are within reach.
 
 The mesh follows the chord-error tolerance: the smaller of ``chord_tolerance`` times the
 bounding-box diagonal and half a pixel at the nearest point.  The tiles give about one texel
-every three pixels of a patch's projected size.  Both stay within a budget of samples that
+every :data:`PIXELS_PER_TEXEL` pixels of the largest patch's projected size.  Both stay within a budget of samples that
 grows with the image (a camera close to or inside the surfaces asks for more than a small
 image can show).
 """
@@ -43,6 +43,11 @@ MIN_EXTENT = 1e-9
 #: and the textures' resolution: a camera inside the surfaces (or touching them) must not
 #: ask for the finest mesh and atlas everywhere.
 NEAREST_FRACTION = 1e-2
+#: Pixels per texel of the largest patch: f is interpolated bicubically from exact values and
+#: derivatives (error O(h^4)); the interpolated f at the pixel centres of the teapot agrees
+#: with the exact one as closely at one texel every 6 pixels as at every 3 or 2 (see
+#: benchmarks/RESULTS.md, "Measurements behind code choices"), with a quarter of the texels.
+PIXELS_PER_TEXEL = 6
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
 #: The most mesh vertices of an automatic tessellation.
@@ -141,8 +146,9 @@ def mesh_resolution(scene, settings, framing: Framing) -> int:
 
 
 def tile_size(scene, framing: Framing) -> int:
-    """Texels per tile side: ``texture_resolution`` if set, else about one texel every three
-    pixels of the largest patch's projected size, within the atlas budget."""
+    """Texels per tile side: ``texture_resolution`` if set, else about one texel every
+    :data:`PIXELS_PER_TEXEL` pixels of the largest patch's projected size, within the atlas
+    budget."""
     if scene.render.texture_resolution:
         return int(np.clip(scene.render.texture_resolution, 2, MAX_TILE))
     view, lo, hi = framing.view, framing.lo, framing.hi
@@ -153,9 +159,7 @@ def tile_size(scene, framing: Framing) -> int:
         depth = float((pts.mean(axis=0) - view.origin) @ view.forward)
         depth = max(depth, NEAREST_FRACTION * float(np.linalg.norm(hi - lo)))
         size = max(size, extent / view.pixel_size(depth))
-    # f is smooth and interpolated bicubically from exact values and derivatives: a texel
-    # every three pixels leaves errors far below what a picture (or a 1e-3 diff) shows
-    tile = int(np.clip(np.ceil(size / 3) + 1, MIN_TILE, MAX_TILE))
+    tile = int(np.clip(np.ceil(size / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE))
     pixels = scene.render.width * scene.render.height
     cap = int(np.sqrt(_budget(pixels, MAX_ATLAS_TEXELS) / len(patches)))
     return max(2, min(tile, cap))

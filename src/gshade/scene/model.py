@@ -21,6 +21,7 @@ __all__ = [
     "CAMERA_TYPES",
     "DISPLAYS",
     "LIGHTINGS",
+    "SAMPLINGS",
     "VARIANTS",
     "CadFaces",
     "Camera",
@@ -33,6 +34,8 @@ __all__ = [
 
 DISPLAYS = ("stripes", "colormap", "both")
 LIGHTINGS = ("lit", "flat", "soft")
+#: where a render takes ``spp`` samples per pixel (one at the centre elsewhere)
+SAMPLINGS = ("edges", "uniform")
 CAMERA_TYPES = ("perspective", "orthographic")
 
 
@@ -172,6 +175,7 @@ class RenderSettings:
     texture_resolution: int | None
     junctions: bool = False
     aovs: tuple[str, ...] = ()
+    sampling: str = "edges"
 
 
 @dataclass(frozen=True)

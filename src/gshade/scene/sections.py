@@ -19,7 +19,16 @@ from ..limits import (
     MIN_CHORD_TOLERANCE,
 )
 from ..shape import SHAPE_FUNCTIONS, validate_parameter
-from .model import CAMERA_TYPES, DISPLAYS, LIGHTINGS, VARIANTS, Camera, RenderSettings, Shape
+from .model import (
+    CAMERA_TYPES,
+    DISPLAYS,
+    LIGHTINGS,
+    SAMPLINGS,
+    VARIANTS,
+    Camera,
+    RenderSettings,
+    Shape,
+)
 from .tables import Key, Table, alternatives, declare_keys, is_number
 
 __all__ = [
@@ -75,6 +84,14 @@ RENDER_KEYS = declare_keys(
         "lit",
         "lit: diffuse under a head light and a key light with a shadow ray, no noise; flat: the "
         "exact colours; soft: as lit with random sky occlusion (grainy, differs by variant)",
+    ),
+    Key(
+        "sampling",
+        alternatives(SAMPLINGS),
+        "edges",
+        "edges: spp samples where the picture is discontinuous (silhouettes, patch boundaries, "
+        "shadow edges), one at the centre elsewhere (stripes are filtered exactly); uniform: spp "
+        "everywhere (soft lighting always)",
     ),
     Key("variant", alternatives(VARIANTS), "auto", "the Mitsuba variant"),
     Key("seed", f"integer 0–{MAX_SEED}", 0, "the sampler's seed"),
@@ -248,6 +265,7 @@ def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
         height=t.integer("height", maximum=MAX_IMAGE_SIDE),
         spp=t.integer("spp", maximum=MAX_SPP),
         lighting=t.choice("lighting", LIGHTINGS),
+        sampling=t.choice("sampling", SAMPLINGS),
         variant=t.choice("variant", VARIANTS),
         seed=t.integer("seed", minimum=0, maximum=MAX_SEED),
         tessellation=t.integer("tessellation", minimum=2, maximum=MAX_TESSELLATION),

@@ -1,0 +1,111 @@
+"""A Mitsuba sensor that renders a list of another sensor's pixels.
+
+``gshade_pixels`` (:data:`PIXELS_PLUGIN`, registered with Mitsuba by name) has a film of
+virtual pixels, one per listed pixel of the camera: a sample at (k + o) of virtual pixel k
+becomes the camera's ray through (col_k + o, row_k + o).  With the camera's sampler, a
+render of it gives exactly the listed pixels of a render of the whole camera film (the same
+strata, rays and ray differentials, scaled by 1/sqrt(spp) as Mitsuba does), in the order
+listed: the supersampling pass renders only the pixels where the picture needs it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["PIXELS_PLUGIN", "pixel_list_sensor"]
+
+PIXELS_PLUGIN = "gshade_pixels"
+#: virtual pixels per film row (a float32 film position keeps 1/2^13 pixel at this width)
+ROW = 1024
+
+#: the variants whose sensor is registered with Mitsuba
+_REGISTERED: set[str] = set()
+
+
+def pixel_list_sensor(
+    camera: Any, pixels: NDArray[np.int64], width: int, height: int, sampler: dict
+) -> Any:
+    """A sensor whose film's first ``len(pixels)`` pixels (row-major) are ``pixels`` (flat
+    indices, row-major, into the ``camera``'s ``width`` x ``height`` film), sampled by
+    ``sampler`` (a Mitsuba dict)."""
+    import mitsuba as mi
+
+    variant = mi.variant()
+    if variant not in _REGISTERED:
+        sensor_class = _define(mi)
+        mi.register_sensor(PIXELS_PLUGIN, lambda props: sensor_class(props))
+        _REGISTERED.add(variant)
+    n = len(pixels)
+    columns = min(n, ROW)
+    sensor = mi.load_dict(
+        {
+            "type": PIXELS_PLUGIN,
+            "film": {
+                "type": "hdrfilm",
+                "width": columns,
+                "height": -(-n // columns),
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgba",
+            },
+            "sampler": sampler,
+        }
+    )
+    sensor.aim(camera, pixels % width, pixels // width, (width, height))
+    return sensor
+
+
+def _define(mi):
+    import drjit as dr
+
+    scalar = mi.variant().startswith("scalar")
+
+    class PixelSensor(mi.Sensor):
+        """Virtual pixel k is the camera's pixel (rows[k], cols[k])."""
+
+        def __init__(self, props):
+            super().__init__(props)
+            self.count = 0
+
+        def aim(self, camera, cols: NDArray, rows: NDArray, size: tuple[int, int]) -> None:
+            self.camera, self.count = camera, len(cols)
+            self.inv_size = (1.0 / size[0], 1.0 / size[1])
+            if scalar:
+                self.cols, self.rows = cols.tolist(), rows.tolist()
+            else:  # exact in float32: image sides are at most 2^24
+                self.cols, self.rows = mi.Float(cols), mi.Float(rows)
+
+        def _camera_position(self, position):
+            """The camera's film position (in [0, 1]^2) of a position on this film."""
+            size = self.film().crop_size()
+            at = mi.Vector2f(position.x * size.x, position.y * size.y)
+            pixel = dr.floor(at)
+            offset = at - pixel
+            k = mi.UInt32(pixel.y) * size.x + mi.UInt32(pixel.x)
+            if scalar:
+                k = min(int(k), self.count - 1)
+                col, row = self.cols[k], self.rows[k]
+            else:
+                k = dr.minimum(k, self.count - 1)
+                col, row = dr.gather(mi.Float, self.cols, k), dr.gather(mi.Float, self.rows, k)
+            return mi.Point2f(
+                (col + offset.x) * self.inv_size[0], (row + offset.y) * self.inv_size[1]
+            )
+
+        def sample_ray_differential(self, time, sample1, sample2, sample3, active=True):
+            position = self._camera_position(sample2)
+            return self.camera.sample_ray_differential(time, sample1, position, sample3, active)
+
+        def sample_ray(self, time, sample1, sample2, sample3, active=True):
+            position = self._camera_position(sample2)
+            return self.camera.sample_ray(time, sample1, position, sample3, active)
+
+        def bbox(self):
+            return self.camera.bbox()
+
+        def to_string(self):
+            return f"PixelSensor[{self.count} pixels]"
+
+    return PixelSensor
