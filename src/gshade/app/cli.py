@@ -129,6 +129,11 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="write the difference images only if the verdict is not PASS",
     )
+    cmp.add_argument(
+        "--ssim",
+        action="store_true",
+        help="also compute SSIM of the tone-mapped R, G, B (slow on large images)",
+    )
     cmp.add_argument("--json", action="store_true", help="print the metrics as JSON")
     cmp.set_defaults(run=commands.compare, error_status=COMPARE_USAGE)
 

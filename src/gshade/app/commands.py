@@ -261,6 +261,7 @@ def compare(args: argparse.Namespace) -> int:
             diff=args.diff,
             diff_png=args.diff_png,
             only_if_not_pass=args.diff_on_fail,
+            ssim=args.ssim,
         )
     except UnreadableImage as exc:
         print(f"gshade: error: {exc}", file=sys.stderr)

@@ -3,7 +3,11 @@
 Per compared channel, and over all of them, the metrics are: the largest absolute error and
 where it is, the mean absolute error, the RMSE, the PSNR (with the data range stated), and
 the number and share of pixels over the thresholds; SSIM (scikit-image, explicit
-``data_range``) is computed on the tone-mapped picture when R, G and B are compared.
+``data_range``) is computed on the tone-mapped picture when R, G and B are compared (by
+default in :func:`compare`; ``gshade compare`` only with ``--ssim``: it is slow).
+
+The images are compared in their stored types, a block of pixels at a time
+(:mod:`.blockwise`), with the figures of the whole-image float64 computation to the last bit.
 
 The verdict follows OpenImageIO's ``idiff``: a pixel's difference is the largest absolute
 difference over the compared channels (NaN or infinity in either image never matches: the
@@ -33,16 +37,25 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..io.image import ExrWindow
+from .blockwise import Reduction, reduce_blocks
 from .image_pairs import (
     ChannelMismatch,
+    LoadedImage,
     UnreadableImage,
-    aligned_channels,
+    aligned_planes,
     load_channels,
     load_image,
+)
+from .metrics import (
+    ChannelMetrics,
+    ValueMetrics,
+    pixel_metrics,
+    reduced_metrics,
+    value_metrics,
 )
 
 __all__ = [
@@ -124,37 +137,6 @@ class Thresholds:
                 raise UsageError(f"{name}: expected {expected}, got {value!r}")
             if name.endswith("percent") and value > 100:
                 raise UsageError(f"{name}: expected a percentage from 0 to 100, got {value!r}")
-
-
-@dataclass
-class ChannelMetrics:
-    """Error metrics of one channel, or of the pixel difference (each pixel's worst channel)
-    of a group of channels or of all compared channels (see :data:`DEFINITIONS`)."""
-
-    max_error: float
-    max_at: tuple[int, int] | None  # (x, y) of the largest error, None if there is none
-    mean_error: float
-    rmse: float
-    psnr: float
-    data_range: float
-    nonfinite: int  # pixels non-finite in either image
-    nonfinite_test: int = 0  # pixels non-finite in the test image
-    nonfinite_reference: int = 0  # pixels non-finite in the reference
-    #: the channel of the largest error (the first compared channel with it at max_at)
-    max_channel: str | None = None
-
-
-@dataclass
-class ValueMetrics:
-    """idiff's mean error, RMS error and PSNR: over every compared value (pixel x channel),
-    with the PSNR's ``peak`` max(1, the largest magnitude in either image).  Infinite (JSON
-    null) where a value is NaN or infinite."""
-
-    mean_error: float
-    rmse: float
-    psnr: float
-    peak: float
-    values: int
 
 
 @dataclass
@@ -298,81 +280,31 @@ def channel_groups(channels: list[str]) -> dict[str, list[str]]:
     return groups
 
 
-def pixel_metrics(
-    diff: NDArray,
-    ref: NDArray,
-    *,
-    origin: tuple[int, int] = (0, 0),
-    test_finite: ArrayLike | None = None,
-    reference_finite: ArrayLike | None = None,
-    magnitudes: NDArray | None = None,
-    names: list[str] | None = None,
-) -> ChannelMetrics:
-    """Metrics of |test - ref| (NaN/Inf where either is non-finite, counted as infinite).
-
-    ``origin`` is the image coordinates of the arrays' first pixel; ``test_finite`` and
-    ``reference_finite`` say where each image is finite (for the per-image counts); with
-    ``magnitudes`` (..., channel) and their ``names``, the channel of the largest error is
-    the first one reaching it at its pixel."""
-    finite = np.isfinite(diff)
-    nonfinite = int(diff.size - np.count_nonzero(finite))
-    counts = [
-        int(diff.size - np.count_nonzero(f)) if f is not None else nonfinite
-        for f in (test_finite, reference_finite)
-    ]
-    d = np.where(finite, np.abs(diff), np.inf)
-    if d.size == 0:
-        return ChannelMetrics(0.0, None, 0.0, 0.0, float("inf"), 0.0, 0)
-    flat = int(np.argmax(d))  # the first largest, in row-major order
-    y, x = np.unravel_index(flat, d.shape[:2])
-    max_error = float(d.flat[flat])
-    good = d[finite]
-    mean = float(good.mean()) if nonfinite == 0 else float("inf")
-    rmse = float(np.sqrt(np.mean(good**2))) if nonfinite == 0 else float("inf")
-    r = ref[np.isfinite(ref)]
-    data_range = float(r.max() - r.min()) if r.size else 0.0
-    if data_range <= 0:
-        data_range = 1.0
-    if nonfinite:
-        psnr = float("-inf")
-    elif rmse == 0:
-        psnr = float("inf")
-    else:
-        psnr = float(20 * np.log10(data_range / rmse))
-    at = (int(x) + origin[0], int(y) + origin[1]) if max_error > 0 else None
-    channel = None
-    if at is not None and names:
-        # the first of the channels (in the compared order) with the largest error there
-        first = 0 if magnitudes is None else int(np.argmax(magnitudes[y, x] == max_error))
-        channel = names[first]
-    return ChannelMetrics(
-        max_error, at, mean, rmse, psnr, data_range, nonfinite, counts[0], counts[1], channel
-    )
-
-
-def _value_metrics(
-    ta: NDArray[np.float64], tb: NDArray[np.float64], magnitude: NDArray[np.float64]
-) -> ValueMetrics:
-    """idiff's figures over every value of the stacked channels (..., channel)."""
-    values = int(magnitude.size)
-    finite = np.isfinite(ta) & np.isfinite(tb)
-    peak = 1.0
-    if np.any(finite):
-        peak = max(1.0, float(np.abs(ta[finite]).max()), float(np.abs(tb[finite]).max()))
-    if not finite.all():
-        inf = float("inf")
-        return ValueMetrics(inf, inf, -inf, peak, values)
-    mean = float(magnitude.mean()) if values else 0.0
-    rmse = float(np.sqrt(np.mean(magnitude**2))) if values else 0.0
-    psnr = float("inf") if rmse == 0 else float(20 * np.log10(peak / rmse))
-    return ValueMetrics(mean, rmse, psnr, peak, values)
-
-
 def _tone_map(rgb: NDArray) -> NDArray:
     """Linear RGB -> [0, 1] display values (clipped sRGB curve), for SSIM."""
     from ..io.image import linear_to_srgb
 
     return linear_to_srgb(np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, 1.0))
+
+
+def _ssim(a: dict[str, NDArray], b: dict[str, NDArray]) -> float | None:
+    """SSIM of the tone-mapped pictures (None below 7x7 pixels)."""
+    from skimage.metrics import structural_similarity
+
+    ta = _tone_map(np.stack([np.asarray(a[c], dtype=np.float64) for c in "RGB"], -1))
+    tb = _tone_map(np.stack([np.asarray(b[c], dtype=np.float64) for c in "RGB"], -1))
+    if min(ta.shape[:2]) < 7:
+        return None
+    return float(structural_similarity(ta, tb, data_range=1.0, channel_axis=-1))
+
+
+def _compared(image: LoadedImage, channels: list[str]) -> LoadedImage:
+    """The image with only the compared channels, if it has them all (else as it is, for
+    the mismatch's message)."""
+    if not all(c in image.channels for c in channels):
+        return image
+    kept = {c: image.channels[c] for c in channels}
+    return LoadedImage(kept, image.name, image.data, image.display)
 
 
 def compare(
@@ -381,12 +313,27 @@ def compare(
     *,
     channels: list[str] | tuple[str, ...] = ("R", "G", "B"),
     thresholds: Thresholds | None = None,
+    ssim: bool | None = None,
+    differences: bool = True,
 ) -> Comparison:
     """Compare a test image with a reference (paths, rendered images or channel dicts).
 
     EXR images are compared by position: over the union of their data windows (a pixel
     outside an image's data window reads 0), with coordinates (``max_at``) in the images'
-    pixel space; their display windows must be equal.
+    pixel space; their display windows must be equal.  The images are read in their stored
+    types and compared a block of pixels at a time (:mod:`.blockwise`).
+
+    Parameters
+    ----------
+    ssim : bool, optional
+        Compute SSIM (when R, G and B are compared, on at least 7x7 pixels; it takes whole
+        float64 copies of R, G and B and about as long as the rest of the comparison): by
+        default (None) whenever R, G and B are compared; ``gshade compare`` asks for it
+        with ``--ssim``.
+    differences : bool
+        Keep the differences (``difference``, ``pixel_difference``: for the difference
+        images and heat maps); without them the comparison needs little memory beyond the
+        images.
 
     Raises
     ------
@@ -401,76 +348,70 @@ def compare(
     channels = list(channels)
     if not channels or not all(isinstance(c, str) and c for c in channels):
         raise UsageError(f"channels: expected one or more channel names, got {channels!r}")
-    a, b, window, display = aligned_channels(load_image(test), load_image(reference), channels)
-    origin = (window.x_min, window.y_min)
-    per_channel = {}
-    diffs = []
-    for c in channels:
-        ta, tb = a[c], b[c]
-        fa, fb = np.isfinite(ta), np.isfinite(tb)
-        with np.errstate(invalid="ignore", over="ignore"):
-            diff = ta - tb
-        diff[~(fa & fb)] = np.nan
-        per_channel[c] = pixel_metrics(
-            diff, tb, origin=origin, test_finite=fa, reference_finite=fb, names=[c]
-        )
-        diffs.append(diff)
-    stack = np.stack(diffs, -1)
-    magnitude = np.where(np.isfinite(stack), np.abs(stack), np.inf)
-    pixel = magnitude.max(axis=-1)  # idiff: the worst channel of each pixel
-    test_values = np.stack([a[c] for c in channels], -1)
-    reference_values = np.stack([b[c] for c in channels], -1)
+    loaded = _compared(load_image(test, half=True), channels)  # the rest freed before
+    a, b, window, display = aligned_planes(
+        loaded, _compared(load_image(reference, half=True), channels), channels
+    )
+    groups = [
+        [channels.index(c) for c in members]
+        for members in channel_groups(channels).values()
+        if len(members) > 1
+    ]
+    test_planes, reference_planes = [a[c] for c in channels], [b[c] for c in channels]
+    blocks = reduce_blocks(
+        test_planes,
+        reference_planes,
+        [*groups, list(range(len(channels)))],
+        (thresholds.fail, thresholds.warn, thresholds.hardfail),
+        keep=differences,
+    )
 
-    def worst_of(idx: list[int]) -> ChannelMetrics:
-        worst = magnitude[..., idx].max(axis=-1)
-        return pixel_metrics(
-            np.where(np.isinf(worst), np.nan, worst),
-            reference_values[..., idx].max(axis=-1),
-            origin=origin,
-            test_finite=np.isfinite(test_values[..., idx]).all(axis=-1),
-            reference_finite=np.isfinite(reference_values[..., idx]).all(axis=-1),
-            magnitudes=magnitude[..., idx],
-            names=[channels[k] for k in idx],
-        )
+    def magnitude_at(k: int, pixel: int) -> float:
+        ta, tb = float(test_planes[k].flat[pixel]), float(reference_planes[k].flat[pixel])
+        if not (math.isfinite(ta) and math.isfinite(tb)):
+            return float("inf")
+        return abs(ta - tb)  # may overflow to infinity, as the arrays' differences
 
-    overall = worst_of(list(range(len(channels))))
-    per_group = {}
-    for group, members in channel_groups(channels).items():
-        if len(members) > 1:
-            per_group[group] = worst_of([channels.index(c) for c in members])
-    n = pixel.size
-    nonfinite = np.isinf(pixel)  # NaN or infinity in either image: never a match
-    failing = int(np.count_nonzero(nonfinite | (pixel > thresholds.fail)))
-    warning = int(np.count_nonzero(nonfinite | (pixel > thresholds.warn)))
-    if failing > thresholds.failpercent / 100.0 * n or np.any(pixel > thresholds.hardfail):
+    origin, width = (window.x_min, window.y_min), window.width
+
+    def metrics(red: Reduction) -> ChannelMetrics:
+        names = [channels[k] for k in red.members]
+        return reduced_metrics(red, width, origin, names, magnitude_at)
+
+    *group_reductions, overall = [metrics(red) for red in blocks.groups]
+    per_group = dict(
+        zip(
+            (g for g, members in channel_groups(channels).items() if len(members) > 1),
+            group_reductions,
+            strict=True,
+        )
+    )
+    n = window.width * window.height
+    if blocks.failing > thresholds.failpercent / 100.0 * n or blocks.hardfail:
         verdict = "FAILURE"
-    elif warning > thresholds.warnpercent / 100.0 * n:
+    elif blocks.warning > thresholds.warnpercent / 100.0 * n:
         verdict = "WARNING"
     else:
         verdict = "PASS"
-    ssim = None
-    if {"R", "G", "B"} <= set(channels):
-        from skimage.metrics import structural_similarity
-
-        ta = _tone_map(np.stack([a[c] for c in "RGB"], -1))
-        tb = _tone_map(np.stack([b[c] for c in "RGB"], -1))
-        if min(ta.shape[:2]) >= 7:
-            ssim = float(structural_similarity(ta, tb, data_range=1.0, channel_axis=-1))
+    rgb = {"R", "G", "B"} <= set(channels)
+    shape = (window.height, window.width, len(channels))
     return Comparison(
         verdict=verdict,
         channels=channels,
         size=(window.width, window.height),
         thresholds=thresholds,
-        per_channel=per_channel,
+        per_channel={c: metrics(red) for c, red in zip(channels, blocks.channels, strict=True)},
         overall=overall,
-        failing=failing,
-        warning=warning,
+        failing=blocks.failing,
+        warning=blocks.warning,
         pixels=n,
-        ssim=ssim,
-        difference=stack,
-        pixel_difference=pixel,
+        ssim=_ssim(a, b) if rgb and ssim is not False else None,
+        difference=None if blocks.difference is None else blocks.difference.reshape(shape),
+        pixel_difference=None
+        if blocks.pixel_difference is None
+        else blocks.pixel_difference.reshape(shape[:2]),
         per_group=per_group,
-        all_values=_value_metrics(test_values, reference_values, magnitude),
+        all_values=value_metrics(blocks, n * len(channels)),
         window=window,
         display_window=display,
     )

@@ -105,9 +105,11 @@ def compare_and_write_diffs(
     diff: str | os.PathLike | None = None,
     diff_png: str | os.PathLike | None = None,
     only_if_not_pass: bool = False,
+    ssim: bool | None = None,
 ) -> Comparison:
     """:func:`compare`, and the difference images ``diff`` (EXR) and ``diff_png`` (heat
     map): both or neither (with ``only_if_not_pass``, only when the verdict is not PASS).
+    ``ssim`` is :func:`compare`'s; the differences are kept only for the images asked for.
 
     The targets' temporaries are created before the images are read: an unwritable target
     fails at once, and the targets change only once every file is written.
@@ -127,7 +129,14 @@ def compare_and_write_diffs(
     try:
         with staged(targets) as names:
             entered = True
-            result = compare(test, reference, channels=channels, thresholds=thresholds)
+            result = compare(
+                test,
+                reference,
+                channels=channels,
+                thresholds=thresholds,
+                ssim=ssim,
+                differences=bool(targets),
+            )
             if only_if_not_pass and result.verdict == "PASS":
                 raise _Unwanted
             writers = [diff_exr_writer(result, diff)] if diff else []

@@ -1,6 +1,9 @@
 """Two images on one pixel grid, as ``gshade compare`` reads them: EXR paths, rendered
 images or dicts of channels, their data windows placed within the same display window (the
-union of the data windows, 0 outside an image's own, as OpenImageIO's idiff does)."""
+union of the data windows, 0 outside an image's own, as OpenImageIO's idiff does).
+
+:func:`aligned_planes` keeps each channel in its stored type (float16, float32 or float64:
+the same values as float64, in less memory); :func:`aligned_channels` makes them float64."""
 
 from __future__ import annotations
 
@@ -18,6 +21,7 @@ __all__ = [
     "LoadedImage",
     "UnreadableImage",
     "aligned_channels",
+    "aligned_planes",
     "load_channels",
     "load_image",
 ]
@@ -47,15 +51,20 @@ class LoadedImage:
     display: ExrWindow | None = None
 
 
-def load_image(image) -> LoadedImage:
+def load_image(image, *, half: bool = False) -> LoadedImage:
+    """An EXR path, a rendered image or a dict of arrays as a :class:`LoadedImage`; an EXR's
+    channels as float32 arrays, or with ``half`` its HALF channels as float16 ones."""
     if isinstance(image, (str, os.PathLike)):
-        from ..io.image import read_exr_windows
+        from ..io.image import read_exr_planes, read_exr_windows
 
         try:
+            if half:
+                planes, _, data, display = read_exr_planes(image)
+                return LoadedImage(dict(planes), str(image), data, display)
             channels, _, data, display = read_exr_windows(image)
         except GshadeError as exc:
             raise UnreadableImage(str(exc)) from None
-        return LoadedImage(channels, str(image), data, display)
+        return LoadedImage(dict(channels), str(image), data, display)
     if hasattr(image, "channels"):
         return LoadedImage(dict(image.channels), "<image>")
     if isinstance(image, dict):
@@ -71,6 +80,20 @@ def aligned_channels(
 
     Raises :class:`ChannelMismatch` for a missing channel, channels of different sizes or
     different display windows."""
+    a, b, region, display = aligned_planes(test, reference, channels)
+    return (
+        {c: np.asarray(p, dtype=np.float64) for c, p in a.items()},
+        {c: np.asarray(p, dtype=np.float64) for c, p in b.items()},
+        region,
+        display,
+    )
+
+
+def aligned_planes(
+    test: LoadedImage, reference: LoadedImage, channels: list[str]
+) -> tuple[dict[str, NDArray], dict[str, NDArray], ExrWindow, ExrWindow]:
+    """:func:`aligned_channels`, the arrays C-contiguous in their own type where it is
+    float16, float32 or float64 (else float64)."""
     windows = []
     for image in (test, reference):
         missing = [c for c in channels if c not in image.channels]
@@ -80,12 +103,17 @@ def aligned_channels(
                 f"{', '.join(sorted(image.channels)) or 'none'}"
             )
         shape = np.shape(image.channels[channels[0]])
+        if len(shape) != 2:
+            raise ChannelMismatch(
+                f"{image.name}: channel {channels[0]!r}: expected a 2-D array (height, width), "
+                f"got shape {shape}"
+            )
         for c in channels[1:]:
             if np.shape(image.channels[c]) != shape:
                 other = np.shape(image.channels[c])
                 raise ChannelMismatch(
                     f"{image.name}: channel {c!r}: expected the size {shape[1]}x{shape[0]} of "
-                    f"channel {channels[0]!r}, got {other[1]}x{other[0]}"
+                    f"channel {channels[0]!r}, got {_size(other)}"
                 )
         data = image.data or ExrWindow.of_shape(shape)
         windows.append((data, image.display or data))
@@ -120,12 +148,22 @@ def aligned_channels(
     for image, (data, _) in zip((test, reference), windows, strict=True):
         planes = {}
         for c in channels:
-            plane = np.asarray(image.channels[c], dtype=np.float64)
+            plane = np.asarray(image.channels[c])
+            if plane.dtype not in _KEPT:
+                plane = plane.astype(np.float64)
             if data != region:
-                placed = np.zeros((region.height, region.width))
+                placed = np.zeros((region.height, region.width), plane.dtype)
                 y, x = data.y_min - region.y_min, data.x_min - region.x_min
                 placed[y : y + data.height, x : x + data.width] = plane
                 plane = placed
-            planes[c] = plane
+            planes[c] = np.ascontiguousarray(plane)
         out.append(planes)
     return out[0], out[1], region, display_a
+
+
+#: The types that :func:`aligned_planes` keeps: exactly float64 once subtracted in float64.
+_KEPT = (np.dtype(np.float16), np.dtype(np.float32), np.dtype(np.float64))
+
+
+def _size(shape: tuple[int, ...]) -> str:
+    return f"{shape[1]}x{shape[0]}" if len(shape) == 2 else f"shape {shape}"

@@ -33,7 +33,7 @@ def pixel_list_sensor(
     ``sampler`` (a Mitsuba dict)."""
     import mitsuba as mi
 
-    variant = mi.variant()
+    variant = str(mi.variant())  # set by the caller (the pipeline's select_variant)
     if variant not in _REGISTERED:
         sensor_class = _define(mi)
         mi.register_sensor(PIXELS_PLUGIN, lambda props: sensor_class(props))

@@ -3,9 +3,9 @@ checks that the surfaces' scale and the render's memory are within reach.
 
 The mesh follows the chord-error tolerance: the smaller of ``chord_tolerance`` times the
 bounding-box diagonal and half a pixel at the nearest point.  The tiles give about one texel
-every :data:`PIXELS_PER_TEXEL` pixels of the largest patch's projected size.  Both stay within a budget of samples that
-grows with the image (a camera close to or inside the surfaces asks for more than a small
-image can show).
+every :data:`PIXELS_PER_TEXEL` pixels of the largest patch's projected size.  Both stay within
+a budget of samples that grows with the image (a camera close to or inside the surfaces asks
+for more than a small image can show).
 """
 
 from __future__ import annotations

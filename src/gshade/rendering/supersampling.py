@@ -79,6 +79,19 @@ def discontinuous_pixels(
         is colour-mapped, which has no exact filter: a pixel over which f spans more than
         SPREAD visible changes needs more samples.
     """
+    marked = np.zeros(centres.shape[:2], bool)
+    rows, cols = np.nonzero(centres[..., SHAPE_FILM.index("A")] > 0.5)
+    if rows.size:  # the hits' box and a pixel around it: no pair outside it has a hit
+        box = (
+            slice(max(rows.min() - 1, 0), rows.max() + 2),
+            slice(max(cols.min() - 1, 0), cols.max() + 2),
+        )
+        marked[box] = _discontinuous(centres[box], atlas, visible_change, stripes)
+    return marked
+
+
+def _discontinuous(centres, atlas, visible_change, stripes) -> NDArray:
+    """:func:`discontinuous_pixels` of a film."""
     hit = centres[..., SHAPE_FILM.index("A")] > 0.5
     patch = np.full(hit.shape, -1, dtype=np.int64)
     xy = centres[..., [SHAPE_FILM.index("x"), SHAPE_FILM.index("y")]][hit]
