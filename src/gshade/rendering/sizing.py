@@ -44,10 +44,10 @@ MIN_EXTENT = 1e-9
 #: ask for the finest mesh and atlas everywhere.
 NEAREST_FRACTION = 1e-2
 #: Pixels per texel of the largest patch: f is interpolated bicubically from exact values and
-#: derivatives (error O(h^4)); the interpolated f at the pixel centres of the teapot agrees
-#: with the exact one as closely at one texel every 6 pixels as at every 3 or 2 (see
-#: benchmarks/RESULTS.md, "Measurements behind code choices"), with a quarter of the texels.
-PIXELS_PER_TEXEL = 6
+#: derivatives (error O(h^4)).  Dense stripes at grazing rims (zebra) still move with the
+#: texel spacing, so this is a trade with the textures' memory (a texel every 3 pixels took
+#: 1.8x the texels; benchmarks/RESULTS.md, "Measurements behind code choices").
+PIXELS_PER_TEXEL = 4
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
 #: The most mesh vertices of an automatic tessellation.
