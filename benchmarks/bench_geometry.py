@@ -16,12 +16,21 @@ W2  The same patch as a NURBS with random weights in [0.5, 2] (splipy: ``rationa
     ``NURBS.Surface`` with weighted control points).
 KH  Gaussian and mean curvature at the 250,000 grid points of W1 from the already computed
     derivatives: only ``gaussian_and_mean_curvature(d)`` is timed.
+D   W1 and W2 again as users and CI run them: OpenBLAS's default thread pool (one thread per
+    core, OPENBLAS_NUM_THREADS unset), gshade returning a fresh result, in a child process
+    (``--default-threads-child``) with OPENBLAS_NUM_THREADS set but empty; once on the quiet
+    machine and LOADED_RUNS times with a busy process (``while True: pass``, one core's
+    worth, not pinned) running beside it; the samples of the loaded runs are pooled.
+    gshade limits BLAS to one thread during its own calls (``gshade.geometry.blas_threads``);
+    splipy runs with the default pool.
 
 gshade and splipy are timed interleaved (one call of each per repeat), so that both see the
 same machine state; geomdl is timed afterwards.  Before timing, every library's derivatives
 are checked against gshade's (all six, on every point compared); the run fails if any
 differs by more than 1e-10 relative to that derivative's largest magnitude.  K and H are
 checked against a plain textbook evaluation from splipy's derivatives.
+
+The other rows run with ``OPENBLAS_NUM_THREADS=1`` (set below unless the environment sets it).
 
 Usage, from the repository root::
 
@@ -36,15 +45,20 @@ Usage, from the repository root::
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from importlib.metadata import version
 
 # Small BLAS products on a 2-core machine: one BLAS thread for both libraries (measured:
-# with two, medians jumped between 9 and 279 ms from run to run).  Set before numpy loads
-# (``report`` sets it too, before it imports numpy); an explicit OPENBLAS_NUM_THREADS in
-# the environment wins, and the report records it.
+# with two, medians jumped between 9 and 279 ms from run to run).  Set before numpy
+# loads (``report`` sets it too, before it imports numpy); an explicit OPENBLAS_NUM_THREADS
+# in the environment wins, and the report records it.  The child of rows D gets the
+# variable set but empty, which this keeps and OpenBLAS reads as unset (its default pool,
+# one thread per core); the child checks that with threadpoolctl.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
@@ -52,19 +66,25 @@ import splipy
 from geomdl import NURBS, BSpline
 from report import (
     Timing,
+    load_average,
     machine_info,
     markdown_table,
     publish,
     time_interleaved,
 )
+from threadpoolctl import threadpool_info
 
 from gshade.geometry import BSplinePatch, gaussian_and_mean_curvature
+
+#: The flag of the child process that times the default thread pool (rows D).
+CHILD_FLAG = "--default-threads-child"
 
 N_CTRL = 20  # control points per direction
 DEGREE = 3
 GRID = 500  # parameter values per direction
 GEOMDL_POINTS = 200  # grid points per geomdl repeat
 REPEATS, QUICK_REPEATS = 15, 3
+LOADED_RUNS, QUICK_LOADED_RUNS = 3, 1  # child processes with a busy process beside them
 GEOMDL_REPEATS, QUICK_GEOMDL_REPEATS = 5, 1
 REL_TOL = 1e-10
 SEED = 20240611
@@ -362,13 +382,137 @@ def bench_curvature(s: Surface, u, v, args) -> Row:
     return Row("KH Gaussian + mean curvature, 250k points", t, max_ms=20.0)
 
 
+def blas_threads() -> str:
+    """The thread count (and kernel) of each BLAS library loaded (threadpoolctl), for the
+    notes."""
+    libs = [lib for lib in threadpool_info() if lib.get("user_api") == "blas"]
+    return ", ".join(
+        sorted(
+            f"{os.path.basename(lib['filepath'])} {lib['num_threads']} threads"
+            + (f" ({lib['architecture']})" if lib.get("architecture") else "")
+            for lib in libs
+        )
+    )
+
+
+def default_pool_timings(s: Surface, repeats: int) -> dict[str, list[float]]:
+    """Rows D's timings of one surface: gshade fresh and ``out=``, splipy, interleaved."""
+    u = np.linspace(0.0, 1.0, GRID)
+    v = np.linspace(0.0, 1.0, GRID)
+    patch, sp_surface = gshade_patch(s), splipy_surface(s)
+    u_sp, v_sp = u.copy(), v.copy()
+    out = gshade_eval(patch, u, v)
+    t = time_interleaved(
+        {
+            "gshade": lambda: gshade_eval(patch, u, v),
+            "gshade out": lambda: gshade_eval(patch, u, v, out),
+            "splipy": lambda: splipy_eval(sp_surface, u_sp, v_sp),
+        },
+        repeats,
+    )
+    return {name: timing.samples for name, timing in t.items()}
+
+
+def default_threads_child(repeats: int) -> int:
+    """Rows D, in the child: time W1 and W2 and print the samples as JSON on the last line
+    of stdout."""
+    pools = [lib["num_threads"] for lib in threadpool_info() if lib.get("user_api") == "blas"]
+    cores = len(os.sched_getaffinity(0))
+    if cores > 1 and not any(n > 1 for n in pools):
+        sys.exit(f"{CHILD_FLAG}: expected OpenBLAS's default pool, got {blas_threads()}")
+    surfaces = make_surfaces(np.random.default_rng(SEED))
+    result: dict[str, object] = {"threads": blas_threads()}
+    for tag, s in zip(("W1", "W2"), surfaces, strict=True):
+        result[tag] = default_pool_timings(s, repeats)
+    print(json.dumps(result))
+    return 0
+
+
+def run_default_threads(repeats: int, loaded: bool) -> dict:
+    """One child run of rows D (default BLAS pool), beside a busy process if ``loaded``."""
+    env = os.environ | {"OPENBLAS_NUM_THREADS": ""}  # set, empty: OpenBLAS's default
+    cmd = [sys.executable, os.path.abspath(__file__), CHILD_FLAG, "--repeats", str(repeats)]
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"]) if loaded else None
+    try:
+        if busy is not None:
+            time.sleep(0.5)  # let it take its core
+        proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    finally:
+        if busy is not None:
+            busy.kill()
+            busy.wait()
+    if proc.returncode != 0:
+        raise RuntimeError(f"{CHILD_FLAG} failed ({proc.returncode}):\n{proc.stderr}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+@dataclass
+class DefaultThreads:
+    """The pooled samples of rows D: case ('quiet' or 'loaded') -> workload -> library."""
+
+    timings: dict[str, dict[str, dict[str, Timing]]]
+    threads: str
+    runs: int
+
+
+def bench_default_threads(args) -> DefaultThreads:
+    cases = [("quiet", False)] + [("loaded", True)] * args.loaded_runs
+    timings: dict[str, dict[str, dict[str, Timing]]] = {}
+    threads = set()
+    for case, loaded in cases:
+        res = run_default_threads(args.repeats, loaded)
+        threads.add(res.pop("threads"))
+        for tag, libs in res.items():
+            for name, samples in libs.items():
+                per_lib = timings.setdefault(case, {}).setdefault(tag, {})
+                per_lib.setdefault(name, Timing()).samples.extend(samples)
+    return DefaultThreads(timings, "; ".join(sorted(threads)), args.loaded_runs)
+
+
+#: Rows D's targets vs splipy (gshade with a fresh result), without and with the busy
+#: process: the quiet rows' ratios, as one BLAS thread for gshade makes the pool irrelevant
+#: (W1 >= 2x rather than 2.5x: a fresh result pays its page faults).
+DEFAULT_TARGETS = {
+    ("quiet", "W1"): 2.0,
+    ("quiet", "W2"): 8.0,
+    ("loaded", "W1"): 2.0,
+    ("loaded", "W2"): 8.0,
+}
+
+
+def default_threads_rows(d: DefaultThreads) -> tuple[list[Row], list[str]]:
+    rows, notes = [], []
+    names = {"W1": "W1 B-spline", "W2": "W2 NURBS"}
+    for case in ("quiet", "loaded"):
+        for tag in ("W1", "W2"):
+            t = d.timings[case][tag]
+            load = "no added load" if case == "quiet" else "1 busy process"
+            label = f"{names[tag]}, default BLAS threads, {load}, fresh result"
+            rows.append(
+                Row(label, t["gshade"], t["splipy"], splipy_target=DEFAULT_TARGETS[case, tag])
+            )
+            notes.append(
+                f"D {tag} {load} spread (min-max ms): gshade {t['gshade'].spread_ms}, splipy "
+                f"{t['splipy'].spread_ms}; gshade with `out=`: median "
+                f"{t['gshade out'].median_ms:.1f} ms ({t['gshade out'].spread_ms}), "
+                f"{t['splipy'].median_ms / t['gshade out'].median_ms:.2f}x splipy"
+            )
+    return rows, notes
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
     parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    parser.add_argument(CHILD_FLAG, action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--repeats", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.default_threads_child:
+        return default_threads_child(args.repeats or REPEATS)
     args.repeats = QUICK_REPEATS if args.quick else REPEATS
     args.geomdl_repeats = QUICK_GEOMDL_REPEATS if args.quick else GEOMDL_REPEATS
+    args.loaded_runs = QUICK_LOADED_RUNS if args.quick else LOADED_RUNS
+    load_start = load_average()
 
     rng = np.random.default_rng(SEED)
     bspline, nurbs = make_surfaces(rng)
@@ -383,7 +527,11 @@ def main(argv: list[str] | None = None) -> int:
     row1, spread1 = bench_evaluation(w1, u, v, idx, args)
     row2, spread2 = bench_evaluation(w2, u, v, idx, args)
     row_kh = bench_curvature(bspline, u, v, args)
-    rows = [row1, row2, row_kh]
+    # the children last, with this process's big arrays freed
+    del w1, w2, bspline, nurbs
+    default = bench_default_threads(args)
+    rows_d, notes_d = default_threads_rows(default)
+    rows = [row1, row2, row_kh, *rows_d]
 
     notes = [
         f"geomdl is timed on {GEOMDL_POINTS} random grid points, one "
@@ -399,6 +547,14 @@ def main(argv: list[str] | None = None) -> int:
         spread1,
         spread2,
         f"KH spread (min-max ms): {row_kh.gshade.spread_ms}",
+        "D (default BLAS threads) rows: each a child process with OPENBLAS_NUM_THREADS "
+        f"empty, i.e. OpenBLAS's default (BLAS there: {default.threads}); gshade returns a "
+        "fresh result and limits BLAS to one thread during its calls, splipy uses the pool; "
+        f"{args.repeats} interleaved repeats per run, one run without added load and "
+        f"{default.runs} loaded run(s) (samples pooled), each beside a busy "
+        "`python -c 'while True: pass'` process (not pinned) started 0.5 s before it.",
+        *notes_d,
+        f"Load average (1, 5, 15 min): {load_start} at the start, {load_average()} at the end.",
     ]
 
     info = machine_info([f"splipy {version('splipy')}", f"geomdl {version('geomdl')}"])

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bernstein import bernstein_basis
+from .blas_threads import single_threaded_blas
 from .knots import basis_functions, basis_matrix, validate_parameters
 from .rational import project_curve_derivatives, project_patch_derivatives
 
@@ -99,6 +100,7 @@ class Patch(ABC):
 
     domain: Domain
 
+    @single_threaded_blas
     def derivatives(
         self, u: ArrayLike, v: ArrayLike, order: int = 0, *, out: NDArray | None = None
     ) -> NDArray[np.float64]:
@@ -121,6 +123,11 @@ class Patch(ABC):
         -------
         ndarray, shape (order + 1, order + 1, *broadcast(u, v).shape, 3)
             Entry ``[i, j]`` is d^(i+j)p / du^i dv^j for i + j <= order, zero otherwise.
+
+        Notes
+        -----
+        The matrix products run with one BLAS thread during the call, whatever the
+        process's pool (restored on return; see :mod:`gshade.geometry.blas_threads`).
         """
         order = validate_order(order)
         (u0, u1), (v0, v1) = self.domain
@@ -353,7 +360,8 @@ class TensorProductPatch(Patch):
         for i in range(order + 1):
             rows = (Bu[i] @ net).reshape(u.size, mv, c).transpose(2, 0, 1)  # (c, Nu, mv)
             for j in range(order + 1 - i):
-                # dense products beat per-span ones here (measured): BLAS at full speed
+                # dense products beat per-span ones here (measured): BLAS at full speed,
+                # one thread (``derivatives`` limits the pool; more only wait on each other)
                 np.matmul(rows[:3], Bv[j].T, out=buf[i, j])
                 if w is not None:
                     np.matmul(rows[3], Bv[j].T, out=w[i, j])

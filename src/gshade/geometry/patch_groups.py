@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from .bernstein import bernstein_basis
 from .bezier import BezierPatch
+from .blas_threads import single_threaded_blas
 from .patch import Patch, unit_to_domain, validate_order
 
 __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
@@ -48,6 +49,7 @@ def bezier_groups(patches) -> tuple[dict[tuple[int, int], list[int]], list[int]]
     return groups, others
 
 
+@single_threaded_blas
 def grid_derivatives(
     patches: list[Patch] | tuple[Patch, ...], s: NDArray, order: int = 0
 ) -> NDArray[np.float64]:
