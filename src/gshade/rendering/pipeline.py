@@ -71,9 +71,10 @@ class _Laps:
 def render(scene, **overrides) -> RenderedImage:
     """Render a scene (a :class:`gshade.scene.Scene` or a path) to an image.
 
-    Keyword overrides replace ``[render]`` settings (width, height, spp, lighting, variant,
-    seed, tessellation, chord_tolerance, texture_resolution); with a path, ``set`` may hold
-    dotted scene keys (``{"shape.period": 0.05}``) applied before validation.
+    Keyword overrides replace ``[render]`` settings (width, height, spp, lighting, sampling,
+    variant, seed, tessellation, chord_tolerance, texture_resolution, junctions, aovs); with
+    a path, ``set`` may hold dotted scene keys (``{"shape.period": 0.05}``) applied before
+    validation.
     """
     scene = _with_overrides(scene, overrides)
     lap = _Laps()
