@@ -18,9 +18,6 @@ from numpy.typing import NDArray
 __all__ = ["PIXELS_PLUGIN", "pixel_list_sensor"]
 
 PIXELS_PLUGIN = "gshade_pixels"
-#: virtual pixels per film row (a float32 film position keeps 1/2^13 pixel at this width)
-ROW = 1024
-
 #: the variants whose sensor is registered with Mitsuba
 _REGISTERED: set[str] = set()
 
@@ -39,7 +36,9 @@ def pixel_list_sensor(
         mi.register_sensor(PIXELS_PLUGIN, lambda props: sensor_class(props))
         _REGISTERED.add(variant)
     n = len(pixels)
-    columns = min(n, ROW)
+    # a square film: both coordinates below sqrt(n) <= 2^14 (at most 2^28 pixels listed), so
+    # a float32 film position keeps a sample's place to 2^-10 of a pixel or better
+    columns = int(np.ceil(np.sqrt(n)))
     sensor = mi.load_dict(
         {
             "type": PIXELS_PLUGIN,
