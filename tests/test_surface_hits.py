@@ -14,7 +14,7 @@ from .conftest import TEAPOT
 
 def aimed_rays(patches, rng, n=4000):
     """Rays through known surface points p(u*, v*) from random directions, and starting
-    parameters about 1e-6 away from (u*, v*), as close as the render's data pass gets."""
+    parameters about 1e-6 away from (u*, v*), as close as the render's centre pass gets."""
     index = rng.integers(0, len(patches), n)
     s = rng.uniform(0.05, 0.95, (n, 2))
     u_true, v_true, points = np.empty(n), np.empty(n), np.empty((n, 3))

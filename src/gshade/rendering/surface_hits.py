@@ -1,6 +1,6 @@
 """Exact ray–surface hits: where the ray through each pixel centre meets the exact patch.
 
-The render's data pass gives, per pixel, the patch and its parameters from one float32
+The render's centre pass gives, per pixel, the patch and its parameters from one float32
 Newton step on the Hermite-interpolated surface (about 1e-6 relative).  One more Newton step
 on p(u, v) - o - t d = 0 in float64, on the exact patch, reaches round-off:
 [p_u p_v -d] (du, dv, dt) = o + t d - p, solved by Cramer's rule
