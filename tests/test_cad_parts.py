@@ -41,6 +41,7 @@ from .cad_parts import (
     split_bspline_face,
     write_shape,
 )
+from .test_cad_render import _silhouette
 
 SETTINGS = """
 [shape]
@@ -77,13 +78,6 @@ def _scene(folder: Path, file: str, camera: str, name: str, spp: int = 4, extra:
     settings = SETTINGS.format(spp=spp, extra=extra)
     path.write_text(f'[[surface]]\ntype = "cad"\nfile = "{file}"\n{settings}\n[camera]\n{camera}\n')
     return load_scene(path)
-
-
-def _silhouette(A: np.ndarray) -> np.ndarray:
-    """The pixels not connected to the image border through uncovered pixels."""
-    label, _ = ndimage.label(A == 0)
-    edge = np.unique(np.concatenate([label[0], label[-1], label[:, 0], label[:, -1]]))
-    return ~np.isin(label, edge[edge > 0])
 
 
 def _kinds(scene) -> np.ndarray:

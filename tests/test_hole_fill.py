@@ -14,17 +14,11 @@ import numpy as np
 import pytest
 
 from gshade.analysis.continuity import continuity_report
-from gshade.geometry.bernstein import bernstein_basis
+from gshade.geometry.bernstein import bernstein_basis, derivative_matrix, gram_matrix
 from gshade.geometry.bezier import BezierPatch
 from gshade.geometry.catmull_clark import regular_patch
 from gshade.geometry.hole import find_holes, hole_around
-from gshade.geometry.hole_fill import (
-    derivative_matrix,
-    fill_g1,
-    g1_system,
-    gram_matrix,
-    solve_qp,
-)
+from gshade.geometry.hole_fill import fill_g1, g1_system, solve_qp
 from gshade.geometry.quad_mesh import MeshTopology
 
 from .test_hole import wavy_fan

@@ -1,4 +1,5 @@
-"""Bernstein polynomials: basis values with derivatives, de Casteljau, degree elevation.
+"""Bernstein polynomials: basis values with derivatives, de Casteljau, degree elevation, the
+derivative map on coefficients and the Gram matrix.
 
 The Bernstein polynomials of degree n are B_i^n(t) = C(n, i) t^i (1 - t)^(n - i), i = 0..n
 (Kiciak, Appendix A.1).  Their derivatives follow from
@@ -7,10 +8,18 @@ d/dt B_i^n = n (B_{i-1}^{n-1} - B_i^{n-1}).
 
 from __future__ import annotations
 
+from math import comb
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["bernstein_basis", "de_casteljau", "elevate_degree"]
+__all__ = [
+    "bernstein_basis",
+    "de_casteljau",
+    "derivative_matrix",
+    "elevate_degree",
+    "gram_matrix",
+]
 
 
 def bernstein_basis(degree: int, t: ArrayLike, order: int = 0) -> NDArray[np.float64]:
@@ -97,3 +106,39 @@ def elevate_degree(coeffs: ArrayLike, times: int = 1, axis: int = 0) -> NDArray[
         nxt[:-1] += (1.0 - a[:-1]) * c
         c = nxt
     return np.moveaxis(c, 0, axis)
+
+
+def gram_matrix(m: int) -> NDArray[np.float64]:
+    """The Gram matrix of the Bernstein basis of degree m on [0, 1].
+
+    G[i, j] = int_0^1 B_i^m(t) B_j^m(t) dt = C(m, i) C(m, j) / ((2m + 1) C(2m, i + j)),
+    since B_i^m B_j^m = C(m,i) C(m,j) / C(2m, i+j) B_(i+j)^(2m) and every B^(2m)
+    integrates to 1 / (2m + 1).
+
+    Returns
+    -------
+    ndarray, shape (m + 1, m + 1)
+    """
+    return np.array(
+        [
+            [comb(m, i) * comb(m, j) / ((2 * m + 1) * comb(2 * m, i + j)) for j in range(m + 1)]
+            for i in range(m + 1)
+        ]
+    )
+
+
+def derivative_matrix(m: int, order: int = 1) -> NDArray[np.float64]:
+    """The map from Bernstein coefficients of a degree-m polynomial to those of its
+    ``order``-th derivative (degree m - order): d/dt sum c_i B_i^m = m sum (c_(i+1) - c_i)
+    B_i^(m-1), repeated.
+
+    Returns
+    -------
+    ndarray, shape (m - order + 1, m + 1)
+    """
+    D = np.eye(m + 1)
+    for k in range(order):
+        d = m - k
+        step = d * (np.eye(d, d + 1, 1) - np.eye(d, d + 1))
+        D = step @ D
+    return D

@@ -52,59 +52,22 @@ P. Kiciak, BSTools (LGPL), https://github.com/radek-p/BSTools, ``src/eghole`` an
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import comb
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from .bernstein import bernstein_basis, elevate_degree
+from .bernstein import bernstein_basis, derivative_matrix, elevate_degree, gram_matrix
 from .bezier import BezierPatch
 from .hole import Hole
 
-__all__ = ["G1System", "derivative_matrix", "fill_g1", "g1_system", "gram_matrix", "solve_qp"]
+__all__ = ["G1System", "fill_g1", "g1_system", "solve_qp"]
 
 DEGREE = 5
 #: Sample points per inner edge: (G1-in) has degree 6, so 7 suffice; more are harmless.
 SAMPLES = 12
 #: Largest residual |C x - r| (relative to the data's size) accepted by :func:`fill_g1`.
 RESIDUAL_TOL = 1e-9
-
-
-def gram_matrix(m: int) -> NDArray[np.float64]:
-    """The Gram matrix of the Bernstein basis of degree m on [0, 1].
-
-    G[i, j] = int_0^1 B_i^m(t) B_j^m(t) dt = C(m, i) C(m, j) / ((2m + 1) C(2m, i + j)),
-    since B_i^m B_j^m = C(m,i) C(m,j) / C(2m, i+j) B_(i+j)^(2m) and every B^(2m)
-    integrates to 1 / (2m + 1).
-
-    Returns
-    -------
-    ndarray, shape (m + 1, m + 1)
-    """
-    return np.array(
-        [
-            [comb(m, i) * comb(m, j) / ((2 * m + 1) * comb(2 * m, i + j)) for j in range(m + 1)]
-            for i in range(m + 1)
-        ]
-    )
-
-
-def derivative_matrix(m: int, order: int = 1) -> NDArray[np.float64]:
-    """The map from Bernstein coefficients of a degree-m polynomial to those of its
-    ``order``-th derivative (degree m - order): d/dt sum c_i B_i^m = m sum (c_(i+1) - c_i)
-    B_i^(m-1), repeated.
-
-    Returns
-    -------
-    ndarray, shape (m - order + 1, m + 1)
-    """
-    D = np.eye(m + 1)
-    for k in range(order):
-        d = m - k
-        step = d * (np.eye(d, d + 1, 1) - np.eye(d, d + 1))
-        D = step @ D
-    return D
 
 
 def patch_energy(m: int) -> NDArray[np.float64]:

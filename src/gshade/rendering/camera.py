@@ -83,6 +83,26 @@ class View:
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         return np.broadcast_to(self.origin, d.shape), d
 
+    def camera_coordinates(self, points: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """Coordinates of points (N, 3) along the view's right, up and forward axes, from
+        the eye."""
+        rel = points - self.origin
+        return rel @ self.right, rel @ self.true_up, rel @ self.forward
+
+    def image_positions(self, x: NDArray, y: NDArray, z: NDArray) -> tuple[NDArray, NDArray]:
+        """Continuous image positions (column, row; pixel k spans [k, k + 1]) of camera
+        coordinates: the inverse of :meth:`pixel_rays` (z > 0 for a perspective view)."""
+        W, H = self.image_width, self.image_height
+        aspect = W / H
+        if self.type == "orthographic":
+            half = self.view_width / 2
+            sx, sy = x / half, y / half * aspect
+        else:
+            tan_h = np.tan(np.radians(self.fov) / 2)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                sx, sy = x / (z * tan_h), y / (z * tan_h) * aspect
+        return (sx + 1.0) * W / 2, (1.0 - sy) * H / 2
+
     def key_light(self) -> tuple[float, float, float]:
         """A light from above and left of the camera, toward the scene."""
         d = 0.6 * self.true_up - 0.45 * self.right - 0.65 * self.forward

@@ -160,19 +160,35 @@ def _define(mi):
     def opaque(x):
         return x if scalar else dr.opaque(Float, x)
 
-    class AtlasIntegrator(mi.SamplingIntegrator):
-        """The atlas and the surface's texture, the cell
-        lookup and the Newton step onto the interpolated surface."""
+    class ShapeIntegrator(mi.SamplingIntegrator):
+        """The shape function's picture (R G B A) and the AOVs :data:`SHAPE_FILM` names."""
 
         def to_string(self):
             return f"{type(self).__name__}[{mi.variant()}]"
 
-        def configure_atlas(self, settings, geometry):
+        def configure(self, settings, geometry, values, lut):
             self.geometry = geometry  # p, p_s, p_t, p_st: 12 channels, fetched at once
             atlas = settings.atlas
             self.atlas_w, self.atlas_h, self.tile = atlas.width, atlas.height, atlas.tile
             self.spacing = atlas.spacing
             self.ks, self.kt = (opaque(k) for k in atlas.scale)
+            self.display = DISPLAY_CODES[settings.display]
+            self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
+            self.values = values[0]  # f, f_s, f_t, f_st, valid
+            if self.display == BOTH:
+                self.colour_values = values[1]
+            if lut is not None:
+                self.lut = bitmap(lut[None, :, :])
+                self.lut_size = lut.shape[0]
+            self.period = opaque(settings.period)
+            self.phase = opaque(settings.phase)
+            self.duty = float(settings.duty)
+            self.lo = opaque(settings.value_range[0])
+            self.inv_span = opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
+            self.key = mi.Vector3f(*settings.key_light)
+
+        def aov_names(self):
+            return list(SHAPE_FILM[4:])
 
         def _cell(self, si, texture, hit):
             """The cell around si.uv inside its tile: the four corner texels (all channels)
@@ -198,29 +214,6 @@ def _define(mi):
             x = ops.clip(si.uv.x + ds / self.ks, *tile_bounds(cell.c0, self.tile, self.atlas_w))
             y = ops.clip(si.uv.y + dt / self.kt, *tile_bounds(cell.r0, self.tile, self.atlas_h))
             si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
-
-    class ShapeIntegrator(AtlasIntegrator):
-        """R G B A and AOV f: the shape function's picture."""
-
-        def configure(self, settings, geometry, values, lut):
-            self.configure_atlas(settings, geometry)
-            self.display = DISPLAY_CODES[settings.display]
-            self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
-            self.values = values[0]  # f, f_s, f_t, f_st, valid
-            if self.display == BOTH:
-                self.colour_values = values[1]
-            if lut is not None:
-                self.lut = bitmap(lut[None, :, :])
-                self.lut_size = lut.shape[0]
-            self.period = opaque(settings.period)
-            self.phase = opaque(settings.phase)
-            self.duty = float(settings.duty)
-            self.lo = opaque(settings.value_range[0])
-            self.inv_span = opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
-            self.key = mi.Vector3f(*settings.key_light)
-
-        def aov_names(self):
-            return list(SHAPE_FILM[4:])
 
         def _lookup(self, g):
             t = ops.clip((g - self.lo) * self.inv_span, 0.0, 1.0)

@@ -111,21 +111,7 @@ def render(scene, **overrides) -> RenderedImage:
     film = render_centres(mitsuba, view, settings)
     lap("render")
     hit = film[..., SHAPE_FILM.index("A")] > 0.5  # where the centre rays meet the surface
-    if uniform:
-        picture = render_uniform(mitsuba, settings)[..., : len(PICTURE)]
-        film[..., : len(PICTURE)] = picture
-    else:
-        # a jump of f this small does not show: a thousandth of a stripe or of the colours
-        scale = style.value_range[1] - style.value_range[0]
-        unseen = 1e-3 * float(scale if scene.shape.display == "colormap" else style.period)
-        stripes = None
-        if scene.shape.display != "colormap":
-            stripes = (float(style.period), scene.shape.phase, scene.shape.duty)
-        marked = silhouettes | discontinuous_pixels(film, atlas, unseen, stripes)
-        pixels = np.flatnonzero(marked)
-        if pixels.size and settings.spp > 1:
-            picture = render_pixels_of(mitsuba, view, settings, pixels)[:, : len(PICTURE)]
-            film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
+    _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, scene.shape)
     lap("supersample")
 
     channels = exact_channels(film, hit, atlas, scene.patches, view)
@@ -148,6 +134,25 @@ def render(scene, **overrides) -> RenderedImage:
 
         metadata["junctions"] = junction_metadata(junctions)
     return RenderedImage(channels, metadata, shown, lap.timings)
+
+
+def _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, shape) -> None:
+    """Replace the centre pass's picture (:data:`PICTURE`) in ``film`` by ``spp`` samples'
+    at the silhouettes' pixels and where the picture jumps (everywhere if ``silhouettes`` is
+    None: uniform sampling)."""
+    if silhouettes is None:
+        film[..., : len(PICTURE)] = render_uniform(mitsuba, settings)[..., : len(PICTURE)]
+        return
+    # a jump of f this small does not show: a thousandth of a stripe or of the colours
+    scale = style.value_range[1] - style.value_range[0]
+    unseen = 1e-3 * float(scale if shape.display == "colormap" else style.period)
+    stripes = (
+        None if shape.display == "colormap" else (float(style.period), shape.phase, shape.duty)
+    )
+    pixels = np.flatnonzero(silhouettes | discontinuous_pixels(film, atlas, unseen, stripes))
+    if pixels.size and settings.spp > 1:
+        picture = render_pixels_of(mitsuba, view, settings, pixels)[:, : len(PICTURE)]
+        film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
 
 
 def _with_overrides(scene, overrides: dict):

@@ -159,11 +159,11 @@ def silhouette_pixels(mesh: TriangleMesh, view: View) -> NDArray:
     if not len(ends):
         return marked
     points = mesh.positions[first[ends.ravel()]]
-    x, y, z = (c.reshape(-1, 2) for c in _camera_coordinates(points, view))
+    x, y, z = (c.reshape(-1, 2) for c in view.camera_coordinates(points))
     if view.type != "orthographic":  # the parts of edges in front of the eye
         near = 1e-6 * float(np.linalg.norm(view.target - view.origin))
         x, y, z = _clip_to_front(x, y, z, near)
-    cols, rows = _image_positions(x, y, z, view)
+    cols, rows = view.image_positions(x, y, z)
     cols, rows = _clip_to_box(cols, rows, (-1.0, W + 1.0), (-1.0, H + 1.0))
     r, c = _rasterise(cols, rows, W, H)
     marked[r, c] = True
@@ -191,27 +191,6 @@ def _silhouette_edges(faces: NDArray, front: NDArray, n_vertices: int) -> NDArra
     keep = (counts != 2) | (fronts == 1)
     edge = key[starts[keep]]
     return np.stack([edge // n_vertices, edge % n_vertices], -1)
-
-
-def _camera_coordinates(points: NDArray, view: View) -> tuple[NDArray, NDArray, NDArray]:
-    """Coordinates along the view's right, up and forward axes, from the eye."""
-    rel = points - view.origin
-    return rel @ view.right, rel @ view.true_up, rel @ view.forward
-
-
-def _image_positions(x: NDArray, y: NDArray, z: NDArray, view: View) -> tuple[NDArray, NDArray]:
-    """Continuous image positions (column, row; pixel k spans [k, k + 1]) of camera
-    coordinates, as :meth:`View.pixel_rays` casts them (z > 0 for a perspective view)."""
-    W, H = view.image_width, view.image_height
-    aspect = W / H
-    if view.type == "orthographic":
-        half = view.view_width / 2
-        sx, sy = x / half, y / half * aspect
-    else:
-        tan_h = np.tan(np.radians(view.fov) / 2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            sx, sy = x / (z * tan_h), y / (z * tan_h) * aspect
-    return (sx + 1.0) * W / 2, (1.0 - sy) * H / 2
 
 
 def _clip_to_front(x: NDArray, y: NDArray, z: NDArray, near: float):
