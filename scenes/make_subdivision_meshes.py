@@ -7,6 +7,8 @@
   lifted by 0.45 (domes) and the side midpoints pushed out by 12 % (a bulge).  The 10
   prism corners have valence 3, the 2 cap centres valence 5, the other 20 vertices
   (15 edge midpoints, 5 side centres) valence 4: 32 vertices, 30 quads.
+- ``hexadrum.obj``: the same with a hexagonal prism: 12 corners of valence 3, 2 cap
+  centres of valence 6; 38 vertices, 36 quads.
 
 Faces run counter-clockwise seen from outside.  Run from the repository root:
 ``python scenes/make_subdivision_meshes.py``.
@@ -77,29 +79,34 @@ def split_polygons(vertices, polygons, centre_lift=None, edge_push=None):
     return np.array(points), quads
 
 
-def pentadrum():
-    angles = np.pi / 2 + 2 * np.pi * np.arange(5) / 5
+def drum(k):
+    """A k-gonal prism split into quads (``pentadrum`` for k = 5)."""
+    angles = np.pi / 2 + 2 * np.pi * np.arange(k) / k
     height = 1.4
-    ring = np.stack([np.cos(angles), np.sin(angles), np.zeros(5)], -1)
-    vertices = np.concatenate([ring, ring + np.array([0.0, 0.0, height])])  # 0-4 bottom, 5-9 top
-    bottom = [4, 3, 2, 1, 0]  # seen from below: counter-clockwise
-    top = [5, 6, 7, 8, 9]
-    sides = [(i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i) for i in range(5)]
+    ring = np.stack([np.cos(angles), np.sin(angles), np.zeros(k)], -1)
+    vertices = np.concatenate([ring, ring + np.array([0.0, 0.0, height])])  # bottom, top
+    bottom = list(range(k - 1, -1, -1))  # seen from below: counter-clockwise
+    top = list(range(k, 2 * k))
+    sides = [(i, (i + 1) % k, k + (i + 1) % k, k + i) for i in range(k)]
     polygons = [bottom, top, *sides]
 
-    def lift(k, c):
-        if k == 0:
+    def lift(j, c):
+        if j == 0:
             return c - DOME
-        if k == 1:
+        if j == 1:
             return c + DOME
         return c * BULGE
 
     def push(a, b, m):
-        if (a < 5) != (b < 5):  # a vertical edge
+        if (a < k) != (b < k):  # a vertical edge
             return m * BULGE
         return m
 
     return split_polygons(vertices, polygons, lift, push)
+
+
+def pentadrum():
+    return drum(5)
 
 
 def check_outward(vertices, faces):
@@ -135,6 +142,16 @@ def main():
         f,
         "A pentagonal prism split into quads at its face centres, domed caps, bulging sides:\n"
         "10 vertices of valence 3, 2 of valence 5, 20 of valence 4\n"
+        "(scenes/make_subdivision_meshes.py).",
+    )
+    v, f = drum(6)
+    check_outward(v, f)
+    write_obj(
+        HERE / "data" / "hexadrum.obj",
+        v,
+        f,
+        "A hexagonal prism split into quads at its face centres, domed caps, bulging sides:\n"
+        "12 vertices of valence 3, 2 of valence 6, 24 of valence 4\n"
         "(scenes/make_subdivision_meshes.py).",
     )
 

@@ -15,6 +15,7 @@ from .differential import (
     second_fundamental_form,
     unit_normal,
 )
+from .gammaspline import GammaSplineCurve, GammaSplinePatch
 from .nuspline import NuSplinePatch, nu_spline
 from .patch import Curve, Patch
 from .regularity import patch_normals, regularised_derivatives, toward_interior
@@ -30,6 +31,8 @@ __all__ = [
     "BezierPatch",
     "CoonsPatch",
     "Curve",
+    "GammaSplineCurve",
+    "GammaSplinePatch",
     "NuSplinePatch",
     "Patch",
     "StamPatch",

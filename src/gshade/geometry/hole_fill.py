@@ -1,178 +1,231 @@
-"""G1 filling of an n-sided hole with n biquintic Bézier patches (Hahn's scheme).
+"""G1 and G2 filling of an n-sided hole with n Bézier patches (Hahn's scheme).
 
 The hole is a :class:`~gshade.geometry.hole.Hole`: n faces around an extraordinary vertex of
 a Catmull–Clark mesh, surrounded by 2n bicubic patches.  It is filled with n tensor-product
-Bézier patches P_0, ..., P_(n-1) of degree (5, 5), one per hole face, in the layout of Hahn
-(1989; Kiciak 2016, §4.1).  The degrees are those of Kiciak's G1 hole filling in BSTools
-(``eghole``, ``bookg1hole``: biquintic patches, quartic inner curves, filling a hole in a
-surface of bicubic patches).
+Bézier patches P_0, ..., P_(n-1) of degree (d, d), one per hole face, in the layout of Hahn
+(1989; Kiciak 2016, §4.1): d = 5 for G1, d = 9 for G2, the degrees of Kiciak's G1 and G2
+hole fillings in BSTools (``eghole``, ``bookg1hole``).
 
 Parametrisation.  With hole face F_i = (v, e_i, f_i, e_(i+1)) (see :mod:`.hole`),
 
     P_i(0, 0) = centre,  P_i(1, 0) = e_i,  P_i(1, 1) = f_i,  P_i(0, 1) = e_(i+1),
 
-so u runs along the EV's edge h_i and P_u x P_v points to the normal side.  The *outer
-edges* lie on the hole's boundary,
+so u runs along the EV's edge h_i and P_u x P_v points to the normal side.
 
-    P_i(1, t) = b_(2i+1)(t),        P_u(1, t) = -d1_(2i+1)(t)       (segment e_i -> f_i),
-    P_i(t, 1) = b_(2i+2)(1 - t),    P_v(t, 1) = -d1_(2i+2)(1 - t)   (segment f_i -> e_(i+1)),
+Outer edges.  They lie on the hole's boundary and join the surrounding patches C1 (G1) or
+C2 (G2): with the hole's boundary data b_j, d1_j, d2_j,
 
-a C1 join to the surrounding patches: in Bézier form the rows a = 4, 5 and the columns
-b = 4, 5 of P_i's net are the degree-elevated cubic data.  The *inner edges* are shared,
-E_i(t) = P_i(t, 0) = P_(i-1)(0, t) (nets: P_i[a, 0] = P_(i-1)[0, a]), and joined G1 by
+    P_i(1, t) = b_(2i+1)(t),  -P_u(1, t) = d1_(2i+1)(t),  P_uu(1, t) = d2_(2i+1)(t),
+    P_i(t, 1) = b_(2i+2)(1-t),  -P_v(t, 1) = d1_(2i+2)(1-t),  P_vv(t, 1) = d2_(2i+2)(1-t);
 
-    d/dv P_i(t, 0) + d/du P_(i-1)(0, t) = lambda(t) E_i'(t),
-    lambda(t) = 2 cos(2 pi / n) (1 - t)^2,                                        (G1-in)
+in Bézier form the last two (three) rows and columns of P_i's net are fixed by the
+degree-elevated cubic data.
 
-a fixed junction function, so that every condition is linear in the control points and the
-same for x, y and z.  At t = 0 it makes the centre tangents E_i'(0) an affine image of the
-regular n-gon; lambda(1) = lambda'(1) = 0 makes it agree with the C1 data at e_i (with a
-linear lambda the system is inconsistent).  For n = 4 lambda = 0: the filling is C1.
+Inner edges.  They are shared, E_i(t) = P_i(t, 0) = P_(i-1)(0, t), and joined by the
+reparametrisation (u, v) = (t + lambda(t) s, -s) + O(s^2) of Kiciak's Ch. 3 (BOOK_NOTES:
+p*_v = alpha p_u + beta p_v with alpha = lambda, beta = -1; gamma = delta = 0 at second order):
 
-Energy.  Among the fillings satisfying these conditions the one minimising
+    G1:  d_u P_(i-1)(0, t) = lambda(t) P_i,u(t, 0) - P_i,v(t, 0),                 (G1-in)
+    G2:  d_uu P_(i-1)(0, t) = lambda^2 P_i,uu - 2 lambda P_i,uv + P_i,vv  at (t, 0), (G2-in)
 
-    F = sum_i int int |P_uu|^2 + 2 |P_uv|^2 + |P_vv|^2 du dv
+with a fixed *junction function* lambda(t) = 2 cos(2 pi / n) h(t), so that every condition
+is linear in the control points and the same for x, y and z:
 
-is chosen.  F is a quadratic form x^T Q x in the control points, assembled exactly from the
-Bernstein Gram matrices G_m[i, j] = int_0^1 B_i^m B_j^m = C(m,i) C(m,j) / ((2m+1) C(2m,i+j))
-and the derivative operators on Bernstein coefficients.  The conditions are sampled at
+- G1: h(t) = (1 - t)^2;
+- G2: h(t) = (1 - t)^3 (1 + 3t).
+
+Why these.  At t = 0, (G1-in) makes the centre tangents E_i'(0) an affine image of the
+regular n-gon (e_(i+1) + e_(i-1) = 2 cos(2 pi / n) e_i), the tangent plane's compatibility
+condition (Kiciak §4.3).  At t = 1 the inner edge ends at a regular vertex of the
+surroundings, where the junction is C1 (C2): h must vanish there to first (second) order,
+else the corner conditions contradict the boundary data (with h = 1 - t the G1 system is
+inconsistent).  For G2 the higher-order compatibility at the centre matters too: with
+h = (1 - t)^3 and gamma = delta = 0 the system is solvable, but for n = 3 only with all
+centre tangents zero (a singular point).  h = (1 - t)^3 (1 + 3t) has h'(0) = 0: near the
+centre the junctions are those of the planar star of sectors (a linear reparametrisation,
+lambda constant), which is regular, so the conditions at the centre admit a regular jet for
+every n; the system is consistent at degree 8 and 9 for n = 3..12 (degree 7: not for
+n >= 5).  For even n the circulant of the centre conditions is singular and its
+solvability condition (the vertex enclosure constraint, Peters 1991) is among the rows.
+For n = 4, lambda = 0: the filling is C1 (C2).
+
+Shape.  Among the fillings meeting these conditions the one minimising a quadratic
+functional (:mod:`.hole_energy`; book §5.3) is chosen.  The conditions are sampled at
 Chebyshev points, enough for the polynomial identities to hold exactly, giving C x = r; the
 minimiser is found in the null space of C (SVD, rank threshold), which tolerates the
-redundant rows (among them the even-n vertex-enclosure condition at the centre).
+redundant rows.  Optionally a nonlinear measure on the surface is then lowered within the
+same null space (:mod:`gshade.shape.hole_shape`; book §5.4).
 
 References
 ----------
 J. Hahn, "Filling polygonal holes with rectangular patches", in *Theory and Practice of
 Geometric Modeling*, Springer (1989), 81–91.  P. Kiciak, *Geometric Continuity of Curves
-and Surfaces* (2016), §4.1 (Hahn's scheme), §5.3 (constructions with functionals).
-P. Kiciak, BSTools (LGPL), https://github.com/radek-p/BSTools, ``src/eghole`` and
+and Surfaces* (2016), Ch. 3 (junctions), §4.1 (Hahn's scheme), §4.3 (compatibility at the
+centre), §5.3 (constructions with functionals).  J. Peters, "Smooth interpolation of a mesh
+of curves", *Constructive Approximation* 7 (1991), 221–246 (vertex enclosure).  P. Kiciak,
+BSTools (LGPL), https://github.com/radek-p/BSTools, ``src/eghole`` and
 ``src/projects/bookg1holed.c`` (degrees of the patches; no code taken).
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import GshadeError
-from .bernstein import bernstein_basis, derivative_matrix, elevate_degree, gram_matrix
+from ..errors import GshadeError, one_of, show
+from .bernstein import bernstein_basis, elevate_degree
 from .bezier import BezierPatch
 from .hole import Hole
+from .hole_energy import FUNCTIONALS, functional_matrix
 
-__all__ = ["G1System", "fill_g1", "g1_system", "solve_qp"]
+__all__ = [
+    "JUNCTIONS",
+    "HoleFilling",
+    "HoleSystem",
+    "Junctions",
+    "fill_hole",
+    "filling_patches",
+    "hole_system",
+    "solve_qp",
+]
 
-DEGREE = 5
-#: Sample points per inner edge: (G1-in) has degree 6, so 7 suffice; more are harmless.
-SAMPLES = 12
-#: Largest residual |C x - r| (relative to the data's size) accepted by :func:`fill_g1`.
+#: Largest residual |C x - r| (relative to the data's size) accepted by :func:`fill_hole`.
 RESIDUAL_TOL = 1e-9
 
 
-def patch_energy(m: int) -> NDArray[np.float64]:
-    """Q with int int |P_uu|^2 + 2 |P_uv|^2 + |P_vv|^2 = sum_c X_c^T Q X_c for a patch of
-    degree (m, m), X_c its net's coordinate c flattened row-major (index a (m + 1) + b)."""
-    I = np.eye(m + 1)
-    D1, D2 = derivative_matrix(m, 1), derivative_matrix(m, 2)
-    G = {k: gram_matrix(k) for k in (m - 2, m - 1, m)}
-    Q = np.zeros(((m + 1) ** 2,) * 2)
-    for w, (A, ga), (B, gb) in (
-        (1.0, (D2, m - 2), (I, m)),
-        (2.0, (D1, m - 1), (D1, m - 1)),
-        (1.0, (I, m), (D2, m - 2)),
-    ):
-        K = np.kron(A, B)
-        Q += w * K.T @ np.kron(G[ga], G[gb]) @ K
-    return Q
+@dataclass(frozen=True)
+class Junctions:
+    """How a filling of the given continuity is built: patch degree, the order of the
+    junction conditions, the profile h of the junction function lambda = 2 cos(2 pi/n) h,
+    and the default functional."""
+
+    continuity: str
+    degree: int
+    order: int
+    profile: Callable[[NDArray[np.float64]], NDArray[np.float64]]
+    functional: str
+
+
+#: The fillings by continuity (module docstring).
+JUNCTIONS: dict[str, Junctions] = {
+    "G1": Junctions("G1", 5, 1, lambda t: (1.0 - t) ** 2, "thin-plate"),
+    "G2": Junctions("G2", 9, 2, lambda t: (1.0 - t) ** 3 * (1.0 + 3.0 * t), "third-order"),
+}
 
 
 @dataclass(frozen=True)
-class G1System:
-    """The filling problem min x^T Q x subject to C x = r.
+class HoleSystem:
+    """The conditions C x = r on a filling of n patches of degree (degree, degree).
 
     Attributes
     ----------
-    n : int
-        Sides of the hole.
-    C : ndarray, shape (rows, 36 n)
+    C : ndarray, shape (rows, n (degree + 1)^2)
         Linear conditions on the unknowns: the nets of P_0, ..., P_(n-1), each flattened
-        row-major (index 36 i + 6 a + b for P_i[a, b]); the same for every coordinate.
+        row-major (index (degree + 1)^2 i + (degree + 1) a + b for P_i[a, b]); the same for
+        every coordinate.
     r : ndarray, shape (rows, 3)
         Right-hand sides (one column per coordinate).
-    Q : ndarray, shape (36 n, 36 n)
-        The energy F = sum_c x_c^T Q x_c (block diagonal).
     """
 
     n: int
+    continuity: str
+    degree: int
     C: NDArray[np.float64]
     r: NDArray[np.float64]
-    Q: NDArray[np.float64]
 
 
-def g1_system(hole: Hole, *, lambda_power: int = 2, samples: int = SAMPLES) -> G1System:
-    """The conditions and the energy of the G1 filling of ``hole`` (module docstring).
+def _continuity(continuity: str) -> Junctions:
+    if continuity not in JUNCTIONS:
+        expected = one_of(tuple(JUNCTIONS))
+        raise GshadeError(f"continuity: expected {expected}, got {show(continuity)}")
+    return JUNCTIONS[continuity]
+
+
+def _add(rows: NDArray[np.float64], column: np.integer, values: NDArray[np.float64]) -> None:
+    rows[:, column] += values
+
+
+def hole_system(
+    hole: Hole,
+    continuity: str = "G1",
+    *,
+    profile: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    degree: int | None = None,
+) -> HoleSystem:
+    """The conditions of the ``continuity`` filling of ``hole`` (module docstring).
 
     Parameters
     ----------
     hole : Hole
         The hole and its boundary data.
-    lambda_power : int
-        p in lambda(t) = 2 cos(2 pi / n) (1 - t)^p.  Only p = 2 gives a consistent system
-        for n != 4 (p = 1 is there to show that).
-    samples : int
-        Chebyshev points per inner edge at which (G1-in) is imposed (>= 7).
+    continuity : {"G1", "G2"}
+    profile : callable, optional
+        h in lambda(t) = 2 cos(2 pi / n) h(t), instead of the continuity's own (to show
+        that other choices fail).
+    degree : int, optional
+        The patches' degree, instead of the continuity's own.
     """
-    n, m = hole.n, DEGREE
-    size = (m + 1) ** 2
-    N = n * size
-    rows: list[NDArray[np.float64]] = []
-    rhs: list[NDArray[np.float64]] = []
+    kind = _continuity(continuity)
+    n, d, order = hole.n, degree or kind.degree, kind.order
+    size = (d + 1) ** 2
+    var = np.arange(n * size).reshape(n, d + 1, d + 1)  # var[i, a, b]: unknown of P_i[a, b]
+    fixed: list[tuple[int, NDArray[np.float64]]] = []  # (unknown, value)
 
-    def var(i: int, a: int, b: int) -> int:
-        return (i % n) * size + a * (m + 1) + b
-
-    def row(entries: dict[int, float] | None = None) -> NDArray[np.float64]:
-        out = np.zeros(N)
-        for k, w in (entries or {}).items():
-            out[k] += w
-        return out
-
-    # outer edges: C1 to the surrounding patches
-    boundary = elevate_degree(hole.boundary, m - 3, axis=1)
-    cross = elevate_degree(hole.cross1, m - 3, axis=1)
+    # outer edges: C^order to the surrounding patches; the k-th net row from the edge
+    data = [elevate_degree(x, d - 3, axis=1) for x in (hole.boundary, hole.cross1, hole.cross2)]
+    rows_from_edge = [data[0], data[0] + data[1] / d]
+    rows_from_edge.append(data[2] / (d * (d - 1)) - rows_from_edge[0] + 2.0 * rows_from_edge[1])
     for i in range(n):
         ju, jv = 2 * i + 1, (2 * i + 2) % (2 * n)
-        for b in range(m + 1):
-            # u = 1: P(1, t) = b_ju(t), P_u(1, t) = -d1_ju(t)
-            rows += [row({var(i, m, b): 1.0}), row({var(i, m - 1, b): 1.0})]
-            rhs += [boundary[ju, b], boundary[ju, b] + cross[ju, b] / m]
-            # v = 1: P(t, 1) = b_jv(1 - t), P_v(t, 1) = -d1_jv(1 - t)
-            rows += [row({var(i, b, m): 1.0}), row({var(i, b, m - 1): 1.0})]
-            rhs += [boundary[jv, m - b], boundary[jv, m - b] + cross[jv, m - b] / m]
-    # inner edges: shared, and (G1-in)
+        for k in range(order + 1):
+            for b in range(d + 1):
+                fixed.append((var[i, d - k, b], rows_from_edge[k][ju, b]))
+                fixed.append((var[i, b, d - k], rows_from_edge[k][jv, d - b]))
+
+    # inner edges: shared nets, then (G1-in) and (G2-in) at Chebyshev points
+    samples = 2 * d + 8
     t = 0.5 - 0.5 * np.cos((2 * np.arange(samples) + 1) * np.pi / (2 * samples))
-    B = bernstein_basis(m, t, 1)  # (2, samples, m + 1)
-    lam = 2.0 * np.cos(2.0 * np.pi / n) * (1.0 - t) ** lambda_power
-    zero = np.zeros(3)
+    B = bernstein_basis(d, t, 2)  # (3, samples, d + 1)
+    lam = 2.0 * math.cos(2.0 * math.pi / n) * (profile or kind.profile)(t)
+    blocks = []
     for i in range(n):
-        for a in range(m + 1):
-            rows.append(row({var(i, a, 0): 1.0, var(i - 1, 0, a): -1.0}))
-            rhs.append(zero)
-        for s in range(samples):
-            r = np.zeros(N)
-            for a in range(m + 1):
-                # m sum_a B_a (P_i[a,1] - P_i[a,0]) + m sum_a B_a (P_(i-1)[1,a] - P_(i-1)[0,a])
-                # - lambda sum_a B_a' P_i[a, 0] = 0
-                w = m * B[0, s, a]
-                r[var(i, a, 1)] += w
-                r[var(i, a, 0)] -= w + lam[s] * B[1, s, a]
-                r[var(i - 1, 1, a)] += w
-                r[var(i - 1, 0, a)] -= w
-            rows.append(r)
-            rhs.append(zero)
-    Q = np.asarray(np.kron(np.eye(n), patch_energy(m)), dtype=np.float64)
-    return G1System(n, np.array(rows), np.array(rhs), Q)
+        Pi, Pj = var[i], var[i - 1]  # P_i, and P_(i-1) across E_i
+        rows = np.zeros((d + 1, n * size))
+        rows[np.arange(d + 1), Pi[:, 0]] = 1.0
+        rows[np.arange(d + 1), Pj[0, :]] -= 1.0
+        blocks.append(rows)
+        # d_u P_(i-1)(0, t) - lambda P_i,u(t, 0) + P_i,v(t, 0) = 0
+        rows = np.zeros((samples, n * size))
+        w = d * B[0]
+        for a in range(d + 1):
+            _add(rows, Pj[1, a], w[:, a])
+            _add(rows, Pj[0, a], -w[:, a])
+            _add(rows, Pi[a, 0], -lam * B[1, :, a] - w[:, a])
+            _add(rows, Pi[a, 1], w[:, a])
+        blocks.append(rows)
+        if order < 2:
+            continue
+        # d_uu P_(i-1)(0, t) - lambda^2 P_i,uu + 2 lambda P_i,uv - P_i,vv = 0
+        rows = np.zeros((samples, n * size))
+        w2, w1 = d * (d - 1) * B[0], d * B[1]
+        for a in range(d + 1):
+            for c, coef in enumerate((1.0, -2.0, 1.0)):
+                _add(rows, Pj[c, a], coef * w2[:, a])
+                _add(rows, Pi[a, c], -coef * w2[:, a])
+            _add(rows, Pi[a, 0], -(lam**2) * B[2, :, a] - 2 * lam * w1[:, a])
+            _add(rows, Pi[a, 1], 2 * lam * w1[:, a])
+        blocks.append(rows)
+    inner = np.concatenate(blocks)
+    given = np.zeros((len(fixed), n * size))
+    given[np.arange(len(fixed)), [k for k, _ in fixed]] = 1.0
+    C = np.concatenate([given, inner])
+    r = np.concatenate([np.array([v for _, v in fixed]), np.zeros((len(inner), 3))])
+    return HoleSystem(n, continuity, d, C, r)
 
 
 def solve_qp(
@@ -203,31 +256,108 @@ def solve_qp(
     return xp, Z, float(np.abs(C @ xp - r).max())
 
 
-def fill_g1(hole: Hole) -> tuple[BezierPatch, ...]:
-    """The G1 filling of ``hole``: n biquintic Bézier patches (module docstring).
+@dataclass(frozen=True)
+class HoleFilling:
+    """A filled hole.
 
-    P_i covers hole face F_i = (v, e_i, f_i, e_(i+1)): P_i(0, 0) is the centre,
-    P_i(1, 0) = e_i, P_i(1, 1) = f_i, P_i(0, 1) = e_(i+1); P_i(t, 0) = P_(i-1)(0, t).
-    It joins the surrounding patches C1 (the hole's ``boundary`` and ``cross1``), its
-    neighbours G1 by (G1-in), and minimises the thin-plate-like energy among such fillings.
+    Attributes
+    ----------
+    patches : tuple of BezierPatch
+        P_0, ..., P_(n-1) (module docstring): P_i(0, 0) the centre, P_i(1, 0) = e_i,
+        P_i(1, 1) = f_i, P_i(0, 1) = e_(i+1), P_i(t, 0) = P_(i-1)(0, t).
+    continuity, functional, domain : str
+        How it was made.
+    residual : float
+        max |C x - r| of the junction conditions, relative to the data's size.
+    energy : float
+        The functional's value sum_c x_c^T Q x_c at the quadratic solution.
+    nets : ndarray, shape (n (d + 1)^2, 3)
+        The patches' control points x (as in :class:`HoleSystem`).
+    free_basis : ndarray, shape (n (d + 1)^2, k)
+        A basis Z of the conditions' null space: every x + Z Y meets them (C Z = 0).
+    shape : object or None
+        The report of a nonlinear optimisation that moved ``nets`` within that space
+        (:func:`gshade.shape.hole_shape.optimise_filling`), or None.
+    """
+
+    patches: tuple[BezierPatch, ...]
+    continuity: str
+    functional: str
+    domain: str
+    residual: float
+    energy: float
+    nets: NDArray[np.float64]
+    free_basis: NDArray[np.float64]
+    shape: Any = None
+
+    @property
+    def degree(self) -> int:
+        """The patches' degree in each direction."""
+        return int(self.patches[0].degree[0])
+
+    @property
+    def free(self) -> int:
+        """Free parameters per coordinate (the null space's dimension)."""
+        return int(self.free_basis.shape[1])
+
+
+def fill_hole(
+    hole: Hole,
+    continuity: str = "G1",
+    functional: str | None = None,
+    *,
+    domain: str = "square",
+) -> HoleFilling:
+    """Fill ``hole`` with n Bézier patches joined G1 or G2 (module docstring).
+
+    Parameters
+    ----------
+    hole : Hole
+    continuity : {"G1", "G2"}
+        G1: biquintic patches, C1 to the surroundings; G2: degree (9, 9), C2 to them.
+    functional : str, optional
+        The quadratic functional minimised (:data:`.hole_energy.FUNCTIONALS`); default
+        ``thin-plate`` for G1, ``third-order`` for G2.
+    domain : {"square", "sector"}
+        The domain it is integrated over (:data:`.hole_energy.DOMAINS`).
 
     Raises
     ------
     GshadeError
-        If the conditions cannot be met (boundary data violating the corner compatibility
-        conditions of :mod:`.hole`).
+        For unknown names, or if the conditions cannot be met (boundary data violating the
+        corner compatibility conditions of :mod:`.hole`).
     """
-    system = g1_system(hole)
-    x, _, residual = solve_qp(system.C, system.r, system.Q)
+    kind = _continuity(continuity)
+    functional = kind.functional if functional is None else functional
+    if functional not in FUNCTIONALS:
+        expected = one_of(tuple(FUNCTIONALS))
+        raise GshadeError(f"functional: expected {expected}, got {show(functional)}")
+    system = hole_system(hole, continuity)
+    Q = functional_matrix(functional, hole.n, system.degree, domain)
+    x, Z, residual = solve_qp(system.C, system.r, Q)
     scale = max(1.0, float(np.abs(hole.boundary).max()))
     if residual > RESIDUAL_TOL * scale:
         raise GshadeError(
-            f"hole around vertex {hole.vertex}: the G1 conditions are inconsistent "
+            f"hole around vertex {hole.vertex}: the {continuity} conditions are inconsistent "
             f"(residual {residual:.3g})"
         )
-    nets = x.reshape(hole.n, DEGREE + 1, DEGREE + 1, 3).copy()
-    # make the shared inner edges and the centre bitwise equal (they agree to rounding)
-    for i in range(hole.n):
+    return HoleFilling(
+        patches=filling_patches(x, hole.n, system.degree),
+        continuity=continuity,
+        functional=functional,
+        domain=domain,
+        residual=residual / scale,
+        energy=float(np.einsum("ic,ij,jc->", x, Q, x)),
+        nets=x,
+        free_basis=Z,
+    )
+
+
+def filling_patches(x: NDArray[np.float64], n: int, degree: int) -> tuple[BezierPatch, ...]:
+    """The patches P_0, ..., P_(n-1) of the nets x (shape (n (degree + 1)^2, 3)), their
+    shared inner edges and the centre made bitwise equal (they agree to rounding)."""
+    nets = x.reshape(n, degree + 1, degree + 1, 3).copy()
+    for i in range(n):
         edge = 0.5 * (nets[i, :, 0] + nets[i - 1, 0, :])
         nets[i, :, 0] = nets[i - 1, 0, :] = edge
     nets[:, 0, 0] = nets[:, 0, 0].mean(axis=0)

@@ -40,7 +40,7 @@ from .catmull_clark import NotRegular, net_index, net_points, refine, regular_pa
 from .patch import Patch
 from .quad_mesh import MeshTopology, validate_mesh
 
-__all__ = ["StamPatch", "subdivision_patches"]
+__all__ = ["StamPatch", "face_patches", "subdivision_patches"]
 
 #: Most rings stored per Stam patch; beyond them a point is the extraordinary vertex itself.
 MAX_LEVELS = 200
@@ -443,13 +443,19 @@ def subdivision_patches(
     for _ in range(int(levels)):
         P, F = refine(P, topo)
         topo = MeshTopology(F, len(P))
-    irregular = ~topo.regular[F]  # (F, 4)
-    if (irregular.sum(axis=1) > 1).any():
+    if (~topo.regular[F]).sum(axis=1).max() > 1:
         P, F = refine(P, topo)
         topo = MeshTopology(F, len(P))
-        irregular = ~topo.regular[F]
+    return face_patches(P, topo, range(len(F)))
+
+
+def face_patches(P: NDArray, topo: MeshTopology, faces: Iterable[int]) -> list[Patch]:
+    """The exact limit patches of the given faces of a valid mesh (points ``P``), each face
+    with at most one extraordinary vertex: a bicubic :class:`~gshade.geometry.BezierPatch`
+    where the face is regular, else a :class:`StamPatch` (see :func:`subdivision_patches`)."""
+    irregular = ~topo.regular[topo.faces]
     patches: list[Patch] = []
-    for f in range(len(F)):
+    for f in faces:
         corners = np.nonzero(irregular[f])[0]
         if corners.size == 0:
             try:

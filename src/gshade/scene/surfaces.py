@@ -30,11 +30,16 @@ from ..geometry import (
     sphere,
     torus,
 )
+from ..geometry.gammaspline import GammaSplinePatch
+from ..geometry.hole_energy import DOMAINS, FUNCTIONALS
+from ..geometry.hole_fill import JUNCTIONS
+from ..geometry.hole_surface import filled_surface
 from ..geometry.junctions import CLASSES, junction_patch
 from ..geometry.nuspline import ENDS as NU_ENDS
 from ..geometry.nuspline import NuSplinePatch
 from ..geometry.subdivision import subdivision_patches
 from ..limits import MAX_DEGREE, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
+from ..shape.hole_shape import SHAPE_MEASURES, optimise_filling
 from .data_files import DataFiles
 from .model import CadFaces, Surface
 from .tables import (
@@ -295,6 +300,48 @@ def _build_betaspline(t: Table, files: DataFiles) -> list[Patch]:
 
 
 @surface_type(
+    "gammaspline",
+    "a bicubic γ-spline surface (Boehm's G2 splines in B-spline form, with shape parameters γ)",
+    Key("points", "at least 4 rows of at least 4 points [x, y, z]", REQUIRED, "the control net"),
+    Key("gamma", "number > 0", 1.0, "the shape parameter (1: a cubic B-spline)"),
+    *(
+        Key(
+            f"gamma_{d}",
+            f"number > 0, or one per interior junction ({_ROWS[d]} − 4)",
+            None,
+            f"the shape parameters in {d}",
+            "gamma",
+        )
+        for d in "uv"
+    ),
+    *(
+        Key(
+            f"knots_{d}",
+            f"{_ROWS[d]} + 4 strictly increasing numbers",
+            None,
+            f"the B-spline knot vector in {d}",
+            "−3, −2, …",
+        )
+        for d in "uv"
+    ),
+)
+def _build_gammaspline(t: Table, files: DataFiles) -> list[Patch]:
+    # the net's size, the values' bounds and the knots' count and order are
+    # GammaSplinePatch's to check
+    points = t.array("points", _NET, 3)
+    given: dict[str, Any] = {}
+    for k, d in enumerate("uv"):
+        count, rows = points.shape[k], _ROWS[d]
+        what = f"one per interior junction in {d}: {rows} ({count}) - 4"
+        given[f"gamma_{d}"] = _number_or_list(t, f"gamma_{d}", what)
+        if f"knots_{d}" in t.data:
+            expected = f"a list of {count + 4} strictly increasing knots ({count} {rows} + 4)"
+            given[f"knots_{d}"] = t.array(f"knots_{d}", (expected,))
+    with t.reported():
+        return [GammaSplinePatch(points, t.number("gamma"), **given)]
+
+
+@surface_type(
     "nuspline",
     "a bicubic ν-spline surface interpolating a grid of points (G2, with tensions ν)",
     Key("points", "rows of points [x, y, z]", REQUIRED, "the grid to interpolate"),
@@ -385,9 +432,6 @@ def _build_junction(t: Table, files: DataFiles) -> list[Patch]:
     ),
 )
 def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
-    from ..io.obj import read_obj_mesh
-
-    name = t.string("file", expected="a path to an OBJ file (a quad mesh)")
     levels = t.integer("levels", minimum=None)  # >= 0: subdivision_patches checks it
     if levels > MAX_SUBDIVISION_LEVELS:
         raise t.error(
@@ -395,9 +439,7 @@ def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
             f"expected an integer from 0 to {MAX_SUBDIVISION_LEVELS} (each level multiplies "
             f"the patches by 4), got {show(t.data['levels'])}",
         )
-    data_file = files.find(t, name)
-    with t.reported():
-        mesh = read_obj_mesh(data_file)
+    mesh, source = _quad_mesh(t, files)
     if len(mesh.faces) * 4**levels > MAX_PATCHES:
         raise t.error(
             "levels",
@@ -406,12 +448,65 @@ def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
         )
     with t.reported():
         return subdivision_patches(
+            mesh.vertices, mesh.faces, levels=levels, source=source, face_lines=mesh.face_lines
+        )
+
+
+def _quad_mesh(t: Table, files: DataFiles) -> tuple[Any, str]:
+    """The OBJ quad mesh the table's ``file`` names, and its path for messages."""
+    from ..io.obj import read_obj_mesh
+
+    name = t.string("file", expected="a path to an OBJ file (a quad mesh)")
+    data_file = files.find(t, name)
+    with t.reported():
+        return read_obj_mesh(data_file), str(data_file)
+
+
+@surface_type(
+    "hole",
+    "a Catmull–Clark surface with the holes around its extraordinary vertices filled G1 or G2",
+    Key("file", "path", REQUIRED, "the mesh in OBJ, relative to the scene file"),
+    Key("continuity", alternatives(tuple(JUNCTIONS)), "G2", "the fillings' continuity"),
+    Key(
+        "functional",
+        alternatives(tuple(FUNCTIONALS)),
+        None,
+        "the quadratic functional minimised",
+        '"thin-plate" (G1), "third-order" (G2)',
+    ),
+    Key("domain", alternatives(DOMAINS), "square", "the domain the functional is taken over"),
+    Key(
+        "optimise",
+        alternatives(tuple(SHAPE_MEASURES)),
+        None,
+        "a measure on the surface lowered",
+        "none",
+    ),
+    Key("iterations", "integer 1–100", 10, "the most Gauss–Newton steps of optimise"),
+)
+def _build_hole(t: Table, files: DataFiles) -> list[Patch]:
+    continuity = t.choice("continuity", tuple(JUNCTIONS))
+    functional = t.choice("functional", tuple(FUNCTIONALS))
+    domain = t.choice("domain", DOMAINS)
+    optimise = t.choice("optimise", tuple(SHAPE_MEASURES))
+    iterations = t.integer("iterations", minimum=1, maximum=100)
+    mesh, source = _quad_mesh(t, files)
+    with t.reported():
+        surface = filled_surface(
             mesh.vertices,
             mesh.faces,
-            levels=levels,
-            source=str(data_file),
+            continuity,
+            functional,
+            domain=domain,
+            source=source,
             face_lines=mesh.face_lines,
         )
+        if optimise is not None:
+            fillings = [
+                optimise_filling(f, optimise, iterations=iterations) for f in surface.fillings
+            ]
+            surface = surface.with_fillings(fillings)
+        return surface.patches
 
 
 #: The CAD files a ``cad`` surface renders.
