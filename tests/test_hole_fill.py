@@ -312,6 +312,20 @@ def test_the_centre_is_regular(case):
         assert np.abs(K - K[0]).max() < 1e-8 * max(1.0, np.abs(K).max())
 
 
+def test_the_vertex_enclosure_condition_for_even_n(case):
+    """Even n: the circulant of the twist conditions at the centre is singular, and the
+    filling satisfies its solvability condition sum_i (-1)^i E_i''(0) = 0 (Peters 1991);
+    for odd n nothing forces it."""
+    hole, filling = case
+    z = np.zeros(1)
+    s = np.array([p.derivatives(z, z, 2)[2, 0, 0] for p in filling.patches])  # E_i''(0)
+    alternating = (((-1.0) ** np.arange(hole.n))[:, None] * s).sum(0)
+    if hole.n % 2 == 0 and hole.n != 4:
+        assert np.abs(alternating).max() < 1e-9 * np.abs(s).max()
+    elif hole.n % 2:
+        assert np.abs(alternating).max() > 1e-3 * np.abs(s).max()
+
+
 def test_the_functional_is_minimal_in_the_null_space(case):
     hole, filling = case
     system = hole_system(hole, filling.continuity)

@@ -177,11 +177,18 @@ def test_hole_scene_optimised(tmp_path):
         (None, 'continuity = "G1"\nfunctional = "third-order"\n', None),
         ("grid", "", r"m\.obj: expected a mesh with an interior vertex of valence other than 4"),
         ("v 0 0 0\nf 1 2 3 4\n", "", r"m\.obj, line 2: expected vertex indices from 1 to 1"),
+        ("big", "", r"file: expected a mesh of at most 6250 faces .*, got 6400"),
+        ("spiky", "", r"file: expected at most 1000 extraordinary vertices .*got 1681"),
     ],
 )
 def test_hole_scene_errors(tmp_path, obj, extra, message):
     if obj == "grid":
         obj = obj_of(*grid_mesh(4, 4, lambda i, j: (i, j, 0.0)))
+    elif obj == "big":
+        obj = obj_of(*grid_mesh(80, 80, lambda i, j: (i, j, 0.0)))
+    elif obj == "spiky":  # a grid with every fourth face taken out: 1681 vertices in 3 faces
+        V, F = grid_mesh(42, 42, lambda i, j: (i, j, 0.0))
+        obj = obj_of(V, [f for k, f in enumerate(F) if k % 4 != 0])
     (tmp_path / "m.obj").write_text(obj if obj is not None else CUBE.read_text())
     path = tmp_path / "s.toml"
     path.write_text(scene_text("m.obj", extra))

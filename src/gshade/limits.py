@@ -18,6 +18,8 @@ from .errors import GshadeError
 __all__ = [
     "MAX_DATA_FILE_BYTES",
     "MAX_DEGREE",
+    "MAX_HOLES",
+    "MAX_HOLE_MESH_FACES",
     "MAX_IMAGE_FILE_BYTES",
     "MAX_IMAGE_SIDE",
     "MAX_MAGNITUDE",
@@ -70,6 +72,10 @@ MIN_DIRECTION = 1e-12
 MAX_DEGREE = 20
 MAX_PATCHES = 100_000
 MAX_SUBDIVISION_LEVELS = 4
+#: A ``hole`` surface: most extraordinary vertices (holes filled, ~0.01-0.1 s each) and most
+#: faces (the mesh may be refined twice, x 16, before its holes are cut).
+MAX_HOLES = 1000
+MAX_HOLE_MESH_FACES = MAX_PATCHES // 16
 
 #: Peak bytes per pixel, per mesh vertex and per texel of a render, and its fixed part
 #: (Python, Mitsuba, LLVM), each an upper bound with a margin (the calibration renders are

@@ -38,7 +38,13 @@ from ..geometry.junctions import CLASSES, junction_patch
 from ..geometry.nuspline import ENDS as NU_ENDS
 from ..geometry.nuspline import NuSplinePatch
 from ..geometry.subdivision import subdivision_patches
-from ..limits import MAX_DEGREE, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
+from ..limits import (
+    MAX_DEGREE,
+    MAX_HOLE_MESH_FACES,
+    MAX_HOLES,
+    MAX_PATCHES,
+    MAX_SUBDIVISION_LEVELS,
+)
 from ..shape.hole_shape import SHAPE_MEASURES, optimise_filling
 from .data_files import DataFiles
 from .model import CadFaces, Surface
@@ -491,6 +497,21 @@ def _build_hole(t: Table, files: DataFiles) -> list[Patch]:
     optimise = t.choice("optimise", tuple(SHAPE_MEASURES))
     iterations = t.integer("iterations", minimum=1, maximum=100)
     mesh, source = _quad_mesh(t, files)
+    if len(mesh.faces) > MAX_HOLE_MESH_FACES:
+        raise t.error(
+            "file",
+            f"expected a mesh of at most {MAX_HOLE_MESH_FACES} faces (it may be refined twice "
+            f"before its holes are filled), got {len(mesh.faces)}",
+        )
+    # vertices in 3 or more faces but not 4: at least every interior extraordinary vertex
+    corners = [np.asarray(f, dtype=np.int64) for f in mesh.faces]
+    counts = np.bincount(np.concatenate(corners)) if corners else np.zeros(0, np.int64)
+    irregular = int(np.count_nonzero((counts >= 3) & (counts != 4)))
+    if irregular > MAX_HOLES:
+        raise t.error(
+            "file",
+            f"expected at most {MAX_HOLES} extraordinary vertices (holes to fill), got {irregular}",
+        )
     with t.reported():
         surface = filled_surface(
             mesh.vertices,
