@@ -178,3 +178,18 @@ def test_the_order_ladder_spec_loads():
         "reflection_lines",
         "mean",
     ]
+
+
+@pytest.mark.parametrize(
+    "path", sorted((ROOT / "scenes" / "figures").glob("*.toml")), ids=lambda p: p.stem
+)
+def test_every_figure_spec_and_its_panels_load(path):
+    """Every shipped figure spec parses, and every panel's scene loads with its column's
+    overrides (the rendering is test_figure_in_every_format's)."""
+    from gshade.scene import load_scene
+
+    spec = load_figure_spec(path)
+    assert len(spec.row_labels) == len(spec.rows)
+    for row in spec.rows:
+        for column in spec.columns:
+            assert load_scene(row, column.overrides).patches

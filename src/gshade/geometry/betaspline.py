@@ -28,60 +28,15 @@ Geometric Modeling*, Morgan Kaufmann (1987) (discretely shaped β-splines).  Kic
 
 from __future__ import annotations
 
-from numbers import Real
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bspline import BSplineCurve, BSplinePatch
+from .cubic_basis import PiecewiseCubicBasis, junction_values, non_negative, positive
 from .patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 
 __all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch"]
-
-#: ``_BERNSTEIN_TO_POWER[k, j]``: coefficient of t^j in the cubic Bernstein polynomial B_k.
-_BERNSTEIN_TO_POWER = np.array(
-    [[1.0, -3.0, 3.0, -1.0], [0.0, 3.0, -6.0, 3.0], [0.0, 0.0, 3.0, -3.0], [0.0, 0.0, 0.0, 1.0]]
-)
-_POWER_TO_BERNSTEIN = np.linalg.inv(_BERNSTEIN_TO_POWER)
-
-
-def _shape_values(value, count: int, name: str, bias: bool, n_points: int) -> float | NDArray:
-    """A global shape parameter (a float) or ``count`` per-junction values (an array)."""
-    what = "> 0 (the bias)" if bias else ">= 0 (the tension)"
-    per = (
-        f"one per interior junction ({n_points} control points)"
-        if count
-        else f"but {n_points} control points have no interior junction"
-    )
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value.item()
-    if isinstance(value, (Real, np.number)) and not isinstance(value, bool):
-        x = float(value)
-        if not (np.isfinite(x) and (x > 0 if bias else x >= 0)):
-            raise GshadeError(f"{name}: expected a number {what}, got {show_value(value)}")
-        return x
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        v = None
-    if v is None or v.ndim != 1:
-        raise GshadeError(
-            f"{name}: expected a number {what} or a list of {count} such numbers ({per}), "
-            f"got {show_value(value)}"
-        )
-    if v.shape[0] != count or count == 0:
-        raise GshadeError(
-            f"{name}: expected a number {what} or a list of {count} such numbers ({per}), "
-            f"got {v.shape[0]} numbers"
-        )
-    bad = ~(np.isfinite(v) & ((v > 0) if bias else (v >= 0)))
-    if np.any(bad):
-        j = int(np.flatnonzero(bad)[0])
-        raise GshadeError(
-            f"{name}: expected numbers {what}, got {float(v[j])!r} at junction {j + 1} (of {count})"
-        )
-    return v
 
 
 def _segment_bezier_matrices(beta1: NDArray, beta2: NDArray) -> NDArray:
@@ -113,7 +68,7 @@ def _segment_bezier_matrices(beta1: NDArray, beta2: NDArray) -> NDArray:
     return M
 
 
-class BetaSplineBasis:
+class BetaSplineBasis(PiecewiseCubicBasis):
     """The cubic β-spline basis over n control points: the domain is [0, n - 3].
 
     Parameters
@@ -157,7 +112,6 @@ class BetaSplineBasis:
     (which move its end points) take the values of the nearest interior junction.
     """
 
-    degree = 3
     #: β1 and β2: one number each, or one per interior junction (``per_junction``)
     beta1: float | tuple[float, ...]
     beta2: float | tuple[float, ...]
@@ -169,8 +123,8 @@ class BetaSplineBasis:
             raise GshadeError(f"points: a cubic β-spline needs at least 4, got {n_points}")
         self.n_points = n_points
         count = n_points - 4
-        b1 = _shape_values(beta1, count, names[0], True, n_points)
-        b2 = _shape_values(beta2, count, names[1], False, n_points)
+        b1 = junction_values(beta1, count, names[0], n_points, "> 0 (the bias)", positive)
+        b2 = junction_values(beta2, count, names[1], n_points, ">= 0 (the tension)", non_negative)
         self.interval = (0.0, float(n_points - 3))
         segments = n_points - 3
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -187,7 +141,8 @@ class BetaSplineBasis:
             self.beta1, self.beta2 = b1, b2
             self.per_junction = False
             self.coefficients = _global_coefficients(b1, b2)
-            self.segment_coefficients = np.broadcast_to(self.coefficients, (segments, 4, 4))
+            coefficients = np.broadcast_to(self.coefficients, (segments, 4, 4))
+            self._set_coefficients(coefficients, np.arange(segments + 1.0))
         else:
             v1 = np.broadcast_to(b1, (count,)).astype(np.float64)
             v2 = np.broadcast_to(b2, (count,)).astype(np.float64)
@@ -197,48 +152,7 @@ class BetaSplineBasis:
             e1 = np.concatenate([[v1[0]] * 2, v1, [v1[-1]] * 2])
             e2 = np.concatenate([[v2[0]] * 2, v2, [v2[-1]] * 2])
             M = _segment_bezier_matrices(e1, e2)
-            # basis function r of arc i: sum_k M[i, k, r] B_k(t), in powers of t
-            self.segment_coefficients = np.einsum("ikr,kj->irj", M, _BERNSTEIN_TO_POWER)
-
-    def bezier_matrices(self) -> NDArray:
-        """M, shape (S, 4, 4): arc i's Bézier points are M[i] @ (d_i, .., d_(i+3))."""
-        return np.einsum("irj,jk->ikr", self.segment_coefficients, _POWER_TO_BERNSTEIN)
-
-    def bezier_operator(self) -> NDArray:
-        """The (3S + 1, n) matrix from control points to the piecewise Bézier net."""
-        M = self.bezier_matrices()
-        S = M.shape[0]
-        out = np.zeros((3 * S + 1, self.n_points))
-        for i in range(S):
-            out[3 * i : 3 * i + 4, i : i + 4] = M[i]  # the shared junction point: arc i's
-        return out
-
-    def bspline_knots(self) -> NDArray:
-        """Knot vector of the same curve as a cubic B-spline with triple interior knots."""
-        S = self.n_points - 3
-        return np.concatenate([[0.0] * 4, np.repeat(np.arange(1.0, S), 3), [float(S)] * 4])
-
-    def local(self, t: NDArray, order: int) -> tuple[NDArray, NDArray]:
-        t = np.asarray(t, dtype=np.float64)
-        seg = np.clip(np.floor(t), 0, self.n_points - 4).astype(np.intp)
-        x = t - seg
-        out = np.zeros((order + 1, t.size, 4))
-        c = self.segment_coefficients[seg]  # (N, 4 basis functions, 4 powers)
-        for k in range(min(order, 3) + 1):
-            # Horner on each basis polynomial (derivative coefficients of order k in c)
-            acc = np.zeros((t.size, 4))
-            for power in range(3, -1, -1):
-                acc = acc * x[:, None] + c[:, :, power]
-            out[k] = acc
-            c = np.concatenate([c[:, :, 1:] * np.arange(1, 4), np.zeros((*c.shape[:2], 1))], -1)
-        return seg, out
-
-    def dense(self, t: NDArray, order: int) -> NDArray:
-        first, ders = self.local(t, order)
-        out = np.zeros((order + 1, first.size, self.n_points))
-        rows = np.arange(first.size)[:, None]
-        out[:, rows, first[:, None] + np.arange(4)] = ders
-        return out
+            self._set_arcs(M, np.arange(segments + 1.0))
 
 
 def _global_coefficients(b1: float, b2: float) -> NDArray:

@@ -41,13 +41,12 @@ W. Boehm, "Curvature continuous curves and surfaces", *Computer Aided Geometric 
 
 from __future__ import annotations
 
-from numbers import Real
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from .bspline import BSplineCurve, BSplinePatch
+from .cubic_basis import PiecewiseCubicBasis, junction_values, positive
 from .patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 
 __all__ = [
@@ -57,12 +56,6 @@ __all__ = [
     "gamma_from_nu",
     "nu_from_gamma",
 ]
-
-#: ``_BERNSTEIN_TO_POWER[k, j]``: coefficient of x^j in the cubic Bernstein polynomial B_k.
-_BERNSTEIN_TO_POWER = np.array(
-    [[1.0, -3.0, 3.0, -1.0], [0.0, 3.0, -6.0, 3.0], [0.0, 0.0, 3.0, -3.0], [0.0, 0.0, 0.0, 1.0]]
-)
-_POWER_TO_BERNSTEIN = np.linalg.inv(_BERNSTEIN_TO_POWER)
 
 
 def nu_from_gamma(gamma: ArrayLike, h_left: ArrayLike, h_right: ArrayLike) -> NDArray:
@@ -106,43 +99,6 @@ def _knot_vector(knots: ArrayLike | None, n_points: int, name: str) -> NDArray:
     return t
 
 
-def _gamma_values(value, count: int, name: str, n_points: int) -> float | NDArray:
-    """A global γ (a float) or ``count`` values, one per interior junction (an array)."""
-    per = (
-        f"one per interior junction ({n_points} control points)"
-        if count
-        else f"but {n_points} control points have no interior junction"
-    )
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value.item()
-    if isinstance(value, (Real, np.number)) and not isinstance(value, bool):
-        x = float(value)
-        if not (np.isfinite(x) and x > 0):
-            raise GshadeError(f"{name}: expected a number > 0, got {show_value(value)}")
-        return x
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        v = None
-    if v is None or v.ndim != 1:
-        raise GshadeError(
-            f"{name}: expected a number > 0 or a list of {count} such numbers ({per}), "
-            f"got {show_value(value)}"
-        )
-    if v.shape[0] != count or count == 0:
-        raise GshadeError(
-            f"{name}: expected a number > 0 or a list of {count} such numbers ({per}), "
-            f"got {v.shape[0]} numbers"
-        )
-    bad = ~(np.isfinite(v) & (v > 0))
-    if np.any(bad):
-        j = int(np.flatnonzero(bad)[0])
-        raise GshadeError(
-            f"{name}: expected numbers > 0, got {float(v[j])!r} at junction {j + 1} (of {count})"
-        )
-    return v
-
-
 def _bezier_matrices(t: NDArray, g: NDArray) -> NDArray:
     """Bézier points of every arc in terms of its four control points.
 
@@ -176,7 +132,7 @@ def _bezier_matrices(t: NDArray, g: NDArray) -> NDArray:
     return M
 
 
-class GammaSplineBasis:
+class GammaSplineBasis(PiecewiseCubicBasis):
     """The cubic γ-spline basis over n control points and a knot vector t_0..t_(n+3).
 
     Parameters
@@ -207,7 +163,6 @@ class GammaSplineBasis:
     its end points) take the γ of the nearest interior junction.
     """
 
-    degree = 3
     #: γ: one number, or one per interior junction (``per_junction``)
     gamma: float | tuple[float, ...]
 
@@ -222,7 +177,7 @@ class GammaSplineBasis:
             raise GshadeError(f"points: a cubic γ-spline needs at least 4, got {n_points}")
         self.n_points = n_points
         count = n_points - 4
-        g = _gamma_values(gamma, count, names[0], n_points)
+        g = junction_values(gamma, count, names[0], n_points, "> 0", positive)
         self.knots = _knot_vector(knots, n_points, names[1])
         self.interval = (float(self.knots[3]), float(self.knots[n_points]))
         if isinstance(g, float):
@@ -238,10 +193,7 @@ class GammaSplineBasis:
                 f"{names[0]}: expected values small enough for a finite basis, got "
                 f"{show_value(gamma)}"
             )
-        # basis function r of arc a: sum_k M[a, k, r] B_k(x), in powers of x = (t - t_k) / h_k
-        self.segment_coefficients = np.einsum("akr,kj->arj", M, _BERNSTEIN_TO_POWER)
-        self._breaks = self.knots[3 : n_points + 1]  # t_3..t_n: the arcs' ends
-        self._lengths = np.diff(self._breaks)
+        self._set_arcs(M, self.knots[3 : n_points + 1])  # t_3..t_n: the arcs' ends
 
     @property
     def nu(self) -> tuple[float, ...]:
@@ -252,49 +204,6 @@ class GammaSplineBasis:
         k = np.arange(4, n)
         with np.errstate(over="ignore"):
             return tuple(map(float, nu_from_gamma(g, h[k - 1], h[k])))
-
-    def bezier_matrices(self) -> NDArray:
-        """M, shape (S, 4, 4): arc a's Bézier points are M[a] @ (d_a, .., d_(a+3))."""
-        return np.einsum("arj,jk->akr", self.segment_coefficients, _POWER_TO_BERNSTEIN)
-
-    def bezier_operator(self) -> NDArray:
-        """The (3S + 1, n) matrix from control points to the piecewise Bézier net."""
-        M = self.bezier_matrices()
-        S = M.shape[0]
-        out = np.zeros((3 * S + 1, self.n_points))
-        for a in range(S):
-            out[3 * a : 3 * a + 4, a : a + 4] = M[a]  # the shared junction point: arc a's
-        return out
-
-    def bspline_knots(self) -> NDArray:
-        """Knot vector of the same curve as a cubic B-spline with triple interior knots."""
-        b = self._breaks
-        return np.concatenate([[b[0]] * 4, np.repeat(b[1:-1], 3), [b[-1]] * 4])
-
-    def local(self, t: NDArray, order: int) -> tuple[NDArray, NDArray]:
-        t = np.asarray(t, dtype=np.float64)
-        seg = np.searchsorted(self._breaks, t, side="right") - 1
-        seg = np.clip(seg, 0, self.n_points - 4).astype(np.intp)
-        h = self._lengths[seg]
-        x = (t - self._breaks[seg]) / h
-        out = np.zeros((order + 1, t.size, 4))
-        c = self.segment_coefficients[seg]  # (N, 4 basis functions, 4 powers of x)
-        scale = np.ones_like(h)
-        for k in range(min(order, 3) + 1):
-            acc = np.zeros((t.size, 4))
-            for power in range(3, -1, -1):  # Horner; d^k/dt^k = h^-k d^k/dx^k
-                acc = acc * x[:, None] + c[:, :, power]
-            out[k] = acc * scale[:, None]
-            c = np.concatenate([c[:, :, 1:] * np.arange(1, 4), np.zeros((*c.shape[:2], 1))], -1)
-            scale = scale / h
-        return seg, out
-
-    def dense(self, t: NDArray, order: int) -> NDArray:
-        first, ders = self.local(t, order)
-        out = np.zeros((order + 1, first.size, self.n_points))
-        rows = np.arange(first.size)[:, None]
-        out[:, rows, first[:, None] + np.arange(4)] = ders
-        return out
 
 
 class GammaSplineCurve(BasisCurve):
