@@ -138,6 +138,29 @@ def test_missing_reference_broken_scene_and_report(workspace):
     assert summary["counts"]["ERROR"] == 1 and summary["counts"]["PASS"] == 1
 
 
+def test_the_report_has_an_inspectable_view_of_every_rendered_scene(workspace):
+    """Each rendered scene gets views/NAME.html (new and reference: the values under the
+    cursor, flip, difference); a failure's view is framed in the report itself."""
+    from gshade.regression.report import write_report
+
+    folder, refs, scenes = workspace
+    changed = nurbs_sphere_scene(folder, weight_scale=1.05)
+    results = check([scenes[0], changed], refs)
+    assert statuses(results) == {"teapot": "PASS", "nurbs-sphere": "FAILURE"}
+    report = write_report(results, folder / "report")
+    page = report.read_text()
+    summary = json.loads((folder / "report" / "summary.json").read_text())
+    views = {s["name"]: s["view"] for s in summary["scenes"]}
+    assert views == {"nurbs-sphere": "views/nurbs-sphere.html", "teapot": "views/teapot.html"}
+    for view in views.values():
+        html_text = (folder / "report" / view).read_text()
+        assert f'href="{view}"' in page
+        # both images are in the page, labelled, and nothing is loaded from elsewhere
+        assert '"new"' in html_text and '"reference"' in html_text
+        assert "http://" not in html_text and "https://" not in html_text
+    assert page.count("<iframe") == 1 and 'iframe src="views/nurbs-sphere.html"' in page
+
+
 def test_find_scenes_takes_files_and_folders_as_named(tmp_path):
     """Folders give their *.toml by name; an empty one is fine unless nothing is found at
     all; no glob patterns (gshade batch has them); a file named twice is checked twice."""

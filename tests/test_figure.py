@@ -1,5 +1,6 @@
 """`gshade figure`: multi-panel figures with titles, colour bars, periods and metadata."""
 
+import json
 import subprocess
 import sys
 
@@ -193,3 +194,206 @@ def test_every_figure_spec_and_its_panels_load(path):
     for row in spec.rows:
         for column in spec.columns:
             assert load_scene(row, column.overrides).patches
+
+
+# --------------------------------------------------------------------------- framing, cameras,
+# junctions (issue 17, point 5)
+
+FRAMED_SPEC = """
+rows = [{rows}]
+width = 96
+height = 64
+spp = 1
+{extra}
+[[column]]
+label = "isophotes"
+set = {{ "shape.function" = "isophotes", "shape.period" = 0.1 }}
+[[column]]
+label = "mean"
+set = {{ "shape.function" = "mean", "shape.display" = "colormap" }}
+{columns}
+"""
+
+
+def _automatic_sphere(tmp_path):
+    """sphere-isophotes with an automatic perspective camera (no origin, no target)."""
+    text = (ROOT / "scenes" / "sphere-isophotes.toml").read_text()
+    camera = text[text.index("[camera]") : text.index("[render]")]
+    path = tmp_path / "sphere-auto.toml"
+    path.write_text(text.replace(camera, '[camera]\ntype = "perspective"\nfov = 40\n\n'))
+    return path
+
+
+def _rendered(spec_path, tmp_path, monkeypatch):
+    """Make the figure; return its panels' rendered images in order, and the notes written
+    under the panels (the axes' x labels)."""
+    from matplotlib.axes import Axes
+
+    import gshade.rendering
+
+    images, notes = [], []
+    render, set_xlabel = gshade.rendering.render, Axes.set_xlabel
+
+    def record_render(scene, **kwargs):
+        images.append(render(scene, **kwargs))
+        return images[-1]
+
+    def record_xlabel(ax, text, *args, **kwargs):
+        notes.append(text)
+        return set_xlabel(ax, text, *args, **kwargs)
+
+    monkeypatch.setattr(gshade.rendering, "render", record_render)
+    monkeypatch.setattr(Axes, "set_xlabel", record_xlabel)
+    spec = load_figure_spec(spec_path)
+    make_figure(spec, tmp_path / f"{spec_path.stem}.png")
+    return spec, images, notes
+
+
+def _coverage_box(image):
+    """First and one-past-last covered column and row (coverage A > 0)."""
+    a = image.alpha > 0
+    cols, rows = np.flatnonzero(a.any(axis=0)), np.flatnonzero(a.any(axis=1))
+    return cols[0], cols[-1] + 1, rows[0], rows[-1] + 1
+
+
+def _camera(image):
+    return json.loads(image.metadata["settings"])["camera"]
+
+
+def _fills_to_margin(image, margin, tolerance=1.0):
+    """The covered box touches the margin on one axis (both sides, within ``tolerance``
+    pixels) and lies within it on the other."""
+    h, w = image.alpha.shape
+    c0, c1, r0, r1 = _coverage_box(image)
+    touches = [
+        abs(lo - margin * n) <= tolerance and abs(hi - (1 - margin) * n) <= tolerance
+        for lo, hi, n in ((c0, c1, w), (r0, r1, h))
+    ]
+    within = [
+        lo >= margin * n - tolerance and hi <= (1 - margin) * n + tolerance
+        for lo, hi, n in ((c0, c1, w), (r0, r1, h))
+    ]
+    return any(touches) and all(within)
+
+
+def test_tight_framing_fills_each_panel_up_to_the_margin(tmp_path, monkeypatch):
+    """Three rows: a perspective camera given in the scene (two patch pairs filling about a
+    third of the scene's own picture), an orthographic one given in the scene (a sphere) and
+    an automatic perspective one.  With frame = "tight" every panel's coverage box touches
+    the margin on one axis and lies within it on the other; with frame = "scene" the first
+    row's does not.  One camera per row: a row's panels are rendered with identical
+    cameras (the EXR header's settings)."""
+    rows = [
+        ROOT / "scenes" / "junctions-isophotes.toml",
+        ROOT / "scenes" / "sphere-isophotes.toml",
+        _automatic_sphere(tmp_path),
+    ]
+    quoted = ", ".join(f'"{r}"' for r in rows)
+    tight = tmp_path / "tight.toml"
+    tight.write_text(FRAMED_SPEC.format(rows=quoted, extra="margin = 0.1", columns=""))
+    spec, images, _ = _rendered(tight, tmp_path, monkeypatch)
+    assert spec.frame == "tight" and len(images) == 6
+    for r in range(3):
+        a, b = images[2 * r], images[2 * r + 1]
+        assert _camera(a) == _camera(b), r  # one camera per row, to the last bit
+        for image in (a, b):
+            assert _fills_to_margin(image, 0.1), (r, _coverage_box(image))
+    assert _camera(images[0])["origin"] == [4.4, -4.6, 5.2]  # the scene's eye, turned
+    assert _camera(images[2])["type"] == "orthographic"
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text(FRAMED_SPEC.format(rows=f'"{rows[0]}"', extra='frame = "scene"', columns=""))
+    _, framed, _ = _rendered(scene, tmp_path, monkeypatch)
+    assert _camera(framed[0]) == _camera(framed[1])
+    assert _camera(framed[0])["fov"] == 76 and not _fills_to_margin(framed[0], 0.02)
+    scene.write_text(FRAMED_SPEC.format(rows=f'"{rows[0]}"', extra="margin = 0.02", columns=""))
+    _, fitted, _ = _rendered(scene, tmp_path, monkeypatch)
+    assert _fills_to_margin(fitted[0], 0.02)
+    c0, c1, r0, r1 = _coverage_box(framed[0])
+    t0, t1, s0, s1 = _coverage_box(fitted[0])
+    assert (t1 - t0) * (s1 - s0) > 1.2 * (c1 - c0) * (r1 - r0)  # the tight panel is fuller
+
+
+def test_one_camera_frames_the_union_of_a_rows_surfaces(tmp_path, monkeypatch):
+    """A column that shrinks the sphere: the row's camera is fitted on both spheres, so the
+    large one fills the panel to the margin and the small one sits at the same place at
+    half the size."""
+    sphere = ROOT / "scenes" / "sphere-isophotes.toml"
+    path = tmp_path / "union.toml"
+    half = '[[column]]\nlabel = "r/2"\nset = { "surface.1.radius" = 0.5 }'
+    path.write_text(FRAMED_SPEC.format(rows=f'"{sphere}"', extra="", columns=half))
+    _, images, _ = _rendered(path, tmp_path, monkeypatch)
+    assert len({json.dumps(_camera(i), sort_keys=True) for i in images}) == 1
+    assert _fills_to_margin(images[0], 0.05)
+    c0, c1, r0, r1 = _coverage_box(images[2])
+    assert abs((r1 - r0) - 0.45 * 64) <= 2 and abs((c0 + c1) / 2 - 48) <= 1
+
+
+def test_junctions_in_a_column(tmp_path, monkeypatch):
+    """``junctions = true`` or ``"render.junctions" = true`` in a column draws that column's
+    junctions (the G1 seam orange, the G2 seam green) and names them under the panel; the
+    other columns stay without."""
+    columns = (
+        '[[column]]\nlabel = "seams"\njunctions = true\n'
+        '[[column]]\nlabel = "seams, set"\nset = { "render.junctions" = true }'
+    )
+    row = ROOT / "scenes" / "junctions-isophotes.toml"
+    path = tmp_path / "junctions.toml"
+    path.write_text(FRAMED_SPEC.format(rows=f'"{row}"', extra="", columns=columns))
+    spec, images, notes = _rendered(path, tmp_path, monkeypatch)
+    assert [c.overrides.get("render.junctions") for c in spec.columns] == [None, None, True, True]
+    drawn = ["junctions" in i.metadata for i in images]
+    assert drawn == [False, False, True, True]
+    assert sum("junctions: G1 orange, G2 green" in n for n in notes) == 2
+    for image in images[2:]:
+        rgb = image.rgb
+        orange = (rgb[..., 0] > 0.9) & (np.abs(rgb[..., 1] - 0.42) < 0.1) & (rgb[..., 2] < 0.1)
+        assert orange.sum() >= 10  # the G1 seam, drawn
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        ("margin = 0.5", r"margin: expected a number in \[0, 0.45\]"),
+        ('margin = "tight"', "margin: expected a number"),
+        ("margin = true", "margin: expected a number"),
+        ('frame = "loose"', "frame: expected one of: 'tight', 'scene', got 'loose'"),
+        ("camera = 3", "camera: expected a table"),
+        ("camera = { fovv = 3 }", "camera: fovv: unknown key"),
+        (
+            '[[column]]\nset = { "camera.fov" = 20 }',
+            r"\[\[column\]\] 1: set: camera.fov: a row has one camera",
+        ),
+        (
+            "[[column]]\nset = { camera = { origin = [0, -5, 0] } }",
+            r"\[\[column\]\] 1: set: camera.origin: a row has one camera",
+        ),
+        (
+            '[[column]]\nset = { "render.width" = 20 }',
+            r"\[\[column\]\] 1: set: render.width: every panel has the spec's size",
+        ),
+        ('[[column]]\njunctions = "yes"', r"\[\[column\]\] 1: junctions: expected true or false"),
+        (
+            '[[column]]\njunctions = true\nset = { "render.junctions" = false }',
+            r"\[\[column\]\] 1: junctions: contradicts",
+        ),
+    ],
+)
+def test_bad_framing_keys_name_the_file_and_key(tmp_path, extra, message):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f'rows = ["{ROOT / "scenes" / "sphere-isophotes.toml"}"]\n{extra}\n')
+    with pytest.raises(GshadeError, match=message) as info:
+        load_figure_spec(bad)
+    assert str(info.value).startswith(f"{bad}: ") and "\n" not in str(info.value)
+
+
+def test_a_perspective_eye_among_the_surfaces_is_refused(tmp_path):
+    """No field of view shows surfaces around the eye: the row is named, one line."""
+    path = tmp_path / "inside.toml"
+    sphere = ROOT / "scenes" / "sphere-isophotes.toml"
+    path.write_text(
+        f'rows = ["{sphere}"]\nwidth = 32\nheight = 24\nspp = 1\n'
+        'camera = { type = "perspective", origin = [0, 0, 0], target = [0, 1, 0], fov = 60 }\n'
+    )
+    with pytest.raises(GshadeError, match=r"inside.toml: frame: row .*sphere-isophotes.toml: "):
+        make_figure(load_figure_spec(path), tmp_path / "inside.png")

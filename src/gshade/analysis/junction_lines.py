@@ -191,7 +191,8 @@ def _to_pixels(inverse: NDArray, duv: NDArray) -> NDArray:
 
 
 def junction_metadata(junctions: list[Junction]) -> str:
-    """The drawn junctions and the colour legend, as JSON for the image header."""
+    """The drawn junctions (patches and sides, or faces and edge; class and measures) and the
+    colour legend, as JSON for the image header."""
     return json.dumps(
         {
             "colours": {k: list(v) for k, v in CLASS_COLOURS.items()},
@@ -201,8 +202,17 @@ def junction_metadata(junctions: list[Junction]) -> str:
     )
 
 
+#: The measures each junction carries in the header (those of ``gshade continuity``).
+MEASURES = ("gap", "normal_angle_deg", "curvature_jump", "curvature_gradient_jump")
+
+
 def _drawn(j: Junction) -> dict:
-    """A junction as the header lists it: its patches and sides, or its faces and edge."""
+    """A junction as the header lists it: its patches and sides, or its faces and edge, its
+    class and measures (a non-finite measure as text, "inf", so that the JSON is strict)."""
+    measures = {}
+    for name in MEASURES:
+        x = float(getattr(j, name))
+        measures[name] = x if np.isfinite(x) else str(x)
     if j.sides is None:
-        return {"edge": j.edge, "patches": list(j.patches), "class": j.cls}
-    return {"patches": list(j.patches), "sides": list(j.sides), "class": j.cls}
+        return {"edge": j.edge, "patches": list(j.patches), "class": j.cls, **measures}
+    return {"patches": list(j.patches), "sides": list(j.sides), "class": j.cls, **measures}

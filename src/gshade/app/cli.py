@@ -96,7 +96,20 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="override any scene key, e.g. --set shape.period=0.05 (repeatable)",
     )
+    render.add_argument(
+        "--html", help="also write this HTML page of the EXR (as gshade view makes it)"
+    )
     render.set_defaults(run=commands.render)
+
+    view = sub.add_parser(
+        "view",
+        help="one self-contained HTML page to inspect EXRs: zoom, every channel under the "
+        "cursor, false colours, junctions; with a second image flip and difference",
+    )
+    view.add_argument("images", nargs="+", metavar="IMAGE.exr", help="1 to 3 EXR files of one size")
+    view.add_argument("-o", "--output", help="the page (default: <first image's stem>.html here)")
+    view.add_argument("--title", help="the page's title (default: the file names)")
+    view.set_defaults(run=commands.view)
 
     cmp = sub.add_parser(
         "compare",
@@ -143,6 +156,11 @@ def build_parser() -> argparse.ArgumentParser:
     chk.add_argument("scenes", nargs="*", help="scene files or folders (default: scenes/)")
     chk.add_argument("--references", default="references", help="reference folder")
     chk.add_argument("--report", help="write report.html and summary.json into this folder")
+    chk.add_argument(
+        "--junit",
+        metavar="FILE",
+        help="also write the results as JUnit XML (one test case per scene) for CI systems",
+    )
     chk.add_argument(
         "--update", action="store_true", help="write references for new and failing scenes"
     )

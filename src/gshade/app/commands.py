@@ -1,5 +1,5 @@
 """The ``gshade`` subcommands, one function each: render, info, continuity, shapes, keys,
-compare, check, batch and figure.
+compare, check, batch, figure and view.
 
 Each takes the parsed arguments (:func:`gshade.app.cli.build_parser`) and returns the exit
 status.  Bad input raises a GshadeError, which :func:`gshade.app.cli.main` reports in one
@@ -26,6 +26,7 @@ __all__ = [
     "keys",
     "render",
     "shapes",
+    "view",
 ]
 
 
@@ -55,12 +56,18 @@ def render(args: argparse.Namespace) -> int:
 
     scene = load_scene(args.scene, _scene_overrides(args))
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
-    targets = [output] + ([Path(args.png)] if args.png else [])
+    html = getattr(args, "html", None)
+    targets = [output] + ([Path(args.png)] if args.png else []) + ([Path(html)] if html else [])
     # the outputs' temporaries are made first: an unwritable target fails before rendering,
     # and the targets change only once every file is written
     with staged(targets) as names:
         image = render_scene(scene)
         writers = [image.exr_writer(output)] + ([image.png_writer(args.png)] if args.png else [])
+        if html:  # the page of the EXR's channels and header, as `gshade view` makes it
+            from ..display.html_view import view_writer
+
+            page = [(image.channels, image.metadata)]
+            writers.append(view_writer(page, html, labels=[output.name]))
         for target, writer, name in zip(targets, writers, names, strict=True):
             write_to(name, writer, target)
     print(
@@ -290,36 +297,52 @@ def compare(args: argparse.Namespace) -> int:
 
 
 def check(args: argparse.Namespace) -> int:
-    """``gshade check``: one line per scene as it is checked, then the counts; 2 if any
-    scene failed."""
+    """``gshade check``: one line per scene as it is checked, then the counts (and the report
+    and JUnit XML files, if asked); 2 if any scene failed."""
+    from ..io.outputs import staged, write_to
     from ..regression.check import check as check_scenes
     from ..regression.check import find_scenes
+    from ..regression.junit import junit_writer
     from ..regression.report import write_report
 
     scenes = find_scenes(args.scenes)
-    if args.report:  # an unusable report folder fails before any scene renders
+    junit = [Path(args.junit)] if args.junit else []
+    for target in junit:  # its folder is made if need be, as --report's
         try:
-            Path(args.report).mkdir(parents=True, exist_ok=True)
+            target.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise GshadeError(
-                f"--report {args.report}: cannot create the folder ({exc.strerror})"
+                f"--junit {args.junit}: cannot create the folder {target.parent} ({exc.strerror})"
             ) from None
+    # the JUnit file's temporary is made first: an unwritable --junit fails before anything
+    # else is written or rendered; the file is written whatever the scenes' verdicts
+    with staged(junit) as names:
+        if args.report:  # an unusable report folder fails before any scene renders
+            try:
+                Path(args.report).mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise GshadeError(
+                    f"--report {args.report}: cannot create the folder ({exc.strerror})"
+                ) from None
 
-    def progress(result) -> None:
-        result.message = in_flags(result.message)  # for the report too
-        print(result.line(), flush=True)
+        def progress(result) -> None:
+            result.message = in_flags(result.message)  # for the report too
+            print(result.line(), flush=True)
 
-    results = check_scenes(
-        scenes,
-        Path(args.references),
-        update=args.update,
-        update_all=args.update_all,
-        statistical=args.statistical,
-        progress=progress,
-    )
-    if args.report:
-        report = write_report(results, Path(args.report))
-        print(f"report: {report}")
+        results = check_scenes(
+            scenes,
+            Path(args.references),
+            update=args.update,
+            update_all=args.update_all,
+            statistical=args.statistical,
+            progress=progress,
+        )
+        report = write_report(results, Path(args.report)) if args.report else None
+        if report is not None:
+            print(f"report: {report}")
+        for target, name in zip(junit, names, strict=True):
+            write_to(name, junit_writer(results, report=report), target)
+            print(f"JUnit XML: {target}")
     failed = [r for r in results if not r.ok]
     written = sum(bool(r.written) for r in results)
     print(
@@ -359,6 +382,27 @@ def batch(args: argparse.Namespace) -> int:
         f"{len(failed)} failed; manifest: {Path(args.output) / 'manifest.json'}"
     )
     return 0 if not failed else 2
+
+
+def view(args: argparse.Namespace) -> int:
+    """``gshade view``: one self-contained HTML page of 1 to 3 EXRs; the images are read and
+    checked before anything is written."""
+    from ..display.html_view import view_writer
+    from ..io.outputs import output_name, staged, write_to
+
+    first = Path(args.images[0])
+    output = Path(args.output) if args.output else Path(output_name(first.stem, "IMAGE") + ".html")
+    try:
+        writer = view_writer(args.images, output, title=args.title)
+    except GshadeError as exc:  # the library's parameter is the command's IMAGE arguments
+        raise GshadeError(str(exc).replace("images: ", "IMAGE.exr: ", 1)) from None
+    with staged([output]) as (name,):
+        write_to(name, writer, output)
+    print(
+        f"{output}: {len(args.images)} image{'s' if len(args.images) > 1 else ''}, "
+        f"{output.stat().st_size} bytes"
+    )
+    return 0
 
 
 def figure(args: argparse.Namespace) -> int:

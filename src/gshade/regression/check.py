@@ -6,11 +6,14 @@ fast), compare with ``references/<name>.exr`` (channels and idiff thresholds fro
 defaults below), and report a verdict.  References are written only on request, atomically:
 ``update`` writes those of new or failing scenes (Blender's rule), ``update_all`` every one.
 A scene that fails to render is reported and the others go on.  The HTML report of the
-results is :mod:`gshade.regression.report`'s.
+results is :mod:`gshade.regression.report`'s, their JUnit XML :mod:`gshade.regression.junit`'s.
+:func:`check_scene` is one scene's check, for a scene file or a loaded scene (the pytest
+plugin, :mod:`gshade.app.pytest_plugin`, runs it per test).
 """
 
 from __future__ import annotations
 
+import os
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -32,8 +35,16 @@ from .statistical import z_test
 
 if TYPE_CHECKING:
     from ..rendering.rendered_image import RenderedImage
+    from ..scene.model import Scene
 
-__all__ = ["CHECK_DEFAULTS", "DEFAULT_THRESHOLDS", "CheckResult", "check", "find_scenes"]
+__all__ = [
+    "CHECK_DEFAULTS",
+    "DEFAULT_THRESHOLDS",
+    "CheckResult",
+    "check",
+    "check_scene",
+    "find_scenes",
+]
 
 #: Settings of a check render unless the scene's ``[check]`` table says otherwise.
 CHECK_DEFAULTS = {"width": 160, "height": 120, "spp": 4, "channels": ("R", "G", "B", "A", "f")}
@@ -135,21 +146,44 @@ def _render_runs(scene, settings: dict):
 
 
 def check_scene(
-    path: Path,
-    references: Path,
+    scene: str | os.PathLike | Scene,
+    references: str | os.PathLike,
     *,
     update: bool = False,
     update_all: bool = False,
     statistical: bool = False,
 ) -> CheckResult:
-    """Render one scene at its check settings and compare it with its reference."""
+    """Render one scene at its check settings and compare it with its reference.
+
+    Parameters
+    ----------
+    scene : path-like or Scene
+        A scene file (loaded here: a scene that does not load is an ERROR result), or a
+        scene already loaded (e.g. with overrides by :func:`gshade.load_scene`).
+    references : path-like
+        The reference folder: the reference is ``references/<scene name>.exr``.  It must
+        exist for a reference to be written.
+    update, update_all, statistical : bool
+        As :func:`check`'s.
+
+    Returns
+    -------
+    CheckResult
+        Never raises for a scene that fails to load, render or compare: that is the
+        result's status (ERROR, FAILURE) and message.
+    """
     from ..rendering import render
     from ..scene import load_scene
 
     start = time.perf_counter()
-    name = path.stem
+    references = Path(references)
+    if isinstance(scene, (str, os.PathLike)):
+        path, loaded = Path(scene), None
+    else:
+        path, loaded = (scene.path or Path(scene.name)), scene
+    name = loaded.name if loaded is not None else path.stem
     try:
-        scene = load_scene(path)
+        scene = loaded if loaded is not None else load_scene(path)
         name = scene.name
         settings = {**CHECK_DEFAULTS, **scene.check}
         statistical = statistical or settings.get("statistical", False)

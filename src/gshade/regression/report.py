@@ -1,5 +1,8 @@
-"""The report of a reference check: a self-contained HTML page (the images embedded as
-PNG), failures first, and ``summary.json`` with every scene's verdict, message and metrics."""
+"""The report of a reference check: an HTML page (the images embedded as PNG), failures
+first, ``summary.json`` with every scene's verdict, message and metrics, and for every
+rendered scene an inspectable view (``views/NAME.html``, :mod:`gshade.display.html_view`:
+exact values under the cursor, new and reference flipped, side by side and differenced),
+the failures' views shown in the report itself."""
 
 from __future__ import annotations
 
@@ -7,6 +10,7 @@ import base64
 import html
 import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -86,13 +90,47 @@ def _metrics(comparison: Comparison | None) -> str:
     )
 
 
-def _section(r: CheckResult) -> str:
-    """One scene's section: verdict, message, pictures, metrics and log."""
+def _write_view(r: CheckResult, folder: Path, taken: set[str]) -> str | None:
+    """Write the scene's view page (new and, if there is one, reference) into
+    ``folder/views``; its path relative to ``folder``, or None without a new image."""
+    from ..display.html_view import write_view
+
+    if r.image is None:
+        return None
+    images: list = [(r.image.channels, r.image.metadata)]
+    labels = ["new"]
+    if r.reference is not None and r.reference.exists() and not r.written:
+        images.append(r.reference)
+        labels.append("reference")
+    stem = re.sub(r"[^\w.-]", "_", r.name) or "scene"
+    name, k = stem, 1
+    while name in taken:
+        name, k = f"{stem}-{k}", k + 1
+    taken.add(name)
+    try:
+        (folder / "views").mkdir(exist_ok=True)
+        write_view(images, folder / "views" / f"{name}.html", labels=labels, title=r.name)
+    except (GshadeError, OSError):  # e.g. a reference that does not read: reported elsewhere
+        return None
+    return f"views/{name}.html"
+
+
+def _section(r: CheckResult, view: str | None) -> str:
+    """One scene's section: verdict, message, pictures, metrics, the view and the log."""
     status = f"{r.status} ({r.written} reference)" if r.written else r.status
+    inspect = ""
+    if view is not None:
+        href = html.escape(view)
+        inspect = (
+            f'<p><a href="{href}">inspect: exact values under the cursor, new and reference '
+            "flipped, side by side, differenced</a></p>"
+        )
+        if r.status in ("FAILURE", "ERROR") and not r.written:
+            inspect += f'<iframe src="{href}" title="{html.escape(r.name)}"></iframe>'
     return (
         f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
         f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
-        f"{html.escape(r.message)}</p>{_figures(r)}{_metrics(r.comparison)}"
+        f"{html.escape(r.message)}</p>{_figures(r)}{_metrics(r.comparison)}{inspect}"
         + (f"<pre>{html.escape(r.log)}</pre>" if r.log else "")
         + "</section>"
     )
@@ -103,6 +141,7 @@ _STYLE = (
     "img{image-rendering:pixelated;background:#444;max-width:480px}"
     "section{border-top:1px solid #ccc;padding:.5em 0}.failure h2,.error h2{color:#b00}"
     ".warning h2{color:#a60}.pass h2{color:#070}td,th{padding:0 .6em;text-align:right}"
+    "iframe{width:100%;height:720px;border:1px solid #ccc}"
 )
 
 
@@ -118,7 +157,8 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
     Returns
     -------
     Path
-        The HTML page: self-contained (images embedded), failures first.
+        The HTML page (images embedded), failures first; each rendered scene's view page in
+        ``folder/views`` (self-contained), the failures' views framed in the report.
     """
     from ..io.image import atomic_write
 
@@ -131,13 +171,15 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
         results, key=lambda r: (_ORDER.get(r.status, 0) if not r.written else 4, r.name)
     )
     counts = {s: sum(r.status == s for r in results) for s in _ORDER}
+    taken: set[str] = set()
+    views = {id(r): _write_view(r, folder, taken) for r in ordered}
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>gshade check</title><style>"
         + _STYLE
         + "</style></head><body><h1>gshade check</h1><p>"
         + ", ".join(f"{n} {html.escape(s)}" for s, n in counts.items())
         + "</p>"
-        + "".join(_section(r) for r in ordered)
+        + "".join(_section(r, views.get(id(r))) for r in ordered)
         + "</body></html>"
     )
     atomic_write(
@@ -154,6 +196,7 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
                 "written": r.written or None,
                 "seconds": round(r.seconds, 3),
                 "metrics": r.comparison.as_dict() if r.comparison is not None else None,
+                "view": views.get(id(r)),
             }
             for r in ordered
         ],

@@ -3,12 +3,13 @@
 Perspective cameras take the horizontal field of view (degrees); orthographic ones the view
 width in scene units.  Without origin and target the camera looks at the centre of the
 bounding box from a three-quarter view above it, at the distance where the bounding sphere
-fills the narrower image side (with a margin).
+fills the narrower image side (with a margin).  :func:`fit_view` then fits a resolved view
+tightly on the surfaces (for figures: the projected extent fills the image up to a margin).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +18,7 @@ from ..errors import GshadeError
 from ..scene import validate_view
 from ..scene.tables import reported
 
-__all__ = ["View", "frame_view"]
+__all__ = ["View", "fit_view", "frame_view"]
 
 #: Default viewing direction for automatic framing (from the target toward the eye).
 AUTO_DIRECTION = np.array([0.55, -0.75, 0.45])
@@ -212,3 +213,76 @@ def frame_view(camera, points: NDArray, width: int, height: int) -> View:
         half_h = np.max(np.abs(rel @ true_up))
         view_width = 2 * MARGIN * max(half_w, half_h * aspect)
     return View(camera.type, origin, target, up, float(camera.fov), view_width, width, height)
+
+
+#: Re-aiming steps of :func:`fit_view` (each centres the projected extent better; a few do).
+_FIT_STEPS = 60
+
+
+def fit_view(view: View, points: NDArray, margin: float) -> View:
+    """The view fitted tightly on surface points (N, 3): their projected bounding box fills
+    the image up to ``margin`` (a fraction of the image's width and height on each side)
+    on one axis and lies centred within it on the other.
+
+    Parameters
+    ----------
+    view : View
+        A resolved view (:func:`frame_view`): its type, eye, up and image size are kept.
+    points : ndarray, shape (N, 3)
+        Points standing for the surfaces' extent (sampled densely enough).
+    margin : float
+        In [0, 0.5): the empty fraction of the image on each side of the extent.
+
+    Returns
+    -------
+    View
+        Perspective: the same eye, turned toward the centre of the extent (in the image
+        plane), with the horizontal field of view that fits it; the picture is the view's
+        own, enlarged (a crop rendered at full resolution).  Orthographic: the same
+        direction, moved across the view onto the extent's centre, with the view width that
+        fits it.
+
+    Raises
+    ------
+    GshadeError
+        ``margin: ...`` out of range; ``points: ...`` when a perspective eye has surface
+        points beside or behind it (no field of view below 180 degrees shows them).
+    """
+    if not 0.0 <= margin < 0.5:
+        raise GshadeError(f"margin: expected a number in [0, 0.5), got {margin!r}")
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    aspect = view.image_width / view.image_height
+    fill = 1.0 - 2.0 * margin  # the fraction of the image the extent spans
+    if view.type == "orthographic":
+        x, y, _ = view.camera_coordinates(points)
+        shift = view.right * (x.max() + x.min()) / 2 + view.true_up * (y.max() + y.min()) / 2
+        width = max(float(np.ptp(x)), float(np.ptp(y)) * aspect, 1e-12) / fill
+        return replace(view, origin=view.origin + shift, target=view.target + shift, width=width)
+    eye = view.origin
+    forward = view.forward
+    for step in range(_FIT_STEPS + 1):
+        fitted = replace(view, target=eye + forward)
+        x, y, z = fitted.camera_coordinates(points)
+        if not np.all(z > 1e-9 * max(float(np.max(np.abs(z))), 1e-300)):
+            raise GshadeError(
+                "points: the camera's eye has surfaces beside or behind it; a perspective "
+                "view fitted on them would need a field of view of 180 degrees or more"
+            )
+        sx, sy = x / z, y / z  # the image plane at distance 1
+        cx, cy = (sx.max() + sx.min()) / 2, (sy.max() + sy.min()) / 2
+        half = max(float(np.ptp(sx)), float(np.ptp(sy)) * aspect) / 2
+        if max(abs(cx), abs(cy)) <= 1e-12 * max(half, 1e-300) or step == _FIT_STEPS:
+            break
+        forward = forward + cx * fitted.right + cy * fitted.true_up
+        forward /= np.linalg.norm(forward)
+    fov = float(np.degrees(2.0 * np.arctan(max(half, 1e-12) / fill)))
+    if not fov < 179.0:
+        raise GshadeError(
+            f"points: a perspective view from this eye needs a field of view of {fov:.4g} "
+            "degrees to show the surfaces (expected below 179)"
+        )
+    depth = float(np.median(z))
+    target = eye + forward * depth
+    with reported(_AUTOMATIC_TARGET):
+        validate_view(eye, target, view.up)
+    return replace(view, target=target, fov=fov)

@@ -30,6 +30,7 @@ __all__ = [
     "NEAREST_FRACTION",
     "Framing",
     "chord_tolerance",
+    "extent_points",
     "frame",
     "mesh_resolution",
     "tile_size",
@@ -75,7 +76,7 @@ def frame(scene, settings, where: str) -> Framing:
     """The bounding box of the patches (sampled on a 17 x 17 grid each; a CAD face at its
     loops and the grid points inside them), checked to be renderable in single precision,
     and the resolved camera."""
-    box = _extent_points(scene)
+    box = extent_points(scene)
     lo, hi = box.min(axis=0), box.max(axis=0)
     diag = _validate_scale(where, lo, hi)
     view = frame_view(scene.camera, box, settings.width, settings.height)
@@ -95,7 +96,7 @@ def _patch_extents(scene):
                 yield np.asarray(p(*p.parameter_grid(n, n))).reshape(-1, 3)
 
 
-def _extent_points(scene) -> NDArray:
+def extent_points(scene) -> NDArray:
     """Points standing for the surfaces' extent: each patch's 17 x 17 grid, and for CAD
     faces, which use part of their patch's box, the points of the trimmed region."""
     grid = np.linspace(0.0, 1.0, 17)
