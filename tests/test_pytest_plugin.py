@@ -18,23 +18,6 @@ from .conftest import ROOT
 
 pytest_plugins = ["pytester"]
 
-#: The README's example (between the markers below, if README.md has them: the test runs what
-#: the README shows); this copy otherwise.
-EXAMPLE = """\
-import pytest
-
-import gshade
-
-
-@pytest.mark.parametrize("scene", ["scenes/sphere.toml"])
-def test_isophotes(gshade_check, scene):
-    gshade_check(scene)  # renders at check settings, compares with references/sphere.exr
-
-
-def test_mean_curvature(gshade_check):  # a scene with overrides, and a reference of its own
-    mean = {"name": "sphere-mean", "shape.function": "mean", "shape.display": "colormap"}
-    gshade_check(gshade.load_scene("scenes/sphere.toml", mean))
-"""
 MARKERS = ("<!-- pytest-example -->", "<!-- /pytest-example -->")
 #: A scene that does not load.
 BROKEN = "[[surface]]\ntype = 'sphere'\nradius = -1\n"
@@ -43,8 +26,7 @@ BROKEN = "[[surface]]\ntype = 'sphere'\nradius = -1\n"
 def readme_example() -> str:
     """The example as README.md shows it (its ```python block between the markers)."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    if MARKERS[0] not in text:
-        return EXAMPLE
+    assert MARKERS[0] in text and MARKERS[1] in text, "README.md: the pytest example is gone"
     block = text.split(MARKERS[0], 1)[1].split(MARKERS[1], 1)[0]
     match = re.search(r"```python\n(.*?)```", block, re.S)
     assert match, "README.md: the pytest example's markers hold no ```python block"

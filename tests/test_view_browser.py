@@ -12,8 +12,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,16 +20,7 @@ import pytest
 from gshade.display.view_data import junction_seams
 from gshade.io.image import read_exr, read_exr_planes, write_exr
 
-ROOT = Path(__file__).resolve().parents[1]
-TEAPOT = ROOT / "scenes" / "teapot-isophotes.toml"
-W, H = 160, 120
-
-
-def gshade(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "gshade", *map(str, args)], capture_output=True, text=True
-    )
-
+from .test_view import TEAPOT, H, W, gshade
 
 HALVES = {"R", "G", "B", "A", "N.X", "N.Y", "N.Z"}
 
