@@ -96,6 +96,15 @@ def test_page_size_bound(rendered):
     assert size < 1.6 * exr.stat().st_size + 80_000
 
 
+def test_the_full_size_teapot_page_is_under_12_mb(tmp_path):
+    """The issue's bound: the 1024 x 768 teapot (16 spp, every channel, junctions) in one
+    page of at most 12 MB (measured: 8.1 MB)."""
+    page = tmp_path / "teapot.html"
+    result = gshade("render", TEAPOT, "-o", tmp_path / "t.exr", "--html", page, "--junctions")
+    assert result.returncode == 0, result.stderr
+    assert page.stat().st_size <= 12 * 2**20
+
+
 def test_channels_decode_bit_exactly(rendered):
     exr, _, page = rendered
     data = page_data(page.read_text(encoding="utf-8"))
