@@ -262,7 +262,7 @@ def view_parts(
 
 def _parts(data: dict) -> ViewParts:
     markup = f'<div class="gshade-view" data-gshade-view></div>\n{_data_script(data)}'
-    return ViewParts(_asset("view.css"), markup, _asset("view.js"))
+    return ViewParts(_asset("view.css"), markup, _asset("decode.js") + _asset("view.js"))
 
 
 def view_page(

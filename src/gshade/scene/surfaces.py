@@ -4,8 +4,9 @@ keys it accepts (what each takes, its default, what it means).
 A builder gets its surface's table (a :class:`~gshade.scene.tables.Table` whose getters
 default to the declared defaults) and the :class:`DataFiles` its ``file`` key may name,
 and returns the surface's patches.  The registry's order is :data:`SURFACE_TYPES`, the
-order messages list the types in.  The readers of data files (``gshade.io``) are imported
-when first used: ``gshade.io`` re-exports this package.
+order messages list the types in; the types read from meshes and CAD models are in
+:mod:`.mesh_and_cad_surfaces`.  The readers of data files (``gshade.io``) are imported when
+first used: ``gshade.io`` re-exports this package.
 """
 
 from __future__ import annotations
@@ -31,21 +32,10 @@ from ..geometry import (
     torus,
 )
 from ..geometry.gammaspline import GammaSplinePatch
-from ..geometry.hole_energy import DOMAINS, FUNCTIONALS
-from ..geometry.hole_fill import JUNCTIONS
-from ..geometry.hole_surface import filled_surface
 from ..geometry.junctions import CLASSES, junction_patch
 from ..geometry.nuspline import ENDS as NU_ENDS
 from ..geometry.nuspline import NuSplinePatch
-from ..geometry.subdivision import subdivision_patches
-from ..limits import (
-    MAX_DEGREE,
-    MAX_HOLE_MESH_FACES,
-    MAX_HOLES,
-    MAX_PATCHES,
-    MAX_SUBDIVISION_LEVELS,
-)
-from ..shape.hole_shape import SHAPE_MEASURES, optimise_filling
+from ..limits import MAX_DEGREE
 from .data_files import DataFiles
 from .model import CadFaces, Surface
 from .tables import (
@@ -426,189 +416,9 @@ def _build_junction(t: Table, files: DataFiles) -> list[Patch]:
         return [first, junction_patch(first, continuity, **connection)]
 
 
-@surface_type(
-    "subdivision",
-    "the Catmull–Clark surface of a quad mesh",
-    Key("file", "path", REQUIRED, "the mesh in OBJ, relative to the scene file"),
-    Key(
-        "levels",
-        f"integer 0–{MAX_SUBDIVISION_LEVELS}",
-        0,
-        "refinements before the patches are made (each multiplies them by 4)",
-    ),
-)
-def _build_subdivision(t: Table, files: DataFiles) -> list[Patch]:
-    levels = t.integer("levels", minimum=None)  # >= 0: subdivision_patches checks it
-    if levels > MAX_SUBDIVISION_LEVELS:
-        raise t.error(
-            "levels",
-            f"expected an integer from 0 to {MAX_SUBDIVISION_LEVELS} (each level multiplies "
-            f"the patches by 4), got {show(t.data['levels'])}",
-        )
-    mesh, source = _quad_mesh(t, files)
-    if len(mesh.faces) * 4**levels > MAX_PATCHES:
-        raise t.error(
-            "levels",
-            f"expected at most {MAX_PATCHES} patches, got {len(mesh.faces)} faces x "
-            f"4^{levels} levels = {len(mesh.faces) * 4**levels}",
-        )
-    with t.reported():
-        return subdivision_patches(
-            mesh.vertices, mesh.faces, levels=levels, source=source, face_lines=mesh.face_lines
-        )
-
-
-def _quad_mesh(t: Table, files: DataFiles) -> tuple[Any, str]:
-    """The OBJ quad mesh the table's ``file`` names, and its path for messages."""
-    from ..io.obj import read_obj_mesh
-
-    name = t.string("file", expected="a path to an OBJ file (a quad mesh)")
-    data_file = files.find(t, name)
-    with t.reported():
-        return read_obj_mesh(data_file), str(data_file)
-
-
-@surface_type(
-    "hole",
-    "a Catmull–Clark surface with the holes around its extraordinary vertices filled G1 or G2",
-    Key("file", "path", REQUIRED, "the mesh in OBJ, relative to the scene file"),
-    Key("continuity", alternatives(tuple(JUNCTIONS)), "G2", "the fillings' continuity"),
-    Key(
-        "functional",
-        alternatives(tuple(FUNCTIONALS)),
-        None,
-        "the quadratic functional minimised",
-        '"thin-plate" (G1), "third-order" (G2)',
-    ),
-    Key("domain", alternatives(DOMAINS), "square", "the domain the functional is taken over"),
-    Key(
-        "optimise",
-        alternatives(tuple(SHAPE_MEASURES)),
-        None,
-        "a measure on the surface lowered",
-        "none",
-    ),
-    Key("iterations", "integer 1–100", 10, "the most Gauss–Newton steps of optimise"),
-)
-def _build_hole(t: Table, files: DataFiles) -> list[Patch]:
-    continuity = t.choice("continuity", tuple(JUNCTIONS))
-    functional = t.choice("functional", tuple(FUNCTIONALS))
-    domain = t.choice("domain", DOMAINS)
-    optimise = t.choice("optimise", tuple(SHAPE_MEASURES))
-    iterations = t.integer("iterations", minimum=1, maximum=100)
-    mesh, source = _quad_mesh(t, files)
-    if len(mesh.faces) > MAX_HOLE_MESH_FACES:
-        raise t.error(
-            "file",
-            f"expected a mesh of at most {MAX_HOLE_MESH_FACES} faces (it may be refined twice "
-            f"before its holes are filled), got {len(mesh.faces)}",
-        )
-    # vertices in 3 or more faces but not 4: at least every interior extraordinary vertex
-    corners = [np.asarray(f, dtype=np.int64) for f in mesh.faces]
-    counts = np.bincount(np.concatenate(corners)) if corners else np.zeros(0, np.int64)
-    irregular = int(np.count_nonzero((counts >= 3) & (counts != 4)))
-    if irregular > MAX_HOLES:
-        raise t.error(
-            "file",
-            f"expected at most {MAX_HOLES} extraordinary vertices (holes to fill), got {irregular}",
-        )
-    with t.reported():
-        surface = filled_surface(
-            mesh.vertices,
-            mesh.faces,
-            continuity,
-            functional,
-            domain=domain,
-            source=source,
-            face_lines=mesh.face_lines,
-        )
-        if optimise is not None:
-            fillings = [
-                optimise_filling(f, optimise, iterations=iterations) for f in surface.fillings
-            ]
-            surface = surface.with_fillings(fillings)
-        return surface.patches
-
-
-#: The CAD files a ``cad`` surface renders.
-CAD_RENDERED = (".step", ".stp", ".iges", ".igs", ".brep", ".3dm")
-
-
-def _swapped(patch: BSplinePatch) -> BSplinePatch:
-    """The same surface with u and v swapped: its p_u x p_v is the original's -(p_u x p_v)."""
-    weights = None if patch.weights is None else np.swapaxes(patch.weights, 0, 1)
-    points = np.swapaxes(patch.points, 0, 1)
-    return BSplinePatch(points, patch.degree[::-1], patch.knots[::-1], weights)
-
-
-def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, float]]:
-    """A face's parameter box clipped into its patch's domain."""
-    (u0, u1), (v0, v1) = box
-    (a0, a1), (b0, b1) = dom
-    return (max(u0, a0), min(u1, a1)), (max(v0, b0), min(v1, b1))
-
-
-@surface_type(
-    "cad",
-    "the trimmed faces of a CAD model (STEP, IGES, BREP, Rhino 3dm), exact, meshed by the kernel",
-    Key(
-        "file",
-        "path (.step .stp .iges .igs .brep .3dm)",
-        REQUIRED,
-        "the model, relative to the scene file",
-    ),
-    Key("faces", "list of face numbers (0-based)", None, "the faces rendered", "all"),
-    Key("sew", "true or false", None, "sew the faces into shells first", "when unsewn"),
-    Key("tolerance", "number > 0", None, "the sewing tolerance (model units)", "from the size"),
-)
-def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
-    from ..io.cad import read_cad
-
-    name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
-    suffix = Path(name).suffix.lower()
-    if suffix not in CAD_RENDERED:
-        raise t.error(
-            "file",
-            f"expected a CAD file ({' '.join(CAD_RENDERED)}), got {show(name)}",
-        )
-    faces = t.raw("faces")
-    if faces is not None and not (
-        isinstance(faces, list) and faces and all(is_int(i) and i >= 0 for i in faces)
-    ):
-        raise t.error(
-            "faces", f"expected a list of face numbers (integers >= 0), got {show(faces)}"
-        )
-    sew = None if "sew" not in t.data else t.boolean("sew")
-    tolerance = None if "tolerance" not in t.data else t.number("tolerance", lo=0)
-    data_file = files.find(t, name)
-    with t.reported():
-        model = read_cad(data_file, sew=sew, tolerance=tolerance)
-    count = len(model.faces)
-    chosen = list(range(count)) if faces is None else [int(i) for i in faces]
-    for i in chosen:
-        if i >= count:
-            raise t.error(
-                "faces",
-                f"expected face numbers from 0 to {count - 1} ({data_file.name} has {count} "
-                f"faces), got {i}",
-            )
-    if len(chosen) > MAX_PATCHES:
-        raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
-    patches: list[Patch] = []
-    swapped = []
-    for i in chosen:
-        face = model.faces[i]
-        with t.reported("faces"):
-            try:
-                patch = face.patch.restricted(_clipped(face.box, face.patch.domain))
-            except GshadeError as exc:
-                raise GshadeError(f"face {i}: {exc}") from None
-        if face.reversed:
-            patch = _swapped(patch)
-        patches.append(patch)
-        swapped.append(bool(face.reversed))
-    return patches, CadFaces(model, tuple(chosen), tuple(swapped))
-
+# the types read from meshes and CAD models (subdivision, hole, cad), registered here so
+# that the listing keeps its order
+from . import mesh_and_cad_surfaces  # noqa: E402, F401
 
 #: The surface types, in the order messages list them.
 SURFACE_TYPES = tuple(SURFACES)
