@@ -72,6 +72,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -96,6 +97,8 @@ __all__ = [
 
 #: Largest residual |C x - r| (relative to the data's size) accepted by :func:`fill_hole`.
 RESIDUAL_TOL = 1e-9
+#: Singular values of C below this times the largest count as zero (the rank).
+RANK_TOL = 1e-10
 
 
 @dataclass(frozen=True)
@@ -150,48 +153,37 @@ def _add(rows: NDArray[np.float64], column: np.integer, values: NDArray[np.float
     rows[:, column] += values
 
 
-def hole_system(
-    hole: Hole,
-    continuity: str = "G1",
-    *,
-    profile: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
-    degree: int | None = None,
-) -> HoleSystem:
-    """The conditions of the ``continuity`` filling of ``hole`` (module docstring).
-
-    Parameters
-    ----------
-    hole : Hole
-        The hole and its boundary data.
-    continuity : {"G1", "G2"}
-    profile : callable, optional
-        h in lambda(t) = 2 cos(2 pi / n) h(t), instead of the continuity's own (to show
-        that other choices fail).
-    degree : int, optional
-        The patches' degree, instead of the continuity's own.
-    """
-    kind = _continuity(continuity)
-    n, d, order = hole.n, degree or kind.degree, kind.order
-    size = (d + 1) ** 2
-    var = np.arange(n * size).reshape(n, d + 1, d + 1)  # var[i, a, b]: unknown of P_i[a, b]
-    fixed: list[tuple[int, NDArray[np.float64]]] = []  # (unknown, value)
-
-    # outer edges: C^order to the surrounding patches; the k-th net row from the edge
-    data = [elevate_degree(x, d - 3, axis=1) for x in (hole.boundary, hole.cross1, hole.cross2)]
-    rows_from_edge = [data[0], data[0] + data[1] / d]
-    rows_from_edge.append(data[2] / (d * (d - 1)) - rows_from_edge[0] + 2.0 * rows_from_edge[1])
+def _outer_unknowns(n: int, d: int, order: int) -> list[tuple[int, int, int, int]]:
+    """The unknowns the outer edges fix, and where each value comes from: (unknown, k, j,
+    b) for the k-th net row from the edge, b-th point of segment j's data (module
+    docstring: rows a = d - k of P_i against segment 2i + 1, columns b = d - k against
+    segment 2i + 2, reversed)."""
+    var = np.arange(n * (d + 1) ** 2).reshape(n, d + 1, d + 1)
+    out = []
     for i in range(n):
         ju, jv = 2 * i + 1, (2 * i + 2) % (2 * n)
         for k in range(order + 1):
             for b in range(d + 1):
-                fixed.append((var[i, d - k, b], rows_from_edge[k][ju, b]))
-                fixed.append((var[i, b, d - k], rows_from_edge[k][jv, d - b]))
+                out.append((int(var[i, d - k, b]), k, ju, b))
+                out.append((int(var[i, b, d - k]), k, jv, d - b))
+    return out
+
+
+def _conditions(
+    n: int, d: int, order: int, profile: Callable[[NDArray[np.float64]], NDArray[np.float64]]
+) -> NDArray[np.float64]:
+    """C: the fixed unknowns of the outer edges (identity rows, in :func:`_outer_unknowns`'
+    order), then the inner edges' conditions.  It depends on n, the degree, the order and
+    the junction function only, not on the hole's data."""
+    size = (d + 1) ** 2
+    var = np.arange(n * size).reshape(n, d + 1, d + 1)  # var[i, a, b]: unknown of P_i[a, b]
+    fixed = [k for k, _, _, _ in _outer_unknowns(n, d, order)]
 
     # inner edges: shared nets, then (G1-in) and (G2-in) at Chebyshev points
     samples = 2 * d + 8
     t = 0.5 - 0.5 * np.cos((2 * np.arange(samples) + 1) * np.pi / (2 * samples))
     B = bernstein_basis(d, t, 2)  # (3, samples, d + 1)
-    lam = 2.0 * math.cos(2.0 * math.pi / n) * (profile or kind.profile)(t)
+    lam = 2.0 * math.cos(2.0 * math.pi / n) * profile(t)
     blocks = []
     for i in range(n):
         Pi, Pj = var[i], var[i - 1]  # P_i, and P_(i-1) across E_i
@@ -220,16 +212,94 @@ def hole_system(
             _add(rows, Pi[a, 0], -(lam**2) * B[2, :, a] - 2 * lam * w1[:, a])
             _add(rows, Pi[a, 1], 2 * lam * w1[:, a])
         blocks.append(rows)
-    inner = np.concatenate(blocks)
     given = np.zeros((len(fixed), n * size))
-    given[np.arange(len(fixed)), [k for k, _ in fixed]] = 1.0
-    C = np.concatenate([given, inner])
-    r = np.concatenate([np.array([v for _, v in fixed]), np.zeros((len(inner), 3))])
-    return HoleSystem(n, continuity, d, C, r)
+    given[np.arange(len(fixed)), fixed] = 1.0
+    return np.concatenate([given, *blocks])
+
+
+def _right_hand_side(hole: Hole, d: int, order: int, rows: int) -> NDArray[np.float64]:
+    """r: the outer edges' fixed values (the degree-elevated boundary data, C^order), then
+    zeros for the inner edges' ``rows - len(fixed)`` conditions."""
+    data = [elevate_degree(x, d - 3, axis=1) for x in (hole.boundary, hole.cross1, hole.cross2)]
+    from_edge = [data[0], data[0] + data[1] / d]  # the k-th net row from the edge
+    from_edge.append(data[2] / (d * (d - 1)) - from_edge[0] + 2.0 * from_edge[1])
+    fixed = np.array([from_edge[k][j, b] for _, k, j, b in _outer_unknowns(hole.n, d, order)])
+    return np.concatenate([fixed, np.zeros((rows - len(fixed), 3))])
+
+
+def hole_system(
+    hole: Hole,
+    continuity: str = "G1",
+    *,
+    profile: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    degree: int | None = None,
+) -> HoleSystem:
+    """The conditions of the ``continuity`` filling of ``hole`` (module docstring).
+
+    Parameters
+    ----------
+    hole : Hole
+        The hole and its boundary data.
+    continuity : {"G1", "G2"}
+    profile : callable, optional
+        h in lambda(t) = 2 cos(2 pi / n) h(t), instead of the continuity's own (to show
+        that other choices fail).
+    degree : int, optional
+        The patches' degree, instead of the continuity's own.
+    """
+    kind = _continuity(continuity)
+    d = degree or kind.degree
+    if profile is None and d == kind.degree:
+        C = _factored(hole.n, continuity).C
+    else:
+        C = _conditions(hole.n, d, kind.order, profile or kind.profile)
+    return HoleSystem(hole.n, continuity, d, C, _right_hand_side(hole, d, kind.order, len(C)))
+
+
+@dataclass(frozen=True)
+class _Factorisation:
+    """C = U S V^T cut to its rank k: what :func:`solve_qp` needs of C."""
+
+    C: NDArray[np.float64]
+    U: NDArray[np.float64]  # the first k columns
+    s: NDArray[np.float64]  # the k singular values above the threshold
+    Vt: NDArray[np.float64]  # the first k rows
+    Z: NDArray[np.float64]  # the last columns of V: a basis of ker C
+
+
+def _factor(C: NDArray[np.float64], rtol: float) -> _Factorisation:
+    U, s, Vt = np.linalg.svd(C, full_matrices=True)
+    k = int(np.sum(s > rtol * s[0]))
+    return _Factorisation(C, U[:, :k], s[:k], Vt[:k], Vt[k:].T)
+
+
+@lru_cache(maxsize=32)
+def _factored(n: int, continuity: str) -> _Factorisation:
+    """The conditions of an n-sided ``continuity`` filling, factored once: they do not
+    depend on the hole's data (only the right-hand side does)."""
+    kind = JUNCTIONS[continuity]
+    factored = _factor(_conditions(n, kind.degree, kind.order, kind.profile), RANK_TOL)
+    for a in (factored.C, factored.U, factored.s, factored.Vt, factored.Z):
+        a.flags.writeable = False
+    return factored
+
+
+def _minimiser(
+    f: _Factorisation, r: NDArray[np.float64], Q: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
+    """x_p = C^+ r moved within ker C to the minimum of x^T Q x, and max |C x - r|."""
+    xp = f.Vt.T @ ((f.U.T @ r) / f.s[:, None])
+    if f.Z.shape[1]:
+        H = f.Z.T @ Q @ f.Z
+        xp = xp + f.Z @ np.linalg.solve(H, -f.Z.T @ Q @ xp)
+    return xp, float(np.abs(f.C @ xp - r).max())
 
 
 def solve_qp(
-    C: NDArray[np.float64], r: NDArray[np.float64], Q: NDArray[np.float64], rtol: float = 1e-10
+    C: NDArray[np.float64],
+    r: NDArray[np.float64],
+    Q: NDArray[np.float64],
+    rtol: float = RANK_TOL,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Minimise sum_c x_c^T Q x_c subject to C x = r by the null-space method.
 
@@ -246,14 +316,9 @@ def solve_qp(
     residual : float
         max |C x - r|.
     """
-    U, s, Vt = np.linalg.svd(C, full_matrices=True)
-    k = int(np.sum(s > rtol * s[0]))
-    xp = Vt[:k].T @ ((U[:, :k].T @ r) / s[:k, None])
-    Z = Vt[k:].T
-    if Z.shape[1]:
-        H = Z.T @ Q @ Z
-        xp = xp + Z @ np.linalg.solve(H, -Z.T @ Q @ xp)
-    return xp, Z, float(np.abs(C @ xp - r).max())
+    f = _factor(C, rtol)
+    x, residual = _minimiser(f, r, Q)
+    return x, f.Z, residual
 
 
 @dataclass(frozen=True)
@@ -332,9 +397,10 @@ def fill_hole(
     if functional not in FUNCTIONALS:
         expected = one_of(tuple(FUNCTIONALS))
         raise GshadeError(f"functional: expected {expected}, got {show(functional)}")
-    system = hole_system(hole, continuity)
-    Q = functional_matrix(functional, hole.n, system.degree, domain)
-    x, Z, residual = solve_qp(system.C, system.r, Q)
+    factored = _factored(hole.n, continuity)
+    Q = functional_matrix(functional, hole.n, kind.degree, domain)
+    r = _right_hand_side(hole, kind.degree, kind.order, len(factored.C))
+    x, residual = _minimiser(factored, r, Q)
     scale = max(1.0, float(np.abs(hole.boundary).max()))
     if residual > RESIDUAL_TOL * scale:
         raise GshadeError(
@@ -342,14 +408,14 @@ def fill_hole(
             f"(residual {residual:.3g})"
         )
     return HoleFilling(
-        patches=filling_patches(x, hole.n, system.degree),
+        patches=filling_patches(x, hole.n, kind.degree),
         continuity=continuity,
         functional=functional,
         domain=domain,
         residual=residual / scale,
         energy=float(np.einsum("ic,ij,jc->", x, Q, x)),
         nets=x,
-        free_basis=Z,
+        free_basis=factored.Z,
     )
 
 
