@@ -51,18 +51,32 @@ def _picture(channels: dict) -> str | None:
     return _png_data(straight_rgb(channels), channels.get("A"))
 
 
-def _figures(r: CheckResult) -> str:
-    """The new image, the reference (unless just written) and the difference heat map."""
-    from ..io.image import read_exr
+#: A reference image as read: channels (float16 where the EXR stores halves) and header.
+_Image = tuple[dict, dict]
 
+
+def _reference(r: CheckResult) -> _Image | None:
+    """The scene's reference, read once for its thumbnail and its view (None if it was just
+    written, is missing or does not read: the verdict says so)."""
+    from ..io.image import read_exr_planes
+
+    if r.reference is None or not r.reference.exists() or r.written:
+        return None
+    try:
+        channels, header, _, _ = read_exr_planes(r.reference)
+    except GshadeError:
+        return None
+    return dict(channels), dict(header)
+
+
+def _figures(r: CheckResult, reference: _Image | None) -> str:
+    """The new image, the reference (unless just written) and the difference heat map."""
     cells = []
     if r.image is not None:
         cells.append(("new", _picture(r.image.channels)))
-    if r.reference is not None and r.reference.exists() and not r.written:
-        try:
-            cells.append(("reference", _picture(read_exr(r.reference)[0])))
-        except GshadeError:
-            pass
+    if reference is not None:
+        as_float32 = {k: np.asarray(v, dtype=np.float32) for k, v in reference[0].items()}
+        cells.append(("reference", _picture(as_float32)))
     if r.comparison is not None:
         label = f"|difference| (max {r.comparison.overall.max_error:.3g})"
         cells.append((label, _encode_png(heat_map(r.comparison))))
@@ -90,7 +104,9 @@ def _metrics(comparison: Comparison | None) -> str:
     )
 
 
-def _write_view(r: CheckResult, folder: Path, taken: set[str]) -> str | None:
+def _write_view(
+    r: CheckResult, reference: _Image | None, folder: Path, taken: set[str]
+) -> str | None:
     """Write the scene's view page (new and, if there is one, reference) into
     ``folder/views``; its path relative to ``folder``, or None without a new image."""
     from ..display.html_view import write_view
@@ -99,8 +115,8 @@ def _write_view(r: CheckResult, folder: Path, taken: set[str]) -> str | None:
         return None
     images: list = [(r.image.channels, r.image.metadata)]
     labels = ["new"]
-    if r.reference is not None and r.reference.exists() and not r.written:
-        images.append(r.reference)
+    if reference is not None:
+        images.append(reference)
         labels.append("reference")
     stem = re.sub(r"[^\w.-]", "_", r.name) or "scene"
     name, k = stem, 1
@@ -115,7 +131,7 @@ def _write_view(r: CheckResult, folder: Path, taken: set[str]) -> str | None:
     return f"views/{name}.html"
 
 
-def _section(r: CheckResult, view: str | None) -> str:
+def _section(r: CheckResult, reference: _Image | None, view: str | None) -> str:
     """One scene's section: verdict, message, pictures, metrics, the view and the log."""
     status = f"{r.status} ({r.written} reference)" if r.written else r.status
     inspect = ""
@@ -130,7 +146,7 @@ def _section(r: CheckResult, view: str | None) -> str:
     return (
         f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
         f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
-        f"{html.escape(r.message)}</p>{_figures(r)}{_metrics(r.comparison)}{inspect}"
+        f"{html.escape(r.message)}</p>{_figures(r, reference)}{_metrics(r.comparison)}{inspect}"
         + (f"<pre>{html.escape(r.log)}</pre>" if r.log else "")
         + "</section>"
     )
@@ -172,14 +188,18 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
     )
     counts = {s: sum(r.status == s for r in results) for s in _ORDER}
     taken: set[str] = set()
-    views = {id(r): _write_view(r, folder, taken) for r in ordered}
+    sections, views = [], {}
+    for r in ordered:
+        reference = _reference(r)
+        views[id(r)] = _write_view(r, reference, folder, taken)
+        sections.append(_section(r, reference, views[id(r)]))
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>gshade check</title><style>"
         + _STYLE
         + "</style></head><body><h1>gshade check</h1><p>"
         + ", ".join(f"{n} {html.escape(s)}" for s, n in counts.items())
         + "</p>"
-        + "".join(_section(r, views.get(id(r))) for r in ordered)
+        + "".join(sections)
         + "</body></html>"
     )
     atomic_write(
