@@ -89,22 +89,16 @@ def unpack_planes(text: str, dtype: type, shape: tuple[int, int, int]) -> NDArra
 
 
 def picture_rgba8(channels: Mapping[str, NDArray]) -> NDArray[np.uint8] | None:
-    """The picture as gshade's PNGs hold it: R, G, B divided by A where A > 0, the sRGB
-    transfer function (:func:`gshade.io.image.linear_to_srgb`), 8 bits; A linear.  Planes
-    (4, height, width); None without R, G and B."""
-    from ..io.image import linear_to_srgb
+    """The picture as gshade's PNGs hold it (:func:`gshade.io.image.srgb8` of R, G, B
+    divided by A, A linear), as planes (4, height, width); None without R, G and B."""
+    from ..io.image import srgb8, straight_rgb
 
     if not all(c in channels for c in "RGB"):
         return None
-    rgb = np.stack([np.asarray(channels[c], np.float64) for c in "RGB"])
     alpha = channels.get("A")
     if alpha is None:
-        a = np.ones(rgb.shape[1:])
-    else:
-        a = np.nan_to_num(np.asarray(alpha, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-        rgb = rgb / np.where(a > 0, a, 1.0)
-    planes = np.concatenate([linear_to_srgb(rgb), a[None]])
-    return np.round(np.clip(planes, 0.0, 1.0) * 255.0).astype(np.uint8)
+        alpha = np.ones(np.shape(channels["R"]))
+    return np.moveaxis(srgb8(straight_rgb(channels), alpha), -1, 0)
 
 
 def _finite(value: object) -> object:

@@ -37,6 +37,8 @@ __all__ = [
     "read_exr_header",
     "read_exr_planes",
     "read_exr_windows",
+    "srgb8",
+    "straight_rgb",
     "write_exr",
     "write_png",
 ]
@@ -388,6 +390,27 @@ def _to_uint8(x: NDArray) -> NDArray[np.uint8]:
     return np.round(np.clip(x, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
+def straight_rgb(channels: Mapping[str, NDArray]) -> NDArray[np.float64]:
+    """R, G, B divided by A where A > 0 (EXR colour is premultiplied by the coverage),
+    shape (height, width, 3)."""
+    rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
+    a = channels.get("A")
+    if a is None:
+        return rgb
+    return rgb / np.where(a > 0, a, 1.0)[..., None]
+
+
+def srgb8(rgb: ArrayLike, alpha: ArrayLike | None = None) -> NDArray[np.uint8]:
+    """A PNG's pixels: linear RGB (not premultiplied) sRGB-encoded and rounded to 8 bits,
+    shape (height, width, 3), or (height, width, 4) with the alpha stored linearly
+    (NaN -> 0, clipped to [0, 1])."""
+    image = _to_uint8(linear_to_srgb(rgb))
+    if alpha is None:
+        return image
+    a = np.nan_to_num(np.asarray(alpha, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+    return np.concatenate([image, _to_uint8(a)[..., None]], axis=2)
+
+
 def png_writer(
     path: str | os.PathLike, rgb: ArrayLike, alpha: ArrayLike | None = None
 ) -> Callable[[str], None]:
@@ -402,7 +425,6 @@ def png_writer(
             f"{target}: rgb: expected an array of real numbers of shape (height, width, 3), got "
             f"shape {rgb.shape} and dtype {rgb.dtype}"
         )
-    image = _to_uint8(linear_to_srgb(rgb))
     if alpha is not None:
         a = np.asarray(alpha)
         if a.dtype.kind not in "biuf" or a.shape != rgb.shape[:2]:
@@ -410,8 +432,7 @@ def png_writer(
                 f"{target}: alpha: expected an array of real numbers of shape {rgb.shape[:2]}, "
                 f"got shape {a.shape} and dtype {a.dtype}"
             )
-        a = np.nan_to_num(a.astype(np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-        image = np.concatenate([image, _to_uint8(a)[..., None]], axis=2)
+    image = srgb8(rgb, alpha)
 
     def write(name: str) -> None:
         iio.imwrite(name, image, extension=".png")

@@ -33,22 +33,13 @@ def _encode_png(img: np.ndarray) -> str:
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _png_data(rgb: np.ndarray, alpha: np.ndarray | None) -> str:
-    from ..io.image import linear_to_srgb
-
-    img = np.clip(np.round(linear_to_srgb(np.clip(rgb, 0, 1)) * 255), 0, 255).astype(np.uint8)
-    if alpha is not None:
-        a = np.clip(np.round(np.clip(alpha, 0, 1) * 255), 0, 255).astype(np.uint8)
-        img = np.concatenate([img, a[..., None]], -1)
-    return _encode_png(img)
-
-
 def _picture(channels: dict) -> str | None:
+    """The picture as its PNG shows it, as a data: URL (None without R, G and B)."""
+    from ..io.image import srgb8, straight_rgb
+
     if not all(c in channels for c in "RGB"):
         return None
-    from ..rendering.rendered_image import straight_rgb
-
-    return _png_data(straight_rgb(channels), channels.get("A"))
+    return _encode_png(srgb8(straight_rgb(channels), channels.get("A")))
 
 
 #: A reference image as read: channels (float16 where the EXR stores halves) and header.

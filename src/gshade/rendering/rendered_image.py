@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..display import Legend
+from ..io.image import straight_rgb
 
 __all__ = ["CHANNELS", "RenderedImage", "straight_rgb"]
 
@@ -37,15 +38,6 @@ CHANNELS = (
     "v",
     "patch",
 )
-
-
-def straight_rgb(channels: dict[str, NDArray]) -> NDArray[np.float64]:
-    """R, G, B divided by A where A > 0 (EXR colour is premultiplied by the coverage)."""
-    rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
-    a = channels.get("A")
-    if a is None:
-        return rgb
-    return rgb / np.where(a > 0, a, 1.0)[..., None]
 
 
 @dataclass
