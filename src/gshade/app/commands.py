@@ -56,7 +56,7 @@ def render(args: argparse.Namespace) -> int:
 
     scene = load_scene(args.scene, _scene_overrides(args))
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
-    html = getattr(args, "html", None)
+    html = args.html
     targets = [output] + ([Path(args.png)] if args.png else []) + ([Path(html)] if html else [])
     # the outputs' temporaries are made first: an unwritable target fails before rendering,
     # and the targets change only once every file is written
