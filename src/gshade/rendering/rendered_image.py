@@ -17,9 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..display import Legend
-from ..io.image import straight_rgb
 
-__all__ = ["CHANNELS", "RenderedImage", "straight_rgb"]
+__all__ = ["CHANNELS", "RenderedImage"]
 
 CHANNELS = (
     "R",
@@ -64,6 +63,8 @@ class RenderedImage:
     @property
     def straight_rgb(self) -> NDArray[np.float64]:
         """The picture not premultiplied by the coverage (for PNGs and figures)."""
+        from ..io.image import straight_rgb  # OpenEXR loads with io.image: when first needed
+
         return straight_rgb(self.channels)
 
     def __getitem__(self, name: str) -> NDArray[np.float32]:
