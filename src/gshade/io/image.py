@@ -13,6 +13,7 @@ integers (EXR ``int``, 32 bits) and floats (EXR ``double``).
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cache
@@ -23,6 +24,7 @@ import OpenEXR
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
+from ..limits import MAX_IMAGE_FILE_BYTES
 from ..runtime.native import NativeOutput, captured_output
 from .files import read_bytes
 from .outputs import atomic_write
@@ -300,7 +302,8 @@ def read_exr_planes(
     """:func:`read_exr_windows`, with HALF channels as float16 arrays (the same values in
     half the memory of float32); the other channels are float32 as there."""
     path = Path(path)
-    magic = read_bytes(path, "an OpenEXR file", size=4)
+    _check_size(path)  # before anything of it is read
+    magic = read_bytes(path, "an OpenEXR file", size=4)  # refuses FIFOs, devices
     if magic != _EXR_MAGIC:
         raise GshadeError(
             f"{path}: expected an OpenEXR file (starting with bytes 76 2f 31 01), "
@@ -339,6 +342,21 @@ def read_exr_planes(
     return channels, header, data, display
 
 
+def _check_size(path: Path) -> None:
+    """Refuse a regular file larger than :data:`gshade.limits.MAX_IMAGE_FILE_BYTES` before
+    anything of it is read (a missing file, a FIFO ... are :func:`read_bytes`'s to refuse)."""
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return
+    size = info.st_size
+    if stat.S_ISREG(info.st_mode) and size > MAX_IMAGE_FILE_BYTES:
+        raise GshadeError(
+            f"{path}: expected an image file of at most {MAX_IMAGE_FILE_BYTES} bytes "
+            f"({MAX_IMAGE_FILE_BYTES / 2**30:g} GB), got {size} bytes ({size / 2**30:.2f} GB)"
+        )
+
+
 def _window(value: object) -> ExrWindow | None:
     """An EXR box attribute ((x_min, y_min), (x_max, y_max)) as a window; None if it is not
     one."""
@@ -355,7 +373,9 @@ def read_exr_header(path: str | os.PathLike) -> dict[str, object]:
     """The header attributes of an OpenEXR file (as :func:`read_exr` returns them), without
     reading the pixels."""
     path = Path(path)
-    if read_bytes(path, "an OpenEXR file", size=4) != _EXR_MAGIC:  # refuses FIFOs, devices
+    _check_size(path)  # before anything of it is read
+    magic = read_bytes(path, "an OpenEXR file", size=4)  # refuses FIFOs, devices
+    if magic != _EXR_MAGIC:
         raise GshadeError(f"{path}: expected an OpenEXR file")
     try:
         with captured_output() as native:
