@@ -5,7 +5,9 @@ is bounded here, so that a hostile or mistaken file is refused with one line bef
 costs minutes of time or gigabytes of memory.  The README lists the same values.
 
 The render's memory is estimated from its sizes (:func:`render_memory`) and refused above
-:func:`memory_limit`: ``GSHADE_MEMORY_LIMIT`` (e.g. ``8G``) or 3/4 of this machine's memory.
+:func:`memory_limit`: ``GSHADE_MEMORY_LIMIT`` (e.g. ``8G``) or 3/4 of this machine's memory,
+and never more than the process's address-space limit (``ulimit -v``) leaves, whichever is
+given (:func:`memory_budget` says which one set it).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import re
 from .errors import GshadeError
 
 __all__ = [
+    "MAX_CONTINUITY_SAMPLES",
     "MAX_DATA_FILE_BYTES",
     "MAX_DEGREE",
     "MAX_HOLES",
@@ -36,6 +39,7 @@ __all__ = [
     "MIN_CHORD_TOLERANCE",
     "MIN_DIRECTION",
     "gigabytes",
+    "memory_budget",
     "memory_limit",
     "render_memory",
 ]
@@ -66,6 +70,10 @@ MIN_CHORD_TOLERANCE = 1e-9
 #: Shortest direction accepted (a shape function's light or axis, the camera's up):
 #: normalising it stays exact.
 MIN_DIRECTION = 1e-12
+
+#: Samples per junction of ``gshade continuity`` (patch junctions and CAD B-rep edges): a
+#: junction's measures need a few dozen; the edges' arrays grow with edges x samples.
+MAX_CONTINUITY_SAMPLES = 4096
 
 #: Surfaces: the highest polynomial degree in u or v, the most patches of a scene, and the
 #: most refinement steps of a subdivision surface (each multiplies the patches by 4).
@@ -133,21 +141,57 @@ def _address_space() -> int | None:
     return max(soft - _RESERVED_ADDRESS_SPACE, 0)
 
 
-def memory_limit() -> int:
-    """Bytes a render may use: ``GSHADE_MEMORY_LIMIT`` (bytes, or with a suffix K, M, G, T),
-    else the smallest of three quarters of the machine's physical memory, the control
-    group's limit and what the address-space limit (``ulimit -v``) leaves."""
+_ULIMIT = "what the address-space limit (ulimit -v) leaves"
+
+
+def memory_budget() -> tuple[int, str]:
+    """Bytes a render may use, and what set that limit (for messages).
+
+    ``GSHADE_MEMORY_LIMIT`` (bytes, or with a suffix K, M, G, T) if set, else the smallest
+    of three quarters of the machine's physical memory and the control group's limit; in
+    both cases at most what the address-space limit (``ulimit -v``) leaves: an allocation
+    beyond that fails inside the renderer (a crash, not a message), so the smaller wins.
+
+    Returns
+    -------
+    limit : int
+        Bytes.
+    source : str
+        What set it: ``"GSHADE_MEMORY_LIMIT"``, ``"3/4 of this machine's memory"``, ``"the
+        container's (cgroup) limit"`` or the address-space limit (naming
+        ``GSHADE_MEMORY_LIMIT`` where that was set higher).
+
+    Raises
+    ------
+    GshadeError
+        ``GSHADE_MEMORY_LIMIT: expected a size such as 8G or 512M, got ...``.
+    """
     text = os.environ.get("GSHADE_MEMORY_LIMIT", "").strip()
-    if not text:
-        limits = [_physical_memory() * 3 // 4, _cgroup_memory(), _address_space()]
-        return min(x for x in limits if x is not None)
-    match = re.fullmatch(r"(\d+(?:\.\d+)?)\s*([KMGT]?)i?B?", text, re.IGNORECASE)
-    if match is None:
-        raise GshadeError(
-            f"GSHADE_MEMORY_LIMIT: expected a size such as 8G or 512M, got {text[:40]!r}"
-        )
-    scale = 1024 ** " KMGT".index(match.group(2).upper() or " ")
-    return int(float(match.group(1)) * scale)
+    if text:
+        match = re.fullmatch(r"(\d+(?:\.\d+)?)\s*([KMGT]?)i?B?", text, re.IGNORECASE)
+        if match is None:
+            raise GshadeError(
+                f"GSHADE_MEMORY_LIMIT: expected a size such as 8G or 512M, got {text[:40]!r}"
+            )
+        scale = 1024 ** " KMGT".index(match.group(2).upper() or " ")
+        given = int(float(match.group(1)) * scale)
+        candidates = [(given, "GSHADE_MEMORY_LIMIT")]
+        above = f"{_ULIMIT}, below GSHADE_MEMORY_LIMIT={text[:40]}"
+    else:
+        candidates = [(_physical_memory() * 3 // 4, "3/4 of this machine's memory")]
+        cgroup = _cgroup_memory()
+        if cgroup is not None:
+            candidates.append((cgroup, "the container's (cgroup) limit"))
+        above = _ULIMIT
+    space = _address_space()
+    if space is not None:
+        candidates.append((space, above))
+    return min(candidates, key=lambda c: c[0])
+
+
+def memory_limit() -> int:
+    """Bytes a render may use (:func:`memory_budget`'s limit)."""
+    return memory_budget()[0]
 
 
 def gigabytes(n: int) -> str:

@@ -24,18 +24,26 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import GshadeError
+from ..errors import GshadeError, show
 from ..geometry import Patch, regularised_derivatives, unit_normal
 from ..geometry.differential import IRREGULAR_TOL, _cross, _dot, normal_curvature
 from ..geometry.patch import unit_to_domain
+from ..limits import MAX_CONTINUITY_SAMPLES
 from ..shape import evaluate
 
-__all__ = ["Junction", "Tolerances", "continuity_report", "find_junctions", "junction_between"]
+__all__ = [
+    "Junction",
+    "Tolerances",
+    "continuity_report",
+    "find_junctions",
+    "junction_between",
+    "validate_samples",
+]
 
 SIDES = ("u0", "u1", "v0", "v1")
 CLASSES = ("none", "G0", "G1", "G2", "G3")
 MAX_PARTNERS = 8  # boundaries one boundary may coincide with (a manifold edge: one)
-MAX_SAMPLES = 4096  # samples per junction
+MAX_SAMPLES = MAX_CONTINUITY_SAMPLES  # samples per junction (gshade.limits)
 MAX_PAIRS = 10_000  # explicitly given pairs
 
 
@@ -414,6 +422,25 @@ def classify(m: dict, tol: Tolerances) -> str:
     return "G3"
 
 
+def validate_samples(samples: object) -> int:
+    """The samples per junction, checked: an integer from 1 to
+    :data:`gshade.limits.MAX_CONTINUITY_SAMPLES` (4096), for patch junctions and CAD edges
+    alike.
+
+    Raises
+    ------
+    GshadeError
+        ``samples: expected 1 to 4096, got ...`` (the command line says ``--samples``).
+    """
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)):
+        raise GshadeError(
+            f"samples: expected an integer from 1 to {MAX_SAMPLES}, got {show(samples)}"
+        )
+    if not 1 <= samples <= MAX_SAMPLES:
+        raise GshadeError(f"samples: expected 1 to {MAX_SAMPLES}, got {samples}")
+    return int(samples)
+
+
 def continuity_report(
     patches,
     *,
@@ -428,8 +455,7 @@ def continuity_report(
     pairs, and :func:`find_junctions` refuses a boundary shared by more than
     ``MAX_PARTNERS`` (8) others (so at most 4 x 8 junctions per patch are measured).
     """
-    if not 1 <= samples <= MAX_SAMPLES:
-        raise GshadeError(f"samples: expected 1 to {MAX_SAMPLES}, got {samples}")
+    samples = validate_samples(samples)
     if pairs is not None and len(pairs) > MAX_PAIRS:
         raise GshadeError(f"pairs: expected at most {MAX_PAIRS} pairs, got {len(pairs)}")
     pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])

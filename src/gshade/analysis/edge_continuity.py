@@ -29,6 +29,7 @@ from .continuity import (
     compare_sides,
     continuity_report,
     geometry_of,
+    validate_samples,
 )
 
 __all__ = ["EdgeLine", "edge_report", "scene_continuity", "scene_diagonal"]
@@ -61,7 +62,8 @@ def edge_report(
     faces : list of int, optional
         The face numbers whose shared edges are measured.
     samples : int
-        Points per edge.
+        Points per edge, 1 to :data:`gshade.limits.MAX_CONTINUITY_SAMPLES` (checked before
+        the kernel is asked for any edge).
     tolerances : Tolerances, optional
         Default: :meth:`Tolerances.for_size` of the model's bounding-box diagonal.
 
@@ -74,25 +76,19 @@ def edge_report(
     """
     from ..io.cad_edges import shared_edges
 
+    samples = validate_samples(samples)
     lo, hi = model.bounds
     tol = tolerances or Tolerances.for_size(float(np.linalg.norm(hi - lo)))
     edges = shared_edges(model, samples, faces)
     if not edges:
         return [], []
-    geometry = _face_geometry(model, edges, samples)
-    count = len(edges)
-    d = np.empty((2, 4, 4, count, samples, 3))
-    n, h, k = (np.empty((2, count, samples, 3)) for _ in range(3))
-    for side in (0, 1):
-        for m, edge in enumerate(edges):
-            dg, ng, hg, kg = geometry[(edge.faces[side], m)]
-            d[side, :, :, m], n[side, m], h[side, m], k[side, m] = dg, ng, hg, kg
-    # the edge's tangent on face i: p_u du/dt + p_v dv/dt, du/dt from the pcurve samples
-    duv = np.stack([_tangent(e.uv[0]) for e in edges])
-    along = d[0, 1, 0] * duv[..., :1] + d[0, 0, 1] * duv[..., 1:]
-    gap, angle, jump, gradient = compare_sides(
-        (d[0], n[0], h[0], k[0]), (d[1], n[1], h[1], k[1]), along, directions
-    )
+    # edges at a time: bounded temporaries (~768 bytes per edge and sample), as for patches
+    chunk = max(1, _CHUNK_POINTS // samples)
+    parts = [
+        _measure_edges(model, edges[a : a + chunk], samples, directions)
+        for a in range(0, len(edges), chunk)
+    ]
+    gap, angle, jump, gradient = (np.concatenate(m) for m in zip(*parts, strict=True))
     out = []
     for m, edge in enumerate(edges):
         measures = {
@@ -114,6 +110,30 @@ def edge_report(
             )
         )
     return out, edges
+
+
+#: Edge samples measured at a time (edges x samples): bounds the derivative arrays.
+_CHUNK_POINTS = 2**15
+
+
+def _measure_edges(
+    model, edges: list, samples: int, directions: int
+) -> tuple[NDArray[np.float64], ...]:
+    """Gap, normal angle, curvature jump and curvature-gradient jump of each edge."""
+    geometry = _face_geometry(model, edges, samples)
+    count = len(edges)
+    d = np.empty((2, 4, 4, count, samples, 3))
+    n, h, k = (np.empty((2, count, samples, 3)) for _ in range(3))
+    for side in (0, 1):
+        for m, edge in enumerate(edges):
+            dg, ng, hg, kg = geometry[(edge.faces[side], m)]
+            d[side, :, :, m], n[side, m], h[side, m], k[side, m] = dg, ng, hg, kg
+    # the edge's tangent on face i: p_u du/dt + p_v dv/dt, du/dt from the pcurve samples
+    duv = np.stack([_tangent(e.uv[0]) for e in edges])
+    along = d[0, 1, 0] * duv[..., :1] + d[0, 0, 1] * duv[..., 1:]
+    return tuple(
+        compare_sides((d[0], n[0], h[0], k[0]), (d[1], n[1], h[1], k[1]), along, directions)
+    )
 
 
 def _tangent(uv: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -162,8 +182,10 @@ def scene_continuity(
 
     Patch junctions number the scene's patches; edge rows the faces of their model.  With
     ``lines`` > 0, each edge also comes as an :class:`EdgeLine` with its parameter curves
-    sampled at ``lines`` points, for drawing.
+    sampled at ``lines`` points, for drawing.  ``samples`` is checked once, before any
+    junction or edge is sampled (:func:`~gshade.analysis.continuity.validate_samples`).
     """
+    samples = validate_samples(samples)
     surfaces = scene.surfaces
     tol = tolerances or Tolerances.for_size(scene_diagonal(scene))
     starts = np.cumsum([0] + [len(s.patches) for s in surfaces])

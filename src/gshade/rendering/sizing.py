@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry.patch_groups import grid_derivatives
-from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_limit, render_memory
+from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_budget, render_memory
 from .camera import View, frame_view
 from .tessellate import max_chord_resolution
 
@@ -79,7 +79,10 @@ def frame(scene, settings, where: str) -> Framing:
     box = extent_points(scene)
     lo, hi = box.min(axis=0), box.max(axis=0)
     diag = _validate_scale(where, lo, hi)
-    view = frame_view(scene.camera, box, settings.width, settings.height)
+    try:
+        view = frame_view(scene.camera, box, settings.width, settings.height)
+    except GshadeError as exc:  # "[camera] ...": about the view the scene's camera gives
+        raise GshadeError(f"{where}: {exc}") from None
     return Framing(lo, hi, diag, view)
 
 
@@ -185,12 +188,15 @@ def _validate_scale(where: str, lo: NDArray, hi: NDArray) -> float:
 
 
 def validate_memory(where: str, settings, vertices: int, texels: int) -> None:
-    """Refuse a render whose estimated peak memory exceeds :func:`gshade.limits.memory_limit`."""
+    """Refuse a render whose estimated peak memory exceeds :func:`gshade.limits.memory_limit`
+    (the message says what set the limit: ``GSHADE_MEMORY_LIMIT``, the machine's memory, the
+    container's limit or ``ulimit -v``)."""
     pixels = settings.width * settings.height
-    need, limit = render_memory(pixels, vertices, texels), memory_limit()
+    need = render_memory(pixels, vertices, texels)
+    limit, source = memory_budget()
     if need > limit:
         raise GshadeError(
             f"{where}: the render would need about {gigabytes(need)} ({settings.width} x "
             f"{settings.height} pixels, {vertices} mesh vertices, {texels} texels); the limit is "
-            f"{gigabytes(limit)} (GSHADE_MEMORY_LIMIT, default 3/4 of this machine's memory)"
+            f"{gigabytes(limit)} ({source}; GSHADE_MEMORY_LIMIT sets it, within ulimit -v)"
         )
