@@ -397,3 +397,62 @@ def test_a_perspective_eye_among_the_surfaces_is_refused(tmp_path):
     )
     with pytest.raises(GshadeError, match=r"inside.toml: frame: row .*sphere-isophotes.toml: "):
         make_figure(load_figure_spec(path), tmp_path / "inside.png")
+
+
+@pytest.mark.parametrize(
+    ("extra", "key", "reason"),
+    [
+        ('title = "$\\\\frac{$"', "title", r"Expected \frac{num}{den}"),
+        ('row_labels = ["$\\\\undefinedmacro{x}$"]', "row_labels[0]", "Unknown symbol"),
+        ('[[column]]\nlabel = "$x^$"', "[[column]] 1 label", "Expected"),
+    ],
+)
+def test_a_bad_mathtext_names_the_spec_and_key(tmp_path, capsys, extra, key, reason):
+    """Was "fig.png: cannot write the file: <the parser's lines>" after every panel was
+    rendered: now refused when the spec loads, naming the spec, the key and the reason."""
+    bad = tmp_path / "bad.toml"
+    sphere = ROOT / "scenes" / "sphere-isophotes.toml"
+    bad.write_text(f'rows = ["{sphere}"]\nwidth = 16\nheight = 12\nspp = 1\n{extra}\n')
+    with pytest.raises(GshadeError) as info:
+        load_figure_spec(bad)
+    message = str(info.value)
+    assert message.startswith(f"{bad}: {key}: expected text matplotlib can typeset")
+    assert reason in message and "\n" not in message
+    from gshade.app.cli import main
+
+    assert main(["figure", str(bad), "-o", str(tmp_path / "fig.png")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and f"{key}: expected text" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_a_panel_title_made_of_a_row_and_a_column_label_is_checked(tmp_path):
+    """Each label alone is plain text (one $), the panel's title "ROW: COLUMN" is not."""
+    sphere = ROOT / "scenes" / "sphere-isophotes.toml"
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        f'rows = ["{sphere}", "{sphere}"]\nrow_labels = ["a $\\\\frac{{", "b"]\n'
+        '[[column]]\nlabel = "c $"\n'
+    )
+    with pytest.raises(GshadeError, match=r"row_labels\[0\] with \[\[column\]\] 1 label"):
+        load_figure_spec(bad)
+    good = tmp_path / "good.toml"  # dollars that make no mathtext, and good mathtext, pass
+    good.write_text(
+        f'rows = ["{sphere}"]\ntitle = "$x^2$ costs $5"\nrow_labels = ["$\\\\alpha$"]\n'
+    )
+    assert load_figure_spec(good).title == "$x^2$ costs $5"
+
+
+def test_a_camera_error_names_the_spec_and_row(tmp_path):
+    """The camera's eye at the automatic target (the surfaces' centre) named no file."""
+    ball = tmp_path / "ball.toml"
+    ball.write_text('[[surface]]\ntype = "sphere"\nradius = 1.0\n')
+    spec = tmp_path / "spec.toml"
+    camera = "camera = { origin = [0, 0, 0] }"
+    spec.write_text(f'rows = ["ball.toml"]\nwidth = 16\nheight = 12\nspp = 1\n{camera}\n')
+    from gshade.app.figure import row_camera
+
+    loaded = load_figure_spec(spec)
+    with pytest.raises(GshadeError) as info:
+        row_camera(loaded, loaded.rows[0])
+    assert str(info.value).startswith(f"{spec}: row {loaded.rows[0]}: [camera] (target automatic")

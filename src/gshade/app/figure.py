@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..errors import GshadeError
+from ..errors import GshadeError, show
 
 __all__ = ["FRAMES", "MARGIN", "FigureSpec", "load_figure_spec", "make_figure", "row_camera"]
 
@@ -191,7 +191,50 @@ def load_figure_spec(path: str | os.PathLike) -> FigureSpec:
                     f"{', '.join(CAMERA_KEYS)})"
                 )
         spec.camera = {f"camera.{k}": v for k, v in raw["camera"].items()}
+    _check_texts(spec)
     return spec
+
+
+def _check_texts(spec: FigureSpec) -> None:
+    """Every text the figure draws, checked to be one matplotlib can typeset (text with an
+    even number of unescaped ``$`` is mathtext), before any panel is rendered: the title,
+    each row label, each column's label and, with several rows, the panel titles
+    ``ROW: COLUMN`` made of them.
+
+    Raises
+    ------
+    GshadeError
+        ``SPEC: KEY: expected text matplotlib can typeset (mathtext between $ signs), got
+        "...": MATPLOTLIB'S REASON``.
+    """
+    texts = [("title", spec.title)]
+    texts += [(f"row_labels[{r}]", label) for r, label in enumerate(spec.row_labels)]
+    texts += [(f"[[column]] {c} label", col.label) for c, col in enumerate(spec.columns, 1)]
+    if len(spec.rows) > 1:  # a panel's title joins its row's label and its column's label
+        for r, label in enumerate(spec.row_labels):
+            for c, col in enumerate(spec.columns, start=1):
+                if col.label:
+                    key = f"row_labels[{r}] with [[column]] {c} label (the panel's title)"
+                    texts.append((key, f"{label}: {col.label}"))
+    if not any("$" in text for _, text in texts):
+        return
+    from matplotlib import cbook
+    from matplotlib.mathtext import MathTextParser
+
+    parser = MathTextParser("path")
+    for key, text in texts:
+        if not cbook.is_math_text(text):
+            continue
+        try:
+            parser.parse(text, dpi=72)
+        except (ValueError, RuntimeError, KeyError) as exc:
+            lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+            reason = lines[-1] if lines else type(exc).__name__
+            reason = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in reason)
+            raise GshadeError(
+                f"{spec.path}: {key}: expected text matplotlib can typeset (mathtext between "
+                f"$ signs), got {show(text)}: {reason[:200]}"
+            ) from None
 
 
 def _column(path: Path, k: int, col: Any) -> Column:
@@ -298,7 +341,10 @@ def row_camera(spec: FigureSpec, row: Path) -> dict:
         geometries.setdefault(json.dumps(surface, sort_keys=True, default=str), surface)
     scenes = [_load(row, surface, spec) for surface in geometries.values()]
     points = np.concatenate([extent_points(scene) for scene in scenes])
-    view = frame_view(scenes[0].camera, points, spec.width, spec.height)
+    try:
+        view = frame_view(scenes[0].camera, points, spec.width, spec.height)
+    except GshadeError as exc:  # "[camera] ...": the row's scene camera with the spec's keys
+        raise GshadeError(f"{spec.path}: row {row}: {exc}") from None
     if spec.frame == "tight":
         try:
             view = fit_view(view, points, spec.margin)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ..errors import GshadeError
 
-__all__ = ["describe_fields", "read_bytes"]
+__all__ = ["describe_fields", "file_kind", "read_bytes", "require_regular_file"]
 
 _KINDS = (
     (stat.S_ISDIR, "a directory"),
@@ -22,6 +22,48 @@ _KINDS = (
     (stat.S_ISBLK, "a block device"),
     (stat.S_ISSOCK, "a socket"),
 )
+
+
+def file_kind(path: str | os.PathLike) -> str | None:
+    """What a path names that is not a regular file (``"a directory"``, ``"a FIFO (named
+    pipe)"``, ...), following symbolic links; None for a regular file.
+
+    Raises
+    ------
+    OSError
+        As :func:`os.stat` does (no such file, a symbolic-link loop, no permission).
+    """
+    mode = os.stat(path).st_mode
+    for test, kind in _KINDS:
+        if test(mode):
+            return kind
+    return None if stat.S_ISREG(mode) else "not a regular file"
+
+
+def require_regular_file(
+    path: str | os.PathLike, expected: str, error: type[GshadeError] = GshadeError
+) -> Path:
+    """``path``, checked to name an existing regular file (symbolic links followed).
+
+    Raises
+    ------
+    error
+        ``PATH: no such file``, ``PATH: cannot read the file (Too many levels of symbolic
+        links)`` (a link loop, or another reason the system gives), or ``PATH: expected
+        EXPECTED (a regular file), got a directory`` (a FIFO, a device, a socket).
+    """
+    path = Path(path)
+    try:
+        kind = file_kind(path)
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise error(
+            f"{path}: cannot read the file ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
+    if kind is not None:
+        raise error(f"{path}: expected {expected} (a regular file), got {kind}")
+    return path
 
 
 def read_bytes(

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import show
+from ..io.files import file_kind
 from .tables import Table
 
 __all__ = ["DATA_PATH_VARIABLE", "DataFiles", "data_roots"]
@@ -47,7 +48,8 @@ class DataFiles:
         data_file = self.base / name
         try:
             resolved = data_file.resolve()
-            exists = resolved.is_file()
+            exists = resolved.exists()
+            kind = file_kind(resolved) if exists else None
         except (OSError, ValueError, RuntimeError) as exc:
             raise t.error(
                 "file",
@@ -65,6 +67,12 @@ class DataFiles:
                 "file",
                 f"expected an existing file (relative to the scene file), got {show(name)} "
                 f"(no such file: {data_file})",
+            )
+        if kind is not None:  # a folder, a FIFO, a device: said so, not "no such file"
+            raise t.error(
+                "file",
+                f"expected a regular file (relative to the scene file), got {show(name)}, "
+                f"which is {kind}",
             )
         self.used = data_file
         return data_file

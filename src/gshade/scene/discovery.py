@@ -31,8 +31,9 @@ def scene_files(item: str | os.PathLike, *, patterns: bool = False) -> list[Path
     Parameters
     ----------
     item : path-like
-        A folder (its ``*.toml``, sorted by name), any other existing path (itself: one that
-        is not a regular file is refused when it is read), or with ``patterns`` a glob
+        A folder (its ``*.toml``, sorted by name), any other existing path or symbolic link
+        (itself: one that is not a regular file, or a link that leads nowhere, is refused
+        when it is read), or with ``patterns`` a glob
         pattern (the paths it matches, sorted; ``**`` matches folders recursively).
     patterns : bool
         Expand glob patterns.
@@ -53,6 +54,6 @@ def scene_files(item: str | os.PathLike, *, patterns: bool = False) -> list[Path
     path = Path(text)
     if path.is_dir():
         return sorted(path.glob(SCENE_FILES))
-    if path.exists():
+    if path.exists() or path.is_symlink():  # a link loop or a dangling link: reading says so
         return [path]
     raise GshadeError(f"{text}: no such scene file or folder")

@@ -225,11 +225,19 @@ def load_scene(
         One line naming the file, the table and key, what was expected and what was found.
     """
     from ..io.cad import CAD_EXTENSIONS
+    from ..io.files import require_regular_file
 
     path = Path(path)
     base = path.parent
     if path.suffix.lower() in CAD_EXTENSIONS:  # a CAD file: a scene of that one surface
-        model = path.resolve() if path.is_symlink() else path  # its folder holds it
+        # a folder, FIFO or link loop named like a CAD file is said to be one, not "no such file"
+        require_regular_file(path, "a CAD file")
+        try:
+            model = path.resolve() if path.is_symlink() else path  # its folder holds it
+        except (OSError, RuntimeError) as exc:  # changed since: a loop now
+            raise GshadeError(
+                f"{path}: cannot read the file ({getattr(exc, 'strerror', None) or exc})"
+            ) from None
         raw: dict[str, Any] = {
             "surface": [{"type": "cad", "file": model.name}],
             "shape": {"light": list(CAD_LIGHT)},
