@@ -8,6 +8,12 @@ embedded bit for bit (:mod:`gshade.display.view_data`: half channels as halves, 
 float32), so the readout prints the values the EXR holds, with the digits that read back
 to them (at most 9 significant digits for float32, 5 for half).  The picture is shown as
 gshade's PNGs show it (straight colour, sRGB, 8 bits).
+
+Nothing read from a file is trusted: the header attributes the page shows are validated
+(:mod:`gshade.display.view_header`; a bad one is left out with a note on the page and in
+:attr:`PageWriter.notes`), every size is bounded before anything is allocated, the page's
+script keeps channel names out of object keys (``Map``) and puts every text into the page
+as text (``textContent``), never as markup.
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ from __future__ import annotations
 import html
 import json
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -29,18 +35,20 @@ from ..errors import GshadeError
 from .view_data import (
     ENCODING,
     colour_table,
-    junction_list,
     junction_seams,
     pack_planes,
-    parsed,
     picture_rgba8,
-    plain_header,
     scalar_scales,
 )
+from .view_header import ViewHeader, view_header
 
 __all__ = [
+    "MAX_CHANNELS",
+    "MAX_CHANNEL_NAME",
     "MAX_IMAGES",
     "MAX_PIXELS",
+    "MAX_VALUES",
+    "PageWriter",
     "ViewParts",
     "view_data",
     "view_page",
@@ -57,6 +65,11 @@ Image = str | os.PathLike | tuple[Mapping[str, NDArray], Mapping[str, object]]
 MAX_IMAGES = 3
 #: Pixels of one image (4096 x 4096): a larger page is more than a browser holds well.
 MAX_PIXELS = 1 << 24
+#: Channels of one image, the longest channel name (characters), and the most channel
+#: values of one page (all images): 2**29 float32 values are 2 GiB in the browser.
+MAX_CHANNELS = 256
+MAX_CHANNEL_NAME = 1024
+MAX_VALUES = 1 << 29
 #: The channels' order in the readout (the others follow in the file's order).
 _ORDER = ("f", "f.mean", "f2")
 _TAIL = ("P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "u", "v", "patch", "R", "G", "B", "A")
@@ -92,7 +105,8 @@ def _as_list(images: Image | Sequence[Image]) -> list[Image]:
 
 
 def _load(image: Image, k: int) -> tuple[dict[str, NDArray], dict[str, object], str]:
-    """Channels (float16 or float32 arrays), header and a default label."""
+    """Channels (float16 or float32 arrays), header and a default label; the file's size
+    bounded before it is read (:func:`gshade.io.image.read_exr_planes`)."""
     if isinstance(image, (str, os.PathLike)):
         from ..io.image import read_exr_planes
 
@@ -110,6 +124,8 @@ def _load(image: Image, k: int) -> tuple[dict[str, NDArray], dict[str, object], 
         )
     out: dict[str, NDArray] = {}
     for name, data in image[0].items():
+        if not isinstance(name, str):
+            raise GshadeError(f"images[{k}]: expected channel names as strings, got {name!r}")
         a = np.asarray(data)
         if a.dtype.kind not in "biuf" or a.ndim != 2:
             raise GshadeError(
@@ -125,6 +141,16 @@ def _check_sizes(loaded: list, labels: list[str]) -> tuple[int, int]:
     for (channels, _, _), label in zip(loaded, labels, strict=True):
         if not channels:
             raise GshadeError(f"{label}: expected an image with channels, got none")
+        if len(channels) > MAX_CHANNELS:
+            raise GshadeError(
+                f"{label}: expected at most {MAX_CHANNELS} channels, got {len(channels)}"
+            )
+        for name in channels:
+            if not name or len(name) > MAX_CHANNEL_NAME:
+                raise GshadeError(
+                    f"{label}: expected channel names of 1 to {MAX_CHANNEL_NAME} characters, "
+                    f"got one of {len(name)}"
+                )
         found = {a.shape for a in channels.values()}
         if len(found) != 1:
             raise GshadeError(f"{label}: expected channels of one size, got {sorted(found)}")
@@ -138,6 +164,12 @@ def _check_sizes(loaded: list, labels: list[str]) -> tuple[int, int]:
     if h * w > MAX_PIXELS or 0 in (h, w):
         raise GshadeError(
             f"images: expected at most {MAX_PIXELS} pixels (4096 x 4096) per image, got {w}x{h}"
+        )
+    values = h * w * sum(len(channels) for channels, _, _ in loaded)
+    if values > MAX_VALUES:
+        raise GshadeError(
+            f"images: expected at most {MAX_VALUES} channel values in one page, got {values} "
+            f"({w}x{h} pixels, {sum(len(c) for c, _, _ in loaded)} channels)"
         )
     return w, h
 
@@ -166,7 +198,7 @@ def _channel_entries(channels: Mapping[str, NDArray]) -> list[dict]:
     return entries
 
 
-def _is_cad(header: Mapping[str, object], junctions: list[dict]) -> bool:
+def _is_cad(header: Mapping[str, object], junctions: Sequence[Mapping]) -> bool:
     """Whether the image shows a CAD model, whose ``patch`` channel numbers faces: the
     header's junctions are B-rep edges, or an attribute says so (``cad``, a length unit)."""
     if any("edge" in j for j in junctions):
@@ -176,24 +208,23 @@ def _is_cad(header: Mapping[str, object], junctions: list[dict]) -> bool:
     return flag in ("1", "true", "yes") or (isinstance(unit, str) and unit not in ("", "length"))
 
 
-def _image_data(channels: dict, header: dict, label: str) -> dict:
-    junctions, colours = junction_list(header)
+def _image_data(channels: dict, header: ViewHeader, label: str) -> dict:
+    junctions = header.junctions
     seams = None
     if junctions and "patch" in channels:
         planes = junction_seams(channels["patch"], junctions)
         if planes.shape[2]:
             seams = {"count": int(planes.shape[2]), "data": pack_planes(planes)}
     picture = picture_rgba8(channels)
-    settings = parsed(header, "settings")
     return {
         "label": label,
-        "header": plain_header({k: v for k, v in header.items() if k != "settings"}),
-        "settings": settings,
+        "header": header.attributes,
+        "settings": header.settings,
         "channels": _channel_entries(channels),
         "picture": None if picture is None else pack_planes(picture),
-        "cad": _is_cad(header, junctions),
+        "cad": _is_cad(header.attributes, junctions),
         "junctions": junctions or None,
-        "junction_colours": colours,
+        "junction_colours": header.colours,
         "seams": seams,
     }
 
@@ -217,29 +248,40 @@ def view_data(
     loaded = [_load(image, k) for k, image in enumerate(items)]
     names = list(labels) if labels is not None else [label for _, _, label in loaded]
     width, height = _check_sizes(loaded, names)
-    scales = scalar_scales([c for c, _, _ in loaded], loaded[0][1])
+    headers = [view_header(header) for _, header, _ in loaded]
+    scales = scalar_scales([c for c, _, _ in loaded], headers[0].settings)
     import matplotlib
 
     for s in scales.values():  # a header's unknown map: gshade's default
         if s["colormap"] not in matplotlib.colormaps:
             s["colormap"] = "coolwarm" if s["signed"] else "viridis"
     maps = {s["colormap"] for s in scales.values()} | {"inferno"}
-    first = loaded[0][1]
-    return {
+    scene = headers[0].attributes.get("scene_name", "")
+    sources = [
+        str(item) if isinstance(item, (str, os.PathLike)) else name
+        for item, name in zip(items, names, strict=True)
+    ]
+    data = {
         "format": 1,
         "encoding": ENCODING,
         "title": " / ".join(names) if title is None else str(title),
-        "scene": str(first.get("scene_name", "")),
+        "scene": scene if isinstance(scene, str) else "",
         "width": width,
         "height": height,
         "images": [
             _image_data(channels, header, name)
-            for (channels, header, _), name in zip(loaded, names, strict=True)
+            for (channels, _, _), header, name in zip(loaded, headers, names, strict=True)
         ],
         "scales": scales,
         "colormaps": {name: colour_table(name) for name in sorted(maps)},
         "difference": [0, 1] if len(loaded) > 1 else None,
+        "notes": [
+            f"{source}: {note}"
+            for source, header in zip(sources, headers, strict=True)
+            for note in header.notes
+        ],
     }
+    return data
 
 
 def _data_script(data: dict) -> str:
@@ -295,10 +337,16 @@ def view_page(
     Raises
     ------
     GshadeError
-        For a missing or unreadable file, a file that is not an OpenEXR image, images of
-        different sizes, or more than :data:`MAX_PIXELS` pixels, naming the image.
+        For a missing or unreadable file, a file that is not an OpenEXR image or is larger
+        than ``limits.MAX_IMAGE_FILE_BYTES``, images of different sizes, more than
+        :data:`MAX_PIXELS` pixels, :data:`MAX_CHANNELS` channels or :data:`MAX_VALUES`
+        values, naming the image.  A malformed header attribute is no error: it is left
+        out, and the page says so (``notes``; :mod:`gshade.display.view_header`).
     """
-    data = view_data(images, labels=labels, title=title)
+    return _page(view_data(images, labels=labels, title=title))
+
+
+def _page(data: dict) -> str:
     parts = _parts(data)
     heading = html.escape(data["title"])
     return (
@@ -310,26 +358,38 @@ def view_page(
     )
 
 
+@dataclass(frozen=True)
+class PageWriter:
+    """A page built (its errors raised), written to a file name given later (a temporary:
+    :func:`gshade.io.outputs.staged`) by calling it.  ``notes``: the header attributes
+    left out of the page, one line each (``FILE: header ATTRIBUTE: expected ..., got
+    ...; shown without it``), for the command to say."""
+
+    page: bytes
+    target: Path
+    notes: tuple[str, ...] = ()
+
+    def __call__(self, name: str) -> None:
+        try:
+            Path(name).write_bytes(self.page)
+        except OSError as exc:
+            raise GshadeError(
+                f"{self.target}: cannot write the file: {exc.strerror or exc}"
+            ) from None
+
+
 def view_writer(
     images: Image | Sequence[Image],
     output: str | os.PathLike,
     *,
     labels: Sequence[str] | None = None,
     title: str | None = None,
-) -> Callable[[str], None]:
-    """The page built now (errors raised now), as a function writing it to a file name
-    given later (a temporary: :func:`gshade.io.outputs.staged`).  ``output`` is the target
-    the errors of writing name."""
-    page = view_page(images, labels=labels, title=title).encode("utf-8")
-    target = Path(output)
-
-    def write(name: str) -> None:
-        try:
-            Path(name).write_bytes(page)
-        except OSError as exc:
-            raise GshadeError(f"{target}: cannot write the file: {exc.strerror or exc}") from None
-
-    return write
+) -> PageWriter:
+    """The page built now (errors raised now), as a :class:`PageWriter` writing it to a
+    file name given later (a temporary: :func:`gshade.io.outputs.staged`).  ``output`` is
+    the target the errors of writing name."""
+    data = view_data(images, labels=labels, title=title)
+    return PageWriter(_page(data).encode("utf-8"), Path(output), tuple(data["notes"]))
 
 
 def write_view(

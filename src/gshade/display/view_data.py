@@ -19,8 +19,6 @@ junction's visible seam; the page finds the junction nearest the cursor among th
 from __future__ import annotations
 
 import base64
-import json
-import math
 import zlib
 from collections.abc import Mapping
 
@@ -35,11 +33,9 @@ __all__ = [
     "GEOMETRY_CHANNELS",
     "PICTURE_CHANNELS",
     "colour_table",
-    "junction_list",
     "junction_seams",
     "pack_planes",
     "picture_rgba8",
-    "plain_header",
     "scalar_scales",
     "unpack_planes",
 ]
@@ -51,6 +47,8 @@ PICTURE_CHANNELS = ("R", "G", "B", "A")
 #: Channels that are not values of a shape function.
 GEOMETRY_CHANNELS = ("P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "patch")
 _UINT = {1: np.uint8, 2: np.uint16, 4: np.uint32}
+#: Patch ids below this (2**31) form seams: a pair of them is one int64 key.
+_IDS = 2**31
 
 
 def pack_planes(planes: NDArray) -> str:
@@ -101,68 +99,14 @@ def picture_rgba8(channels: Mapping[str, NDArray]) -> NDArray[np.uint8] | None:
     return np.moveaxis(srgb8(straight_rgb(channels), alpha), -1, 0)
 
 
-def _finite(value: object) -> object:
-    """A value for strict JSON: non-finite floats as text ("inf", "nan")."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if isinstance(value, dict):
-        return {str(k): _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
-def plain_header(header: Mapping[str, object]) -> dict[str, object]:
-    """The header's attributes as strict-JSON values: strings, numbers (non-finite ones as
-    text), anything else as its text."""
-    out: dict[str, object] = {}
-    for key, value in header.items():
-        if isinstance(value, (np.integer, np.floating)):
-            value = value.item()
-        if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-            value = str(value)
-        out[str(key)] = _finite(value)
-    return out
-
-
-def parsed(header: Mapping[str, object], key: str) -> dict:
-    """A header attribute holding JSON (``settings``, ``junctions``) as a dict; {} where it
-    is missing or not a JSON object."""
-    text = header.get(key)
-    if not isinstance(text, str):
-        return {}
-    try:
-        value = json.loads(text)
-    except ValueError:
-        return {}
-    return _finite(value) if isinstance(value, dict) else {}  # type: ignore[return-value]
-
-
-def junction_list(header: Mapping[str, object]) -> tuple[list[dict], dict[str, str]]:
-    """The junctions the header lists (each a dict: ``class``, ``patches``, ``sides`` or
-    ``edge``, and the measures where recorded) and the classes' colours (#rrggbb, sRGB)."""
-    from ..io.image import linear_to_srgb
-
-    meta = parsed(header, "junctions")
-    rows = [j for j in meta.get("junctions", []) if isinstance(j, dict)]
-    rows = [j for j in rows if _pair(j) is not None]
-    colours = {}
-    for cls, rgb in (meta.get("colours") or {}).items():
-        try:
-            s = np.round(linear_to_srgb(np.asarray(rgb, float)[:3]) * 255).astype(int)
-        except (TypeError, ValueError):
-            continue
-        if s.shape == (3,):
-            colours[str(cls)] = "#" + "".join(f"{int(c):02x}" for c in s)
-    return rows, colours
-
-
-def _pair(junction: dict) -> tuple[int, int] | None:
-    try:
-        a, b = (int(p) for p in junction.get("patches", ()))
-    except (TypeError, ValueError):
+def _pair(junction: Mapping[str, object]) -> tuple[int, int] | None:
+    """A junction's two patch ids, if they are two different integers in [0, 2**31)."""
+    patches = junction.get("patches")
+    if not isinstance(patches, (list, tuple)) or len(patches) != 2:
         return None
-    return (a, b) if a != b and min(a, b) >= 0 else None
+    a, b = patches
+    ok = all(isinstance(p, (int, np.integer)) and 0 <= p < 2**31 for p in (a, b))
+    return (int(a), int(b)) if ok and a != b else None
 
 
 def junction_seams(patch: NDArray, junctions: list[dict]) -> NDArray[np.uint32]:
@@ -172,17 +116,16 @@ def junction_seams(patch: NDArray, junctions: list[dict]) -> NDArray[np.uint32]:
     horizontal one.  Of several junctions between one pair (a CAD model's faces meeting at
     two edges) the first is given.  Row-major order: horizontal neighbours first."""
     ids = np.rint(np.nan_to_num(np.asarray(patch, np.float64), nan=-1.0))
-    index: dict[tuple[int, int], int] = {}
+    index: dict[int, int] = {}  # (low id) * 2**31 + (high id) -> the first junction's number
     for j, row in enumerate(junctions):
         pair = _pair(row)
         if pair is not None:
-            index.setdefault((min(pair), max(pair)), j)
+            index.setdefault(min(pair) * _IDS + max(pair), j)
     if not index or ids.size == 0:
         return np.zeros((3, 1, 0), np.uint32)
-    top = int(max(max(k) for k in index)) + 1
-    lookup = np.full(top * top, -1, np.int64)
-    for (first, second), number in index.items():
-        lookup[first * top + second] = number
+    keys = np.fromiter(index, np.int64, len(index))
+    order = np.argsort(keys)
+    keys, numbers = keys[order], np.fromiter(index.values(), np.int64, len(index))[order]
     found = []
     for axis in (1, 0):  # neighbours along x (a vertical edge), then along y
         lo = [slice(None)] * 2
@@ -190,9 +133,12 @@ def junction_seams(patch: NDArray, junctions: list[dict]) -> NDArray[np.uint32]:
         lo[axis], hi[axis] = slice(None, -1), slice(1, None)
         left, right = ids[tuple(lo)], ids[tuple(hi)]
         small, large = np.minimum(left, right), np.maximum(left, right)
-        ok = (small >= 0) & (large < top) & (small != large)
-        key = np.where(ok, small * top + large, 0).astype(np.int64)
-        junction = np.where(ok, lookup[key], -1)
+        ok = (small >= 0) & (large < _IDS) & (small != large)
+        first = np.where(ok, small, 0).astype(np.int64)
+        second = np.where(ok, large, 0).astype(np.int64)
+        key = np.where(ok, first * _IDS + second, -1)
+        at = np.minimum(np.searchsorted(keys, key), len(keys) - 1)
+        junction = np.where(ok & (keys[at] == key), numbers[at], -1)
         y, x = np.nonzero(junction >= 0)
         x2, y2 = (2 * x + 2, 2 * y + 1) if axis == 1 else (2 * x + 1, 2 * y + 2)
         found.append(np.stack([x2, y2, junction[y, x]]))
@@ -208,29 +154,54 @@ def colour_table(name: str) -> str:
     return bytes(np.round(table * 255).astype(np.uint8).ravel()).hex()
 
 
+#: Channels whose false colours use their whole range (not a shape function's robust
+#: one), in the order of their views.
+_DATA_ORDER = ("u", "v", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "R", "G", "B", "A")
+_FIRST = ("f", "f.mean", "f2")
+
+
+def _is_data(name: str) -> bool:
+    return name in _DATA_ORDER or name.endswith(".var")
+
+
 def scalar_scales(
-    images: list[Mapping[str, NDArray]], header: Mapping[str, object]
+    images: list[Mapping[str, NDArray]], settings: Mapping[str, object]
 ) -> dict[str, dict]:
-    """The false-colour scale of each shape-function channel (``f``, ``f.mean``, ``f2``,
-    the AOVs) and of ``u`` and ``v``, common to all images: ``range`` [lo, hi],
-    ``colormap``, ``signed`` and ``auto`` (whether the range is gshade's robust automatic
-    one: the 1st to 99th percentile of the values on the surface, symmetric about 0 for a
-    signed function).  The scene's own ``range`` and ``colormap`` where it gives them for
-    the channel it colour-maps."""
+    """The false-colour scale of each channel that no other view shows, common to all
+    images: ``range`` [lo, hi], ``colormap``, ``signed`` and ``auto`` (whether the range is
+    gshade's robust automatic one: the 1st to 99th percentile of the values on the surface,
+    symmetric about 0 for a signed function).
+
+    Shape-function channels (``f``, ``f.mean``, ``f2``, the AOVs and any other name) come
+    first, with the robust range and the scene's own ``range`` (``value_range``) and
+    ``colormap`` for the channel it colour-maps; then ``u``, ``v``, ``P``, and the
+    picture's and normal's channels where there is no picture or normal view (an image
+    without R, G and B, or without all of N), with the whole range of their values.
+
+    ``settings`` is the first image's validated ``settings`` attribute
+    (:func:`gshade.display.view_header.view_header`)."""
     from ..shape import SHAPE_FUNCTIONS
 
-    shape = parsed(header, "settings").get("shape", {})
+    shape = settings.get("shape")
+    if not isinstance(shape, Mapping):
+        shape = {}
     functions = {"f": shape.get("function"), "f.mean": shape.get("function")}
     functions["f2"] = shape.get("colour_function")
     mapped = {"colormap": "f", "both": "f2"}.get(str(shape.get("display")))
-    names: list[str] = []
+    seen: dict[str, None] = {}
     for channels in images:
-        names += [n for n in channels if n not in names]
+        seen.update(dict.fromkeys(channels))
+    picture = any(all(c in channels for c in "RGB") for channels in images)
+    normal = any(all(c in channels for c in ("N.X", "N.Y", "N.Z")) for channels in images)
+    shown = {"patch"} | (set(PICTURE_CHANNELS) if picture else set())
+    shown |= {"N.X", "N.Y", "N.Z"} if normal else set()
+    first = [n for n in _FIRST if n in seen]
+    first += [n for n in seen if n not in first and not _is_data(n) and n not in shown]
+    data = [n for n in _DATA_ORDER if n in seen and n not in shown]
+    data += [n for n in seen if n.endswith(".var") and n not in data and n not in shown]
     scales = {}
-    for name in names:
-        if name in PICTURE_CHANNELS or name in GEOMETRY_CHANNELS or name.endswith(".var"):
-            continue
-        function = SHAPE_FUNCTIONS.get(str(functions.get(name, name)))
+    for name in first + data:
+        function = None if _is_data(name) else SHAPE_FUNCTIONS.get(str(functions.get(name, name)))
         signed = bool(function is not None and function.signed)
         values, valid = [], []
         for channels in images:
@@ -243,13 +214,13 @@ def scalar_scales(
                 (np.asarray(on) >= 0).ravel() if on is not None else np.isfinite(x).ravel()
             )
         x, ok = np.concatenate(values), np.concatenate(valid)
-        parameter = name in ("u", "v")
-        lo, hi = auto_range(x, ok, signed=signed, percentiles=(0, 100) if parameter else (1, 99))
+        whole = _is_data(name)
+        lo, hi = auto_range(x, ok, signed=signed, percentiles=(0, 100) if whole else (1, 99))
         colormap = "coolwarm" if signed else "viridis"
-        auto = not parameter
+        auto = not whole
         if name == mapped:
             colormap = str(shape.get("colormap") or colormap)
-            given = shape.get("range")
+            given = shape.get("value_range", shape.get("range"))
             if isinstance(given, list) and len(given) == 2:
                 lo, hi, auto = float(given[0]), float(given[1]), False
         scales[name] = {"range": [lo, hi], "colormap": colormap, "signed": signed, "auto": auto}

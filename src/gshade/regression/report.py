@@ -97,13 +97,17 @@ def _metrics(comparison: Comparison | None) -> str:
 
 def _write_view(
     r: CheckResult, reference: _Image | None, folder: Path, taken: set[str]
-) -> str | None:
+) -> tuple[str | None, list[str]]:
     """Write the scene's view page (new and, if there is one, reference) into
-    ``folder/views``; its path relative to ``folder``, or None without a new image."""
-    from ..display.html_view import write_view
+    ``folder/views``: its path relative to ``folder`` (None without a new image, or when the
+    page cannot be made) and the notes for the scene's section, one line each: the header
+    attributes left out of the view (a hostile or broken reference), or why there is no
+    view.  Nothing here ends the report: a bad reference costs its scene's view at most."""
+    from ..display.html_view import view_writer
+    from ..io.outputs import atomic_write
 
     if r.image is None:
-        return None
+        return None, []
     images: list = [(r.image.channels, r.image.metadata)]
     labels = ["new"]
     if reference is not None:
@@ -114,16 +118,39 @@ def _write_view(
     while name in taken:
         name, k = f"{stem}-{k}", k + 1
     taken.add(name)
+    target = folder / "views" / f"{name}.html"
     try:
-        (folder / "views").mkdir(exist_ok=True)
-        write_view(images, folder / "views" / f"{name}.html", labels=labels, title=r.name)
-    except (GshadeError, OSError):  # e.g. a reference that does not read: reported elsewhere
-        return None
-    return f"views/{name}.html"
+        writer = view_writer(images, target, labels=labels, title=r.name)
+        notes = [_named(note, r) for note in writer.notes]
+        _views_folder(folder)
+        atomic_write(target, ".html", writer)
+    except (GshadeError, OSError) as exc:
+        return None, [f"no view: {_named(str(exc), r)}"]
+    except Exception as exc:  # a bug must not cost the other scenes their report
+        return None, [f"no view: {type(exc).__name__}: {exc} (a bug: please report it)"]
+    return f"views/{name}.html", notes
 
 
-def _section(r: CheckResult, reference: _Image | None, view: str | None) -> str:
-    """One scene's section: verdict, message, pictures, metrics, the view and the log."""
+def _named(text: str, r: CheckResult) -> str:
+    """A note of the view's as the report says it: the images by their files."""
+    for label, path in (("reference", r.reference), ("new", None)):
+        if text.startswith(f"{label}: "):
+            return f"{path or 'the new image'}: {text.removeprefix(label + ': ')}"
+    return text
+
+
+def _views_folder(folder: Path) -> Path:
+    """``folder/views``, made if need be (not through a symbolic link)."""
+    views = folder / "views"
+    if views.is_symlink():
+        raise GshadeError(f"{views}: expected a folder, got a symbolic link (not followed)")
+    views.mkdir(exist_ok=True)
+    return views
+
+
+def _section(r: CheckResult, reference: _Image | None, view: str | None, notes: list[str]) -> str:
+    """One scene's section: verdict, message, pictures, metrics, the view (and notes on it)
+    and the log."""
     status = f"{r.status} ({r.written} reference)" if r.written else r.status
     inspect = ""
     if view is not None:
@@ -134,6 +161,7 @@ def _section(r: CheckResult, reference: _Image | None, view: str | None) -> str:
         )
         if r.status in ("FAILURE", "ERROR") and not r.written:
             inspect += f'<iframe src="{href}" title="{html.escape(r.name)}"></iframe>'
+    inspect += "".join(f'<p class="note">{html.escape(note)}</p>' for note in notes)
     return (
         f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
         f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
@@ -149,6 +177,7 @@ _STYLE = (
     "section{border-top:1px solid #ccc;padding:.5em 0}.failure h2,.error h2{color:#b00}"
     ".warning h2{color:#a60}.pass h2{color:#070}td,th{padding:0 .6em;text-align:right}"
     "iframe{width:100%;height:720px;border:1px solid #ccc}"
+    ".note{border-left:3px solid #c80;padding:2px 6px;background:#fff6e0}"
 )
 
 
@@ -179,11 +208,11 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
     )
     counts = {s: sum(r.status == s for r in results) for s in _ORDER}
     taken: set[str] = set()
-    sections, views = [], {}
+    sections, views, notes = [], {}, {}
     for r in ordered:
         reference = _reference(r)
-        views[id(r)] = _write_view(r, reference, folder, taken)
-        sections.append(_section(r, reference, views[id(r)]))
+        views[id(r)], notes[id(r)] = _write_view(r, reference, folder, taken)
+        sections.append(_section(r, reference, views[id(r)], notes[id(r)]))
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>gshade check</title><style>"
         + _STYLE
@@ -208,6 +237,7 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
                 "seconds": round(r.seconds, 3),
                 "metrics": r.comparison.as_dict() if r.comparison is not None else None,
                 "view": views.get(id(r)),
+                "view_notes": notes.get(id(r), []),
             }
             for r in ordered
         ],

@@ -97,23 +97,25 @@ const gshadeDecode = (function () {
     return planes;
   }
 
+  /** An image's channels (a Map: channel names are the file's, and "__proto__" or
+   * "length" must stay plain keys) and their stored types (a Map too). */
   async function loadImage(image, width, height) {
-    const channels = {};
-    const stored = {};
+    const channels = new Map();
+    const stored = new Map();
     for (const c of image.channels) {
-      stored[c.name] = c.stored;
-      if (c.same_as) {
-        channels[c.name] = channels[c.same_as];
+      stored.set(c.name, c.stored);
+      if (c.same_as !== undefined) {
+        channels.set(c.name, channels.get(c.same_as));
         continue;
       }
       if (c.stored === "float16") {
         const [bits] = await unpackPlanes(c.data, 1, height, width, 2);
         const values = new Float32Array(bits.length);
         for (let i = 0; i < bits.length; i++) values[i] = HALF[bits[i]];
-        channels[c.name] = values;
+        channels.set(c.name, values);
       } else {
         const [bits] = await unpackPlanes(c.data, 1, height, width, 4);
-        channels[c.name] = new Float32Array(bits.buffer);
+        channels.set(c.name, new Float32Array(bits.buffer));
       }
     }
     let picture = null;

@@ -9,6 +9,11 @@
 
   // ------------------------------------------------------------------ the view
 
+  /** An object's own property (JSON objects from the page's data: never the prototype's). */
+  function own(object, key) {
+    return object !== null && typeof object === "object" && Object.prototype.hasOwnProperty.call(object, key) ? object[key] : undefined;
+  }
+
   function el(tag, attrs, text) {
     const e = document.createElement(tag);
     for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
@@ -20,21 +25,28 @@
     const W = data.width, H = data.height;
     const images = [];
     for (const image of data.images) images.push(await loadImage(image, W, H));
-    const maps = {};
-    for (const [name, hex] of Object.entries(data.colormaps)) maps[name] = table(hex);
+    const maps = new Map();
+    for (const [name, hex] of Object.entries(data.colormaps)) maps.set(name, table(hex));
     const n = images.length;
     const gap = Math.max(2, Math.round(W / 40));
-    const has = (name) => images.some((im) => name in im.channels);
+    const has = (name) => images.some((im) => im.channels.has(name));
     const patchLabel = images[0].meta.cad ? "face" : "patch";
+    const NORMAL = ["N.X", "N.Y", "N.Z"];
 
-    // views of the channels
+    // views of the channels: the picture, every channel no other view shows in false
+    // colour (data.scales), N as RGB, the patch ids; ids unique whatever the channels' names
     const views = [];
+    const ids = new Set(["picture", "N", "patch"]);
     if (images.some((im) => im.picture)) views.push({ id: "picture", label: "picture", names: ["R", "G", "B", "A"] });
-    for (const name of Object.keys(data.scales)) {
-      views.push({ id: name, label: name + " (false colour)", names: [name], scale: data.scales[name] });
+    for (const [name, scale] of Object.entries(data.scales)) {
+      let id = name;
+      while (ids.has(id)) id = "channel:" + id;
+      ids.add(id);
+      views.push({ id, label: name + " (false colour)", names: [name], scale });
     }
-    if (has("N.X")) views.push({ id: "N", label: "N as RGB", names: ["N.X", "N.Y", "N.Z"] });
+    if (images.some((im) => NORMAL.every((c) => im.channels.has(c)))) views.push({ id: "N", label: "N as RGB", names: NORMAL });
     if (has("patch")) views.push({ id: "patch", label: patchLabel + " ids", names: ["patch"] });
+    if (!views.length) throw new Error("no channel to show");
     const state = {
       view: views[0].id, mode: "flip", current: 0, scale: 1, ox: 0, oy: 0,
       junctions: true, pointer: null, drag: null,
@@ -47,7 +59,7 @@
     top.append(el("h1", {}, data.title));
     const bar = el("div", { class: "gv-toolbar" });
     const select = el("select", { "data-role": "channel", "aria-label": "channel" });
-    for (const v of views) select.append(el("option", { value: v.id }, v.label));
+    for (const v of views) select.append(el("option", { value: v.id, title: v.label }, v.label.length > 60 ? v.label.slice(0, 57) + "…" : v.label));
     bar.append(el("label", {}, "show "), select);
     const modes = el("span", { class: "gv-modes" });
     const modeButtons = {};
@@ -89,7 +101,9 @@
     const readout = el("table", { class: "gv-readout", "data-role": "readout" });
     const junctionInfo = el("div", { class: "gv-junction", "data-role": "junction" });
     const legend = el("dl", { class: "gv-legend", "data-role": "legend" });
-    side.append(colourbar, readout, junctionInfo, legend);
+    const notes = el("div", { class: "gv-notes", "data-role": "notes" });
+    for (const note of data.notes || []) notes.append(el("p", {}, String(note)));
+    side.append(colourbar, readout, junctionInfo, notes, legend);
     main.append(stage, side);
     root.append(top, main);
 
@@ -106,12 +120,13 @@
     images.forEach((im, k) => labelRow.append(el("th", { class: "gv-label" }, String.fromCharCode(65 + k) + ": " + im.meta.label)));
     if (n > 1) labelRow.append(el("th", {}, String.fromCharCode(65 + data.difference[0]) + " − " + String.fromCharCode(65 + data.difference[1])));
     readout.append(labelRow, head);
-    const cells = {};
+    const cells = new Map();
     for (const name of names) {
       const tr = el("tr", { "data-channel": name });
-      tr.append(el("th", {}, name === "patch" ? patchLabel : name));
-      cells[name] = images.map((im, k) => { const td = el("td", { "data-image": String(k) }); tr.append(td); return td; });
-      if (n > 1) { const td = el("td", { "data-role": "diff" }); tr.append(td); cells[name].diff = td; }
+      tr.append(el("th", { title: name }, name === "patch" ? patchLabel : name));
+      const row = images.map((im, k) => { const td = el("td", { "data-image": String(k) }); tr.append(td); return td; });
+      if (n > 1) { const td = el("td", { "data-role": "diff" }); tr.append(td); row.diff = td; }
+      cells.set(name, row);
       readout.append(tr);
     }
 
@@ -121,18 +136,19 @@
       legend.append(el("dt", {}, key), el("dd", {}, typeof value === "string" ? value : JSON.stringify(value)));
     }
     images.forEach((im, k) => {
-      const h = im.meta.header, s = im.meta.settings || {}, shape = s.shape || {}, render = s.render || {};
+      const h = im.meta.header, s = im.meta.settings || {}, shape = own(s, "shape") || {}, render = own(s, "render") || {};
       if (n > 1) legend.append(el("dt", { class: "gv-image" }, String.fromCharCode(65 + k) + ": " + im.meta.label));
-      legendRow("scene", h.scene_name);
-      legendRow("legend", h.legend);
-      legendRow("function", shape.function);
-      legendRow("display", shape.display);
-      if (shape.display !== "colormap") legendRow("period", shape.period === null ? undefined : shape.period);
-      legendRow("range", shape.range);
-      legendRow("colour map", shape.colormap);
-      legendRow("parameters", shape.params);
-      if (render.width) legendRow("render", render.width + "×" + render.height + ", " + render.spp + " spp, " + render.lighting);
-      legendRow("gshade", h.gshade_version ? h.gshade_version + " (" + h.variant + ")" : undefined);
+      legendRow("scene", own(h, "scene_name"));
+      legendRow("legend", own(h, "legend"));
+      legendRow("function", own(shape, "function"));
+      legendRow("display", own(shape, "display"));
+      if (own(shape, "display") !== "colormap") legendRow("period", own(shape, "period"));
+      legendRow("range", own(shape, "value_range") ?? own(shape, "range"));
+      legendRow("colour map", own(shape, "colormap"));
+      legendRow("parameters", own(shape, "params"));
+      if (own(render, "width")) legendRow("render", own(render, "width") + "×" + own(render, "height") + ", " + own(render, "spp") + " spp, " + own(render, "lighting"));
+      const version = own(h, "gshade_version");
+      legendRow("gshade", version ? version + " (" + own(h, "variant") + ")" : undefined);
     });
 
     // layers: one offscreen canvas per (image, view) and per difference
@@ -151,12 +167,12 @@
       return c;
     }
     function paint(px, im, view) {
-      const ch = im.channels, patch = ch.patch;
+      const ch = im.channels, patch = ch.get("patch");
       const on = (i) => (patch ? patch[i] >= 0 : true);
       if (view.id === "picture") { if (im.picture) px.set(im.picture); return; }
       if (view.id === "N") {
-        const [x, y, z] = view.names.map((c) => ch[c]);
-        if (!x) return;
+        const [x, y, z] = view.names.map((c) => ch.get(c));
+        if (!x || !y || !z) return;
         for (let i = 0; i < W * H; i++) {
           if (!on(i)) continue;
           px[4 * i] = Math.round((x[i] + 1) * 127.5); px[4 * i + 1] = Math.round((y[i] + 1) * 127.5);
@@ -173,9 +189,9 @@
         }
         return;
       }
-      const values = ch[view.id];
+      const values = ch.get(view.names[0]);
       if (!values) return;
-      const lut = maps[view.scale.colormap];
+      const lut = maps.get(view.scale.colormap);
       const [lo, hi] = view.scale.range;
       for (let i = 0; i < W * H; i++) {
         if (!on(i)) continue;
@@ -193,8 +209,9 @@
       const [a, b] = data.difference.map((k) => images[k].channels);
       let d = 0;
       for (const name of view.names) {
-        if (!(name in a) || !(name in b)) continue;
-        const e = name === "patch" ? (a[name][i] === b[name][i] ? 0 : 1) : Math.abs(a[name][i] - b[name][i]);
+        const x = a.get(name), y = b.get(name);
+        if (!x || !y) continue;
+        const e = name === "patch" ? (x[i] === y[i] ? 0 : 1) : Math.abs(x[i] - y[i]);
         if (!(e <= d)) d = e; // NaN wins
       }
       return d;
@@ -206,7 +223,7 @@
         d[i] = difference(view, i);
         if (isFinite(d[i]) && d[i] > top) top = d[i];
       }
-      const lut = maps.inferno;
+      const lut = maps.get("inferno");
       for (let i = 0; i < W * H; i++) {
         let c;
         if (!isFinite(d[i])) c = MAGENTA;
@@ -222,11 +239,12 @@
     // junction seams as paths per class, in image pixel units
     function seamPaths(im) {
       if (!im.seams || im.paths) return im.paths;
-      im.paths = {};
+      im.paths = new Map();
       const { x2, y2, j } = im.seams;
       for (let s = 0; s < j.length; s++) {
-        const cls = im.meta.junctions[j[s]]["class"];
-        const p = im.paths[cls] || (im.paths[cls] = new Path2D());
+        const cls = String(im.meta.junctions[j[s]]["class"]);
+        if (!im.paths.has(cls)) im.paths.set(cls, new Path2D());
+        const p = im.paths.get(cls);
         const x = x2[s] / 2, y = y2[s] / 2;
         if (x2[s] % 2 === 0) { p.moveTo(x, y - 0.5); p.lineTo(x, y + 0.5); }
         else { p.moveTo(x - 0.5, y); p.lineTo(x + 0.5, y); }
@@ -286,8 +304,8 @@
         if (state.junctions && im.seams) {
           ctx.save(); ctx.translate(p.x0, 0);
           ctx.lineWidth = 2 / state.scale; ctx.lineCap = "square";
-          for (const [cls, path] of Object.entries(seamPaths(im))) {
-            ctx.strokeStyle = im.meta.junction_colours[cls] || "#ff00ff";
+          for (const [cls, path] of seamPaths(im)) {
+            ctx.strokeStyle = own(im.meta.junction_colours, cls) || "#ff00ff";
             ctx.stroke(path);
           }
           ctx.restore();
@@ -312,11 +330,11 @@
       colourbar.textContent = "";
       let lut, lo, hi, title;
       if (state.mode === "diff") {
-        lut = maps.inferno; lo = 0; hi = layer(-1, view).top;
+        lut = maps.get("inferno"); lo = 0; hi = layer(-1, view).top;
         title = "|A − B| (" + view.names.join(", ") + ")" + (hi === 0 ? ": identical" : "");
       } else if (view.scale) {
-        lut = maps[view.scale.colormap]; [lo, hi] = view.scale.range;
-        title = view.id + ", " + view.scale.colormap + (view.scale.auto ? " (automatic range)" : "");
+        lut = maps.get(view.scale.colormap); [lo, hi] = view.scale.range;
+        title = view.names[0] + ", " + view.scale.colormap + (view.scale.auto ? " (automatic range)" : "");
       } else return;
       colourbar.append(el("div", { class: "gv-bar-title" }, title));
       const c = el("canvas", { width: "256", height: "14", class: "gv-bar" });
@@ -343,9 +361,9 @@
     function showReadout(p) {
       for (const [k, td] of pixelCells.entries()) td.textContent = p ? p.x + ", " + p.y : "";
       for (const name of names) {
-        const row = cells[name];
-        const v = images.map((im) => (p && im.channels[name] ? im.channels[name][p.y * W + p.x] : undefined));
-        row.forEach((td, k) => { td.textContent = v[k] === undefined ? (p ? "—" : "") : formatValue(v[k], images[k].stored[name]); });
+        const row = cells.get(name);
+        const v = images.map((im) => (p && im.channels.has(name) ? im.channels.get(name)[p.y * W + p.x] : undefined));
+        row.forEach((td, k) => { td.textContent = v[k] === undefined ? (p ? "—" : "") : formatValue(v[k], images[k].stored.get(name)); });
         if (row.diff) {
           const [a, b] = data.difference.map((k) => v[k]);
           row.diff.textContent = a === undefined || b === undefined ? "" : name === "patch" ? (a === b ? "same" : "differs") : formatShort0(a - b);
