@@ -244,7 +244,7 @@ def test_closed_box_shape_is_sewn_and_renders_without_holes(tmp_path):
 
     box = r3.Box(r3.BoundingBox(r3.Point3d(0, 0, 0), r3.Point3d(1, 2, 3)))
     path = _write(tmp_path, "box.3dm", r3.Brep.CreateFromBox(box))
-    model = read_cad(path)
+    model = read_cad(path, isolated=False)  # the kernel's shape here
     assert len(model.faces) == 6 and model.shape is not None
     faces = _faces(model.shape)
     assert len(faces) == 6 and BRepCheck_Analyzer(model.shape).IsValid()
@@ -268,7 +268,7 @@ def test_closed_box_shape_is_sewn_and_renders_without_holes(tmp_path):
 def test_sphere_renders_mean_curvature(tmp_path):
     r = 2.0
     path = _write(tmp_path, "ball.3dm", r3.Sphere(r3.Point3d(0, 0, 0), r).ToBrep())
-    model = read_cad(path)
+    model = read_cad(path, isolated=False)  # the kernel's shape here
     assert _edge_faces(model.shape) == [2]  # the seam, used twice by the one face
     camera = {"origin": [5.0, -6.0, 4.0], "target": [0, 0, 0], "up": [0, 0, 1]}
     image = _render(path, camera, **{"shape.function": "mean", "render.lighting": "flat"})
@@ -287,7 +287,7 @@ def test_trimmed_disc_leaves_its_corners_open(tmp_path):
     disc = r3.Circle(r3.Point3d(0, 0, 0), 2.0).ToNurbsCurve()
     brep = r3.Brep.CreateTrimmedPlane(r3.Plane.WorldXY(), disc)
     path = _write(tmp_path, "disc.3dm", brep)
-    model = read_cad(path)
+    model = read_cad(path, isolated=False)  # the kernel's shape here
     (face,) = model.faces
     assert face.trimmed and _edge_faces(model.shape) == [1]
     camera = {"type": "orthographic", "origin": [0, 0, 10], "target": [0, 0, 0]}

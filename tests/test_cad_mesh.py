@@ -173,7 +173,7 @@ def test_shape_kept(box):
     """The kept shape's faces are the model's faces, in order: each kernel surface at its
     (u, v) is the face's patch at to_patch(u, v) (planes, cylinders and spheres read without
     the kernel's NURBS conversion: the patch's parameters are the arcs' along angles)."""
-    model, _ = box
+    model = read_cad(box[0].path, isolated=False)  # the kernel's shape here
     assert model.shape is not None
     surfaces = [BRep_Tool.Surface_s(f) for f in _faces(model.shape)]
     assert len(surfaces) == len(model.faces)

@@ -105,7 +105,7 @@ def test_quadric_faces_are_the_kernels_surfaces(tmp_path, kind):
     point (to 1e-11), its normal the kernel's (the same orientation), and its
     mean curvature the kernel's (BRepLProp)."""
     shape = _moved(_parts()[kind])
-    model = read_cad(write_shape(shape, tmp_path / f"{kind}.brep"))
+    model = read_cad(write_shape(shape, tmp_path / f"{kind}.brep"), isolated=False)
     assert kind in {f.kind for f in model.faces}
     rng = np.random.default_rng(0)
     for face, kernel_face in zip(model.faces, _faces(model.shape), strict=True):
@@ -146,7 +146,8 @@ def test_swept_faces_are_the_kernels_surfaces(tmp_path, kind):
     """A B-spline profile turned by 4.5 rad, a B-spline wave extruded along a slanted
     direction: read without the kernel's conversion, our patches at to_patch(u, v) are the
     kernel's points, normals and mean curvatures."""
-    model = read_cad(write_shape(_moved(_swept_parts()[kind]), tmp_path / f"{kind}.brep"))
+    path = write_shape(_moved(_swept_parts()[kind]), tmp_path / f"{kind}.brep")
+    model = read_cad(path, isolated=False)  # the kernel's shape here
     swept = [
         (face, kernel)
         for face, kernel in zip(model.faces, _faces(model.shape), strict=True)

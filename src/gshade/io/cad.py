@@ -43,6 +43,8 @@ CAD_EXTENSIONS = {
 
 #: What to install when the CAD libraries are missing.
 INSTALL = 'pip install "gshade[cad]"'
+#: The library each reader needs.
+_LIBRARIES = {"occt": "OCP", "3dm": "rhino3dm"}
 
 
 @dataclass
@@ -112,7 +114,8 @@ class CadModel:
 
     ``shape`` is the kernel's shape, whose faces are ``faces`` in order (STEP, IGES, BREP:
     as read, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
-    rebuilt from the file's B-rep).  ``precision`` is the distance accuracy the file
+    rebuilt from the file's B-rep), or the :class:`~gshade.io.cad_process.KernelProcess`
+    that holds it (a model read ``isolated``).  ``precision`` is the distance accuracy the file
     declares (a STEP file's global uncertainty, model units; 0 where none is declared).
     """
 
@@ -174,7 +177,10 @@ def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.
 
 
 def read_cad(
-    path: str | os.PathLike, sew: bool | None = None, tolerance: float | None = None
+    path: str | os.PathLike,
+    sew: bool | None = None,
+    tolerance: float | None = None,
+    isolated: bool = True,
 ) -> CadModel:
     """Read a CAD file into exact faces (reader chosen by the file's extension).
 
@@ -187,12 +193,19 @@ def read_cad(
         unsewn faces, as IGES files usually do).
     tolerance : float, optional
         The sewing tolerance in model units (default: from the model's size).
+    isolated : bool
+        Read in a child process of its own (:mod:`gshade.io.cad_process`), which keeps the
+        kernel's shape: the model's ``shape`` is then a
+        :class:`~gshade.io.cad_process.KernelProcess`, and a file that crashes, hangs or
+        exhausts the kernel is one error.  False reads here: ``shape`` is the kernel's own
+        (for code that works on it), and a damaged file may take this process down.
 
     Raises
     ------
     GshadeError
         One line naming the file: an unknown extension, the CAD libraries missing (with the
-        install command), or a file the kernel cannot read or that holds no surfaces.
+        install command), a file the kernel cannot read, that holds no surfaces, or (when
+        isolated) that crashes the kernel, or makes it overrun its time or memory.
     """
     path = Path(path)
     reader = CAD_EXTENSIONS.get(path.suffix.lower())
@@ -201,6 +214,25 @@ def read_cad(
             f"{path}: expected a CAD file ({', '.join(CAD_EXTENSIONS)}), got the extension "
             f"{path.suffix or '(none)'!r}"
         )
+    if isolated:
+        from .cad_process import KernelProcess, read_memory
+
+        if not _installed(_LIBRARIES[reader]):  # said here, without a child to start
+            raise GshadeError(
+                f"{path}: reading {path.suffix} files needs the CAD libraries ({INSTALL}): "
+                f"no module named {_LIBRARIES[reader]!r}"
+            )
+
+        try:
+            size = path.stat().st_size
+        except OSError:  # the reader says what is wrong with it
+            size = 0
+        kernel = KernelProcess(path)
+        model: CadModel = kernel.call(
+            "read", (path, sew, tolerance), doing="reading it", memory=read_memory(size)
+        )
+        model.shape = kernel
+        return model
     try:
         if reader == "occt":
             from . import cad_occt as module
@@ -211,3 +243,13 @@ def read_cad(
             f"{path}: reading {path.suffix} files needs the CAD libraries ({INSTALL}): {exc}"
         ) from None
     return module.read(path, sew=sew, tolerance=tolerance)
+
+
+def _installed(module: str) -> bool:
+    """Whether ``module`` can be imported (found, not imported)."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError, AttributeError):
+        return False

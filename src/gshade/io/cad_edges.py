@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from .cad import CadModel
+from .cad_process import kernel_operation
 
 __all__ = ["CadEdge", "shared_edges"]
 
@@ -50,6 +51,7 @@ class CadEdge:
     tolerance: float
 
 
+@kernel_operation("sampling its edges")
 def shared_edges(
     model: CadModel, samples: int = 32, faces: list[int] | None = None
 ) -> list[CadEdge]:

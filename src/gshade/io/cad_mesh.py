@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from .cad import CadModel
+from .cad_process import kernel_operation
 
 __all__ = ["FaceMesh", "mesh_faces"]
 
@@ -61,6 +62,7 @@ class FaceMesh:
     node_gap: float
 
 
+@kernel_operation("meshing it")
 def mesh_faces(
     model: CadModel,
     deflection: float,

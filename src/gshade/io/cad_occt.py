@@ -95,6 +95,8 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             shape, path, tolerance if tolerance is not None else _sew_tolerance(shape, diagonal)
         )
         faces = _faces(shape)
+        if not faces:
+            raise GshadeError(f"{path}: holds no surfaces once its faces are sewn")
     _check_valid(shape, faces, path)
     if all(_own(face) for face in faces):  # exact NURBS without the kernel's help
         converted, nurbs = shape, faces

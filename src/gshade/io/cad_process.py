@@ -1,0 +1,469 @@
+"""The CAD kernel in a process of its own: a corrupt file costs its scene, never the run.
+
+Open CASCADE's and openNURBS's readers are native code, and on a corrupt file (one changed
+byte is enough: a misspelt entity name, a knot count of -3, a file cut in half) they may
+crash the process (SIGSEGV), loop for minutes without returning to Python (so that a
+SIGTERM handler, which is Python, never runs), or allocate gigabytes for a file of a
+kilobyte.  So every kernel call on a model runs in a child process of its own, one per
+model, started when the model is read and ended when the model is dropped:
+
+- **reading** (:func:`gshade.io.cad.read_cad`) in the child; the faces come back (exact
+  patches, boxes, loops: plain arrays), the kernel's shape stays in the child;
+- **operations** on the model's shape (meshing, the edges' parameter curves): functions
+  marked with :func:`kernel_operation` run in the child on its model when the model's
+  ``shape`` is a :class:`KernelProcess`, and in this process when it is the kernel's shape.
+
+Each call is bounded in wall-clock time (:func:`kernel_seconds`: ``GSHADE_CAD_TIMEOUT``,
+default :data:`CAD_SECONDS`, or less inside :func:`kernel_time_limit`), in CPU time (so
+that an orphaned child ends by itself) and in address space (reading: :func:`read_memory` of
+the file's size; operations: :func:`gshade.limits.memory_limit`).  A crash, an overrun or a
+runaway allocation is one :class:`~gshade.errors.GshadeError` naming the file ("the CAD
+kernel crashed (SIGSEGV) reading it", "... took longer than 120 s reading it", "... needed
+more than 1.2 GB reading it"), and the child is gone; this process is unharmed and answers
+signals at once (it waits for the child in Python).  The child dies with this process
+(``PR_SET_PDEATHSIG``).
+
+Results come back pickled and are unpickled with an allow-list of classes
+(:class:`_Results`): a child whose memory a hostile file corrupted cannot make this process
+run code.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import io
+import os
+import pickle
+import select
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import weakref
+from collections.abc import Callable, Iterator
+from typing import Any, ClassVar, TypeVar
+
+from ..errors import GshadeError
+from ..limits import memory_limit
+
+__all__ = [
+    "CAD_SECONDS",
+    "KernelProcess",
+    "kernel_operation",
+    "kernel_seconds",
+    "kernel_time_limit",
+    "read_memory",
+]
+
+#: Wall-clock seconds one kernel call (reading a file, meshing it) may take by default.
+CAD_SECONDS = 120
+#: Address space a file's reading may take beyond the kernel's own: this, plus
+#: :data:`READ_MEMORY_PER_BYTE` times the file's size (at most the memory limit).
+READ_MEMORY_BASE = 2**30
+#: Measured: the kernel holds 20-150 bytes per byte of a STEP or IGES file it has read.
+READ_MEMORY_PER_BYTE = 256
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_HEADER = struct.Struct(">Q")
+#: The largest message the child may send (a mesh of ~10^7 triangles with its arrays).
+_MAX_MESSAGE = 4 * 2**30
+#: Seconds between checks of the deadline while waiting (signals are handled at once).
+_POLL = 0.25
+
+#: Functions the child may be asked to run: "module:name" -> the function on the model.
+_OPERATIONS: dict[str, Callable[..., Any]] = {}
+#: Modules whose marked functions the child may import to find them.
+_OPERATION_MODULES = ("gshade.io.cad", "gshade.io.cad_mesh", "gshade.io.cad_edges")
+
+_limit: list[float] = []  # kernel_time_limit's stack
+
+
+def kernel_seconds() -> float:
+    """The wall-clock seconds one kernel call may take: ``GSHADE_CAD_TIMEOUT`` (a positive
+    number), default :data:`CAD_SECONDS`; less inside
+    :func:`kernel_time_limit`."""
+    text = os.environ.get("GSHADE_CAD_TIMEOUT", "").strip()
+    seconds = float(CAD_SECONDS)
+    if text:
+        try:
+            seconds = float(text)
+        except ValueError:
+            seconds = -1.0
+        if not (0 < seconds < 1e9):
+            raise GshadeError(
+                f"GSHADE_CAD_TIMEOUT: expected a positive number of seconds, got {text[:40]!r}"
+            )
+    return min([seconds, *_limit])
+
+
+@contextlib.contextmanager
+def kernel_time_limit(seconds: float | None) -> Iterator[None]:
+    """Within the block, no kernel call takes longer than ``seconds`` (None: no change), e.g.
+    a batch's ``timeout`` for the scenes its planning loads."""
+    if seconds is None or not seconds > 0:
+        yield
+        return
+    _limit.append(float(seconds))
+    try:
+        yield
+    finally:
+        _limit.pop()
+
+
+def read_memory(file_bytes: int) -> int:
+    """The address space (bytes) the kernel may take to read a file of ``file_bytes``:
+    :data:`READ_MEMORY_BASE` + :data:`READ_MEMORY_PER_BYTE` x its size, at most
+    :func:`gshade.limits.memory_limit`.
+
+    Examples
+    --------
+    >>> read_memory(0) == min(READ_MEMORY_BASE, memory_limit())
+    True
+    """
+    return min(READ_MEMORY_BASE + READ_MEMORY_PER_BYTE * max(file_bytes, 0), memory_limit())
+
+
+def kernel_operation(doing: str) -> Callable[[F], F]:
+    """Mark ``function(model, ...)`` as a kernel operation: when ``model.shape`` is a
+    :class:`KernelProcess`, the call runs in that process on its model (``doing`` names it
+    in messages: "meshing it"); otherwise here."""
+
+    def mark(function: F) -> F:
+        key = f"{function.__module__}:{function.__name__}"
+        _OPERATIONS[key] = function
+
+        @functools.wraps(function)
+        def run(model: Any, *args: Any, **kwargs: Any) -> Any:
+            kernel = getattr(model, "shape", None)
+            if isinstance(kernel, KernelProcess):
+                return kernel.call(key, args, kwargs, doing)
+            return function(model, *args, **kwargs)
+
+        return run  # type: ignore[return-value]
+
+    return mark
+
+
+class KernelProcess:
+    """A child process holding one CAD model's kernel shape; it stands in for the shape
+    (``CadModel.shape``) in this process.
+
+    Parameters
+    ----------
+    path : path-like
+        The model's file, for messages.
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = str(path)
+        self._log = tempfile.TemporaryFile()
+        try:
+            self._child: subprocess.Popen | None = subprocess.Popen(
+                [sys.executable, "-m", "gshade.io.cad_process", str(os.getpid())],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=self._log,
+                close_fds=True,
+            )
+        except OSError as exc:
+            self._log.close()
+            raise GshadeError(f"{path}: cannot start the CAD kernel's process ({exc})") from None
+        self._finalizer = weakref.finalize(self, _stop, self._child, self._log)
+
+    def __repr__(self) -> str:
+        state = "running" if self._child is not None else "ended"
+        return f"<KernelProcess of {self.path} ({state})>"
+
+    def close(self) -> None:
+        """End the child (its model is gone)."""
+        self._finalizer()
+        self._child = None
+
+    def call(
+        self,
+        operation: str,
+        args: tuple = (),
+        kwargs: dict | None = None,
+        doing: str = "working on it",
+        memory: int | None = None,
+    ) -> Any:
+        """Run ``operation`` ("module:name" of a :func:`kernel_operation`, or "read") in the
+        child on its model, within :func:`kernel_seconds` and ``memory`` bytes of address
+        space more than it holds (default :func:`gshade.limits.memory_limit`); its result.
+
+        Raises
+        ------
+        GshadeError
+            The operation's own one-line error, or one line naming the file when the child
+            crashed, overran its time or memory, or had ended already.
+        """
+        from ..limits import gigabytes
+
+        child = self._child
+        if child is None or child.poll() is not None:
+            raise GshadeError(
+                f"{self.path}: the CAD kernel's process has ended (after an earlier failure)"
+            )
+        seconds = kernel_seconds()
+        budget = memory_limit() if memory is None else memory
+        request = pickle.dumps((operation, args, kwargs or {}, budget, seconds), protocol=5)
+        try:
+            _send(child, request)
+            kind, value = _Results.answer(_receive(child, time.monotonic() + seconds))
+        except _Overrun:
+            self.close()
+            raise GshadeError(
+                f"{self.path}: the CAD kernel took longer than {seconds:g} s {doing} "
+                "(GSHADE_CAD_TIMEOUT sets the limit)"
+            ) from None
+        except (pickle.UnpicklingError, ValueError, EOFError, TypeError) as exc:
+            self.close()
+            raise GshadeError(
+                f"{self.path}: the CAD kernel gave an answer gshade does not accept {doing} "
+                f"({type(exc).__name__}: {str(exc)[:200]})"
+            ) from None
+        except (_Ended, OSError) as exc:
+            status = None
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                status = child.wait(2.0)  # it closed its end: it is ending
+            self.close()
+            raise GshadeError(
+                f"{self.path}: the CAD kernel {_ending(child, status, exc)} {doing}; "
+                "the file is probably damaged"
+            ) from None
+        except BaseException:  # a signal or Ctrl-C while waiting: the child goes with us
+            self.close()
+            raise
+        if kind == "ok":
+            return value
+        if kind == "failed":
+            raise GshadeError(f"{self.path}: the CAD kernel failed {doing} ({value})")
+        if kind == "memory":
+            self.close()
+            raise GshadeError(
+                f"{self.path}: the CAD kernel needed more than {gigabytes(budget)} {doing} "
+                "(GSHADE_MEMORY_LIMIT sets the limit); the file is probably damaged"
+            )
+        raise GshadeError(str(value))
+
+
+class _Overrun(Exception):
+    pass
+
+
+class _Ended(Exception):
+    pass
+
+
+def _stop(child: subprocess.Popen, log: Any) -> None:
+    """Kill the child (it may be deep in the kernel, ignoring SIGTERM) and reap it."""
+    try:
+        if child.poll() is None:
+            child.kill()
+        child.wait()
+    except OSError:
+        pass
+    for stream in (child.stdin, child.stdout, log):
+        with contextlib.suppress(OSError, ValueError):
+            if stream is not None:
+                stream.close()
+
+
+def _ending(child: subprocess.Popen, status: int | None, exc: BaseException) -> str:
+    """How the child ended, in words: "crashed (SIGSEGV)", "ended with status 3"."""
+    code = child.returncode if status is None else status
+    if code is not None and code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = f"signal {-code}"
+        if name == "SIGXCPU":
+            return "ran out of CPU time"
+        return f"crashed ({name})"
+    if code is not None:
+        return f"ended unexpectedly (status {code})"
+    return f"stopped answering ({type(exc).__name__})"
+
+
+def _send(child: subprocess.Popen, message: bytes) -> None:
+    assert child.stdin is not None
+    try:
+        child.stdin.write(_HEADER.pack(len(message)) + message)
+        child.stdin.flush()
+    except (BrokenPipeError, ValueError):
+        raise _Ended from None
+
+
+def _receive(child: subprocess.Popen, deadline: float) -> bytes:
+    """One message from the child, waiting in Python (signals are handled) until
+    ``deadline``."""
+    assert child.stdout is not None
+    fd = child.stdout.fileno()
+    header = _read_exactly(fd, _HEADER.size, deadline)
+    (size,) = _HEADER.unpack(header)
+    if size > _MAX_MESSAGE:
+        raise ValueError(f"a message of {size} bytes")
+    return _read_exactly(fd, size, deadline)
+
+
+def _read_exactly(fd: int, size: int, deadline: float) -> bytes:
+    chunks = bytearray()
+    while len(chunks) < size:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise _Overrun
+        ready, _, _ = select.select([fd], [], [], min(left, _POLL))
+        if not ready:
+            continue
+        chunk = os.read(fd, min(size - len(chunks), 2**24))
+        if not chunk:
+            raise _Ended
+        chunks += chunk
+    return bytes(chunks)
+
+
+class _Results(pickle.Unpickler):
+    """Unpickles only plain data and gshade's CAD result classes."""
+
+    ALLOWED: ClassVar[frozenset[tuple[str, str]]] = frozenset(
+        {
+            ("pathlib", "PosixPath"),
+            ("pathlib", "WindowsPath"),
+            ("pathlib", "Path"),
+            ("pathlib._local", "PosixPath"),
+            ("pathlib._local", "WindowsPath"),
+            ("numpy", "ndarray"),
+            ("numpy", "dtype"),
+            ("numpy.core.multiarray", "_reconstruct"),
+            ("numpy._core.multiarray", "_reconstruct"),
+            ("numpy.core.multiarray", "scalar"),
+            ("numpy._core.multiarray", "scalar"),
+            ("numpy.core.numeric", "_frombuffer"),
+            ("numpy._core.numeric", "_frombuffer"),
+            ("gshade.io.cad", "CadFace"),
+            ("gshade.io.cad", "CadModel"),
+            ("gshade.io.cad_mesh", "FaceMesh"),
+            ("gshade.io.cad_edges", "CadEdge"),
+            ("gshade.geometry.bspline", "BSplinePatch"),
+            ("gshade.geometry.patch", "BSplineBasis"),
+        }
+    )
+
+    def find_class(self, module: str, name: str) -> Any:
+        if (module, name) not in self.ALLOWED:
+            raise pickle.UnpicklingError(f"{module}.{name} is not a CAD result")
+        return super().find_class(module, name)
+
+    @classmethod
+    def answer(cls, data: bytes) -> tuple[str, Any]:
+        kind, value = cls(io.BytesIO(data)).load()
+        if kind not in ("ok", "error", "failed", "memory"):
+            raise ValueError(f"an answer of kind {kind!r}")
+        return kind, value
+
+
+# --- the child -------------------------------------------------------------------------
+
+
+def _die_with_parent(parent: int) -> None:
+    """Be killed when the parent ends (Linux), even while deep in the kernel."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    if os.getppid() != parent:  # the parent ended before the line above
+        os._exit(1)
+
+
+def _bound(memory: int, seconds: float) -> None:
+    """Limit the child's address space to what it holds plus ``memory`` bytes, and its CPU
+    time to what it used plus ``seconds`` on every core (an orphan guard: the parent's
+    wall-clock deadline comes first)."""
+    try:
+        import resource
+    except ImportError:  # not POSIX
+        return
+    with open("/proc/self/statm") as f:
+        held = int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    for which, soft in (
+        (resource.RLIMIT_AS, held + max(int(memory), 0)),
+        (
+            resource.RLIMIT_CPU,
+            int(sum(os.times()[:2]) + seconds * (os.cpu_count() or 1)) + 10,
+        ),
+    ):
+        _, hard = resource.getrlimit(which)
+        if hard != resource.RLIM_INFINITY:
+            soft = min(soft, hard)
+        with contextlib.suppress(OSError, ValueError):
+            resource.setrlimit(which, (soft, hard))
+
+
+def _serve(parent: int) -> None:
+    """Answer the parent's requests on the inherited stdin/stdout until it closes them."""
+    import importlib
+
+    _die_with_parent(parent)
+    requests = os.fdopen(os.dup(0), "rb")
+    answers = os.fdopen(os.dup(1), "wb")
+    # the kernel prints banners and warnings: away from the answers, into the log
+    devnull = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(devnull, 0)
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    model: Any = None
+    while True:
+        header = requests.read(_HEADER.size)
+        if len(header) < _HEADER.size:
+            return
+        operation, args, kwargs, memory, seconds = pickle.loads(
+            requests.read(_HEADER.unpack(header)[0])
+        )
+        _bound(memory, seconds)
+        try:
+            if operation == "read":
+                from .cad import read_cad
+
+                path, sew, tolerance = args
+                model = read_cad(path, sew, tolerance, isolated=False)
+                from dataclasses import replace
+
+                answer: tuple[str, Any] = ("ok", replace(model, shape=None))
+            else:
+                module, _, _ = operation.partition(":")
+                if module in _OPERATION_MODULES:
+                    importlib.import_module(module)
+                if operation not in _OPERATIONS or model is None:
+                    raise GshadeError(f"no kernel operation {operation!r} on a model here")
+                answer = ("ok", _OPERATIONS[operation](model, *args, **kwargs))
+        except GshadeError as exc:
+            answer = ("error", str(exc))
+        except MemoryError:
+            answer = ("memory", None)
+        except Exception as exc:
+            if "OutOfMemory" in type(exc).__name__ or "bad_alloc" in str(exc):
+                answer = ("memory", None)
+            else:
+                text = (str(exc).strip().splitlines() or [""])[0][:200]
+                answer = ("failed", type(exc).__name__ + (f": {text}" if text else ""))
+        try:
+            data = pickle.dumps(answer, protocol=5)
+        except MemoryError:
+            data = pickle.dumps(("memory", None), protocol=5)
+        answers.write(_HEADER.pack(len(data)) + data)
+        answers.flush()
+
+
+if __name__ == "__main__":  # the child: python -m gshade.io.cad_process PARENT_PID
+    import numpy as np
+
+    from gshade.io import cad_process  # the module, not this __main__ copy of it
+
+    np.seterr(all="ignore")
+    cad_process._serve(int(sys.argv[1]))
+    os._exit(0)
