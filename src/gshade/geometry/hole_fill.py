@@ -81,6 +81,7 @@ from numpy.typing import NDArray
 from ..errors import GshadeError, one_of, show
 from .bernstein import bernstein_basis, elevate_degree
 from .bezier import BezierPatch
+from .blas_threads import single_threaded_blas
 from .hole import Hole
 from .hole_energy import FUNCTIONALS, functional_matrix
 
@@ -227,6 +228,7 @@ def _right_hand_side(hole: Hole, d: int, order: int, rows: int) -> NDArray[np.fl
     return np.concatenate([fixed, np.zeros((rows - len(fixed), 3))])
 
 
+@single_threaded_blas
 def hole_system(
     hole: Hole,
     continuity: str = "G1",
@@ -295,6 +297,7 @@ def _minimiser(
     return xp, float(np.abs(f.C @ xp - r).max())
 
 
+@single_threaded_blas
 def solve_qp(
     C: NDArray[np.float64],
     r: NDArray[np.float64],
@@ -366,6 +369,7 @@ class HoleFilling:
         return int(self.free_basis.shape[1])
 
 
+@single_threaded_blas
 def fill_hole(
     hole: Hole,
     continuity: str = "G1",

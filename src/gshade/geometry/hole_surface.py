@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import SurfaceDataError
+from .blas_threads import single_threaded_blas
 from .hole import Hole, find_holes
 from .hole_fill import HoleFilling, fill_hole
 from .patch import Patch
@@ -48,6 +49,7 @@ class FilledSurface:
         return FilledSurface(self.outside, self.holes, list(fillings))
 
 
+@single_threaded_blas
 def filled_surface(
     vertices: ArrayLike,
     faces: Iterable[Sequence[int] | NDArray[np.integer]],
