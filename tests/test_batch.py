@@ -201,27 +201,75 @@ def test_unreachable_scheduler_is_one_line(scenes, tmp_path):
     assert len(result.stderr.strip().splitlines()) == 1
 
 
-def test_an_interrupted_batch_leaves_no_partial_files(scenes, tmp_path):
-    import signal
-    import time
+#: ``gshade batch`` whose job named "block" never ends by itself: it says it started (the
+#: file $BLOCK_STARTED) and waits, so the batch cannot finish before the test's signal on any
+#: machine, however fast or busy (the workers are spawned: they import this script as
+#: ``__mp_main__`` and take its ``render_job``).
+BLOCKING_BATCH = """
+import os, sys, time
+import gshade.app.batch as batch
 
-    for k in range(24):  # enough work that the batch cannot end between the first output
-        (scenes / f"more{k}.toml").write_text(  # and the signal
+_render_job = batch.render_job
+
+
+def render_job(job, folder):
+    if job.name == "block":
+        open(os.environ["BLOCK_STARTED"], "w").close()
+        while True:
+            time.sleep(0.1)
+    return _render_job(job, folder)
+
+
+batch.render_job = render_job
+
+if __name__ == "__main__":
+    from gshade.app.cli import console
+
+    sys.argv = ["gshade", "batch", *sys.argv[1:]]
+    console()
+"""
+#: A hang guard only: how long a test waits for what must happen (never met unless stuck).
+HANG = 300
+
+
+def outputs(folder):
+    """The finished EXRs in a folder (not the temporaries, whose names start with a dot)."""
+    if not folder.exists():
+        return []
+    return [p for p in folder.glob("*.exr") if not p.name.startswith(".")]
+
+
+def test_an_interrupted_batch_leaves_no_partial_files(scenes, tmp_path):
+    """Ctrl-C while one worker renders and the other holds a job that cannot end: the
+    batch stops without a traceback, leaves no temporary, and what it wrote is whole."""
+    for k in range(6):
+        (scenes / f"more{k}.toml").write_text(
             f'name = "more{k}"\n[[surface]]\ntype = "torus"\n'
             + SMALL.replace("width = 48", "width = 400").replace("height = 36", "height = 300")
         )
-    out = tmp_path / "out"
-    process = start_batch(scenes, out)
-    deadline = time.time() + 60
-    while time.time() < deadline and not list(out.glob("*.exr")):
+    (scenes / "block.toml").write_text('[[surface]]\ntype = "sphere"\n' + SMALL)
+    script, started, out = tmp_path / "blocking_batch.py", tmp_path / "started", tmp_path / "out"
+    script.write_text(BLOCKING_BATCH)
+    process = subprocess.Popen(  # block.toml first: one worker holds it, the other renders
+        [sys.executable, str(script), str(scenes), "-o", str(out), "-j", "2"],
+        env={**os.environ, "BLOCK_STARTED": str(started)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + HANG
+    while time.monotonic() < deadline and not (started.exists() and outputs(out)):
         time.sleep(0.05)
+    assert process.poll() is None, process.communicate()  # it cannot have ended
     process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=60)
+    _, err = process.communicate(timeout=HANG)
     assert process.returncode != 0
     assert "Traceback" not in err
     assert not [p.name for p in out.iterdir() if p.name.startswith(".")]  # no temporaries
-    for exr in out.glob("*.exr"):
+    assert outputs(out) and not (out / "block.exr").exists()
+    for exr in outputs(out):
         read_exr(exr)  # every output there is whole
+    assert manifest_status(out)["block"] == "not run"
 
 
 # ----------------------------------------------------------------- faults (hostile input)
@@ -241,7 +289,7 @@ def temporaries(folder):
     return [p.name for p in folder.iterdir() if ".gshade-tmp" in p.name]
 
 
-def writer_pid(folder, prefix, timeout=60.0):
+def writer_pid(folder, prefix, timeout=HANG):
     """The id of the process writing a temporary whose name starts with ``prefix``."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -297,7 +345,7 @@ def test_a_job_over_the_time_limit_fails_alone(tmp_path):
     jobs = plan_jobs([folder / "b.toml", tiny(folder, "a")], [])
     start = time.monotonic()
     results = run_batch(jobs, tmp_path / "out", timeout=2)
-    assert time.monotonic() - start < 20
+    assert time.monotonic() - start < HANG  # SLOW was stopped (its result says so), not run
     assert [r.status for r in results] == ["failed", "rendered"]
     assert results[0].message == "exceeded the time limit of 2 s"
     assert "time limit" in Path(results[0].log).read_text()
@@ -382,12 +430,12 @@ def test_sigterm_stops_the_workers_and_the_manifest_shows_progress(scenes, tmp_p
     out = tmp_path / "out"
     process = start_batch(folder, out)
     worker = writer_pid(out, ".z.")
-    deadline = time.monotonic() + 30  # the manifest says "a" is done while "z" renders
+    deadline = time.monotonic() + HANG  # the manifest says "a" is done while "z" renders
     while time.monotonic() < deadline and manifest_status(out).get("a") != "rendered":
         time.sleep(0.01)
     assert manifest_status(out) == {"a": "rendered", "z": "not run"}
     process.send_signal(signal.SIGTERM)
-    _, err = process.communicate(timeout=60)
+    _, err = process.communicate(timeout=HANG)
     assert process.returncode == 143 and "Traceback" not in err
     assert not alive(worker) and not temporaries(out)
     assert manifest_status(out) == {"a": "rendered", "z": "not run"}
@@ -460,7 +508,7 @@ def test_workers_die_with_their_parent_and_remove_their_temporaries(tmp_path):
     writer_pid(tmp_path, ".x.exr")
     parent.kill()  # SIGKILL: no cleanup in the parent
     parent.wait()
-    deadline = time.monotonic() + 10
+    deadline = time.monotonic() + HANG
     while time.monotonic() < deadline and alive(worker):
         time.sleep(0.01)
     assert not alive(worker) and not temporaries(tmp_path)

@@ -236,7 +236,7 @@ def test_duplicated_surfaces_are_refused_with_one_line(tmp_path):
         [sys.executable, "-m", "gshade", "continuity", str(scene)],
         capture_output=True,
         text=True,
-        timeout=60,
+        timeout=300,  # a hang guard
     )
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert result.stderr.startswith(
