@@ -141,7 +141,7 @@ def _address_space() -> int | None:
     return max(soft - _RESERVED_ADDRESS_SPACE, 0)
 
 
-_ULIMIT = "what the address-space limit (ulimit -v) leaves"
+_ULIMIT = "what the address-space limit, ulimit -v, leaves"
 
 
 def memory_budget() -> tuple[int, str]:
@@ -157,8 +157,8 @@ def memory_budget() -> tuple[int, str]:
     limit : int
         Bytes.
     source : str
-        What set it: ``"GSHADE_MEMORY_LIMIT"``, ``"3/4 of this machine's memory"``, ``"the
-        container's (cgroup) limit"`` or the address-space limit (naming
+        What set it, for a message: ``"GSHADE_MEMORY_LIMIT"``, 3/4 of the machine's
+        memory, the container's (cgroup) limit or the address-space limit (naming
         ``GSHADE_MEMORY_LIMIT`` where that was set higher).
 
     Raises
@@ -176,12 +176,13 @@ def memory_budget() -> tuple[int, str]:
         scale = 1024 ** " KMGT".index(match.group(2).upper() or " ")
         given = int(float(match.group(1)) * scale)
         candidates = [(given, "GSHADE_MEMORY_LIMIT")]
-        above = f"{_ULIMIT}, below GSHADE_MEMORY_LIMIT={text[:40]}"
+        above = f"{_ULIMIT}; GSHADE_MEMORY_LIMIT={text[:40]} is above it and the smaller wins"
     else:
-        candidates = [(_physical_memory() * 3 // 4, "3/4 of this machine's memory")]
+        machine = "3/4 of this machine's memory; GSHADE_MEMORY_LIMIT sets another"
+        candidates = [(_physical_memory() * 3 // 4, machine)]
         cgroup = _cgroup_memory()
         if cgroup is not None:
-            candidates.append((cgroup, "the container's (cgroup) limit"))
+            candidates.append((cgroup, "the container's (cgroup) memory limit"))
         above = _ULIMIT
     space = _address_space()
     if space is not None:

@@ -198,5 +198,5 @@ def validate_memory(where: str, settings, vertices: int, texels: int) -> None:
         raise GshadeError(
             f"{where}: the render would need about {gigabytes(need)} ({settings.width} x "
             f"{settings.height} pixels, {vertices} mesh vertices, {texels} texels); the limit is "
-            f"{gigabytes(limit)} ({source}; GSHADE_MEMORY_LIMIT sets it, within ulimit -v)"
+            f"{gigabytes(limit)} ({source})"
         )
