@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +29,7 @@ __all__ = [
     "arc_map",
     "faces_bounds",
     "read_cad",
+    "reader_module",
     "trimmed_points",
 ]
 
@@ -233,16 +235,24 @@ def read_cad(
         )
         model.shape = kernel
         return model
+    return reader_module(path).read(path, sew=sew, tolerance=tolerance)
+
+
+def reader_module(path: str | os.PathLike) -> Any:
+    """The module that reads ``path`` (:mod:`gshade.io.cad_occt` or
+    :mod:`gshade.io.cad_3dm`), imported; a GshadeError naming the install command when its
+    library is missing."""
+    path = Path(path)
     try:
-        if reader == "occt":
-            from . import cad_occt as module
+        if CAD_EXTENSIONS.get(path.suffix.lower()) == "3dm":
+            from . import cad_3dm as module
         else:
-            from . import cad_3dm as module  # type: ignore[no-redef]
+            from . import cad_occt as module  # type: ignore[no-redef]
     except ImportError as exc:
         raise GshadeError(
             f"{path}: reading {path.suffix} files needs the CAD libraries ({INSTALL}): {exc}"
         ) from None
-    return module.read(path, sew=sew, tolerance=tolerance)
+    return module
 
 
 def _installed(module: str) -> bool:

@@ -114,7 +114,7 @@ def read(
                 hi = np.maximum(hi, _xyz(box.Max))
     if not faces:
         raise GshadeError(
-            f"{path}: expected surfaces (Breps, extrusions, NURBS), sh.found {sh.found(model)}"
+            f"{path}: expected surfaces (Breps, extrusions, NURBS), found {sh.found(model)}"
         )
     shape = sh.build_shape(path, faces, parts)
     return CadModel(path=path, faces=faces, unit=_unit(model), bounds=(lo, hi), shape=shape)

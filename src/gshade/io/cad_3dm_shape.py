@@ -456,15 +456,21 @@ def _xyz(p: Any) -> NDArray[np.float64]:
 
 
 def found(model) -> str:
-    """What a file without surfaces holds, in a few words."""
-    kinds: dict[str, int] = {}
+    """What a file without surfaces holds, in a few words: "only 1 brep object without
+    faces", "only 2 curve objects, 1 mesh object"."""
+    kinds: dict[tuple[str, str], int] = {}
     for obj in model.Objects:
         geom = obj.Geometry if obj is not None else None
         name = "nothing" if geom is None else str(geom.ObjectType).split(".")[-1].lower()
-        kinds[name] = kinds.get(name, 0) + 1
+        faces = getattr(geom, "Faces", None)
+        empty = name == "brep" and faces is not None and len(faces) == 0
+        key = (name, " without faces" if empty else "")
+        kinds[key] = kinds.get(key, 0) + 1
     if not kinds:
         return "no objects"
-    return "only " + ", ".join(f"{n} {k} object{'s' * (n > 1)}" for k, n in sorted(kinds.items()))
+    return "only " + ", ".join(
+        f"{n} {k} object{'s' * (n > 1)}{rest}" for (k, rest), n in sorted(kinds.items())
+    )
 
 
 def outward(mask: NDArray[np.bool_]) -> list[int]:

@@ -79,6 +79,9 @@ _OPERATIONS: dict[str, Callable[..., Any]] = {}
 #: Modules whose marked functions the child may import to find them.
 _OPERATION_MODULES = ("gshade.io.cad", "gshade.io.cad_mesh", "gshade.io.cad_edges")
 
+#: What native code's exceptions say when an allocation (or a library's mapping) failed.
+_OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
+
 _limit: list[float] = []  # kernel_time_limit's stack
 
 
@@ -213,7 +216,8 @@ class KernelProcess:
         request = pickle.dumps((operation, args, kwargs or {}, budget, seconds), protocol=5)
         try:
             _send(child, request)
-            kind, value = _Results.answer(_receive(child, time.monotonic() + seconds))
+            watch = _MemoryWatch(child.pid)
+            kind, value = _Results.answer(_receive(child, time.monotonic() + seconds, watch))
         except _Overrun:
             self.close()
             raise GshadeError(
@@ -231,10 +235,13 @@ class KernelProcess:
             with contextlib.suppress(subprocess.TimeoutExpired):
                 status = child.wait(2.0)  # it closed its end: it is ending
             self.close()
-            raise GshadeError(
-                f"{self.path}: the CAD kernel {_ending(child, status, exc)} {doing}; "
-                "the file is probably damaged"
-            ) from None
+            if watch.exhausted and status is not None and status < 0:
+                kind = "memory"  # it crashed where an allocation failed
+            else:
+                raise GshadeError(
+                    f"{self.path}: the CAD kernel {_ending(child, status, exc)} {doing}; "
+                    "the file is probably damaged"
+                ) from None
         except BaseException:  # a signal or Ctrl-C while waiting: the child goes with us
             self.close()
             raise
@@ -242,7 +249,7 @@ class KernelProcess:
             return value
         if kind == "failed":
             raise GshadeError(f"{self.path}: the CAD kernel failed {doing} ({value})")
-        if kind == "memory":
+        if kind == "memory":  # its memory is spent (a MemoryError or a crash at the limit)
             self.close()
             raise GshadeError(
                 f"{self.path}: the CAD kernel needed more than {gigabytes(budget)} {doing} "
@@ -253,6 +260,30 @@ class KernelProcess:
 
 class _Overrun(Exception):
     pass
+
+
+class _MemoryWatch:
+    """The child's peak address space against its limit, sampled while waiting for it
+    (``/proc``): a native allocation that fails at the limit often crashes rather than
+    raise, and then this tells why."""
+
+    #: A peak this close to the limit (bytes) counts as having reached it.
+    MARGIN = 64 * 2**20
+
+    def __init__(self, pid: int) -> None:
+        self.pid = pid
+        self.exhausted = False
+
+    def __call__(self) -> None:
+        try:
+            with open(f"/proc/{self.pid}/status") as f:
+                peak = next(int(s.split()[1]) * 1024 for s in f if s.startswith("VmPeak:"))
+            with open(f"/proc/{self.pid}/limits") as f:
+                limit = next(s.split()[3] for s in f if s.startswith("Max address space"))
+        except (OSError, StopIteration, IndexError, ValueError):
+            return
+        if limit.isdigit() and peak >= int(limit) - self.MARGIN:
+            self.exhausted = True
 
 
 class _Ended(Exception):
@@ -298,19 +329,19 @@ def _send(child: subprocess.Popen, message: bytes) -> None:
         raise _Ended from None
 
 
-def _receive(child: subprocess.Popen, deadline: float) -> bytes:
+def _receive(child: subprocess.Popen, deadline: float, tick: Callable[[], None]) -> bytes:
     """One message from the child, waiting in Python (signals are handled) until
-    ``deadline``."""
+    ``deadline``, calling ``tick`` while it waits."""
     assert child.stdout is not None
     fd = child.stdout.fileno()
-    header = _read_exactly(fd, _HEADER.size, deadline)
+    header = _read_exactly(fd, _HEADER.size, deadline, tick)
     (size,) = _HEADER.unpack(header)
     if size > _MAX_MESSAGE:
         raise ValueError(f"a message of {size} bytes")
-    return _read_exactly(fd, size, deadline)
+    return _read_exactly(fd, size, deadline, tick)
 
 
-def _read_exactly(fd: int, size: int, deadline: float) -> bytes:
+def _read_exactly(fd: int, size: int, deadline: float, tick: Callable[[], None]) -> bytes:
     chunks = bytearray()
     while len(chunks) < size:
         left = deadline - time.monotonic()
@@ -318,6 +349,7 @@ def _read_exactly(fd: int, size: int, deadline: float) -> bytes:
             raise _Overrun
         ready, _, _ = select.select([fd], [], [], min(left, _POLL))
         if not ready:
+            tick()
             continue
         chunk = os.read(fd, min(size - len(chunks), 2**24))
         if not chunk:
@@ -404,6 +436,20 @@ def _bound(memory: int, seconds: float) -> None:
             resource.setrlimit(which, (soft, hard))
 
 
+def _at_memory_limit() -> bool:
+    """Whether this process's peak address space reached its limit (within
+    :attr:`_MemoryWatch.MARGIN`)."""
+    try:
+        import resource
+
+        limit, _ = resource.getrlimit(resource.RLIMIT_AS)
+        with open("/proc/self/status") as f:
+            peak = next(int(s.split()[1]) * 1024 for s in f if s.startswith("VmPeak:"))
+    except (ImportError, OSError, StopIteration, ValueError):
+        return False
+    return limit != resource.RLIM_INFINITY and peak >= limit - _MemoryWatch.MARGIN
+
+
 def _serve(parent: int) -> None:
     """Answer the parent's requests on the inherited stdin/stdout until it closes them."""
     import importlib
@@ -424,12 +470,14 @@ def _serve(parent: int) -> None:
         operation, args, kwargs, memory, seconds = pickle.loads(
             requests.read(_HEADER.unpack(header)[0])
         )
-        _bound(memory, seconds)
         try:
             if operation == "read":
-                from .cad import read_cad
+                from .cad import read_cad, reader_module
 
                 path, sew, tolerance = args
+                reader_module(path)  # the libraries are loaded outside the bounds
+                importlib.import_module("matplotlib.path")  # (the faces' regions)
+                _bound(memory, seconds)
                 model = read_cad(path, sew, tolerance, isolated=False)
                 from dataclasses import replace
 
@@ -440,13 +488,14 @@ def _serve(parent: int) -> None:
                     importlib.import_module(module)
                 if operation not in _OPERATIONS or model is None:
                     raise GshadeError(f"no kernel operation {operation!r} on a model here")
+                _bound(memory, seconds)
                 answer = ("ok", _OPERATIONS[operation](model, *args, **kwargs))
-        except GshadeError as exc:
-            answer = ("error", str(exc))
+        except GshadeError as exc:  # perhaps because an allocation failed at the limit
+            answer = ("memory", None) if _at_memory_limit() else ("error", str(exc))
         except MemoryError:
             answer = ("memory", None)
         except Exception as exc:
-            if "OutOfMemory" in type(exc).__name__ or "bad_alloc" in str(exc):
+            if any(m in f"{type(exc).__name__} {exc}" for m in _OUT_OF_MEMORY):
                 answer = ("memory", None)
             else:
                 text = (str(exc).strip().splitlines() or [""])[0][:200]

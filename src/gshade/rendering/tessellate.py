@@ -26,6 +26,13 @@ from ..geometry.patch_groups import domain_spans, grid_derivatives
 __all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
 
 MAX_RESOLUTION = 512
+#: The finest deflection the kernel's mesher is asked for, relative to the model's diagonal:
+#: a tenth of a pixel of the largest image (16384 pixels) seeing the whole model.  The
+#: shading is exact whatever the mesh; a finer mesh would only cost time and memory.
+MIN_FACE_DEFLECTION = 6e-6
+#: The kernel's own smallest length (Open CASCADE's Precision::Confusion): the mesher
+#: refuses a deflection below it.
+KERNEL_CONFUSION = 1e-7
 
 
 @dataclass(frozen=True)
@@ -148,7 +155,8 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
 def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
     """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.model.CadFaces`) as a
     triangle mesh from the kernel's mesher (:func:`gshade.io.cad_mesh.mesh_faces`), within
-    ``deflection`` (model units) of the faces.
+    ``deflection`` (model units) of the faces, but no finer than :data:`MIN_FACE_DEFLECTION`
+    of the model's diagonal (nor the kernel's :data:`KERNEL_CONFUSION`).
 
     ``patches`` are the surface's patches (one a face, over its box, u and v swapped for the
     faces in ``cad.swapped``): the vertices' params are the kernel's (u, v) normalised to the
@@ -157,7 +165,10 @@ def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
     """
     from ..io.cad_mesh import mesh_faces
 
-    m = mesh_faces(cad.model, deflection, faces=cad.faces)
+    lo, hi = cad.model.bounds
+    diagonal = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
+    floor = MIN_FACE_DEFLECTION * diagonal if np.isfinite(diagonal) else 0.0
+    m = mesh_faces(cad.model, max(deflection, floor, 2 * KERNEL_CONFUSION), faces=cad.faces)
     place = {face: k for k, face in enumerate(cad.faces)}
     index = np.array([place[int(f)] for f in m.face], dtype=np.int32)
     params = np.empty_like(m.uv)

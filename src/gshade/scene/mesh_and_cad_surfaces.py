@@ -6,6 +6,7 @@ model).  Registered in :mod:`.surfaces`' registry like every type.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -142,6 +143,13 @@ def _swapped(patch: BSplinePatch) -> BSplinePatch:
     return BSplinePatch(points, patch.degree[::-1], patch.knots[::-1], weights)
 
 
+def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
 def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, float]]:
     """A face's parameter box clipped into its patch's domain."""
     (u0, u1), (v0, v1) = box
@@ -182,8 +190,12 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     sew = None if "sew" not in t.data else t.boolean("sew")
     tolerance = None if "tolerance" not in t.data else t.number("tolerance", lo=0)
     data_file = files.find(t, name)
-    with t.reported():
+    try:
         model = read_cad(data_file, sew=sew, tolerance=tolerance)
+    except GshadeError as exc:  # it names the CAD file: the scene too, unless it is that file
+        if _same_file(t.file, data_file):
+            raise
+        raise GshadeError(f"{t.file}: {t.prefix}{exc}") from None
     count = len(model.faces)
     chosen = list(range(count)) if faces is None else [int(i) for i in faces]
     for i in chosen:
