@@ -14,21 +14,35 @@ Every file gshade writes goes through this module:
   (``.NAME.HOST.PID-XXXXXXXX.gshade-tmp.SUFFIX``); whatever the way a process ends, those it
   leaves behind are removed by the next run on that machine that writes into that folder
   (:func:`remove_stale_temporaries`); those of other machines are left alone.  A target
-  that exists as a symbolic link is replaced, not followed.
+  that exists as a symbolic link is replaced, not followed; a read-only target is not
+  replaced, and a writable one keeps its permission bits.
+- Nothing is written through a symbolic link below a folder the user chose: subfolders are
+  made by :func:`output_folder`, which refuses a link, and inside a :func:`confined` folder
+  :func:`staged` refuses a target below it reached through a link.
+- No output replaces an input or another output (:func:`distinct_files`, and
+  :func:`staged` for its own targets), compared by their resolved paths.
+- Folders an output needs are planned before they are made (:func:`missing_folders`) and
+  made by :func:`created_folders`, which removes them again if the command fails.
+- A folder written by one command at a time is locked (:func:`folder_lock`).
+- Names and messages shown (printed, or written into XML, HTML and JSON) go through
+  :func:`printable`: control characters, format characters and bytes of a file name that
+  are not UTF-8 become visible escapes (``\\x1b``, ``\\u202e``, ``\\xff``).
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import socket
 import stat
 import tempfile
 import unicodedata
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
-from functools import cache
+from functools import cache, lru_cache
 from pathlib import Path
+from typing import NoReturn
 
 from ..errors import GshadeError
 
@@ -36,9 +50,17 @@ __all__ = [
     "HOST",
     "MAX_NAME_BYTES",
     "atomic_write",
+    "check_target",
+    "confined",
+    "created_folders",
     "discard_temporaries",
+    "distinct_files",
+    "folder_lock",
+    "missing_folders",
     "output_file",
+    "output_folder",
     "output_name",
+    "printable",
     "remove_stale_temporaries",
     "staged",
     "write_to",
@@ -55,6 +77,51 @@ _TEMPORARY = re.compile(
 #: This machine's name as temporaries carry it: a folder shared between machines (a Dask
 #: cluster's output folder) holds temporaries whose process ids mean nothing here.
 HOST = re.sub(r"[^A-Za-z0-9_]", "_", socket.gethostname())[:32] or "host"
+
+
+# --------------------------------------------------------------------------- names
+
+#: Unicode categories shown escaped: controls (C0, DEL, C1), format characters (bidi
+#: overrides, zero-width), surrogates (bytes that are not UTF-8), line and paragraph
+#: separators.
+_ESCAPED_CATEGORIES = frozenset({"Cc", "Cf", "Cs", "Zl", "Zp"})
+#: Characters outside ASCII's printable range: the only ones that can need escaping.
+_CANDIDATES = re.compile(r"[^\x20-\x7e]")
+
+
+@lru_cache(maxsize=4096)
+def _escape(char: str, keep_lines: bool) -> str:
+    code = ord(char)
+    if keep_lines and char in "\n\t":
+        return char
+    if 0xDC80 <= code <= 0xDCFF:  # a byte that is not UTF-8, as surrogateescape keeps it
+        return f"\\x{code - 0xDC00:02x}"
+    if code in (0xFFFE, 0xFFFF) or unicodedata.category(char) in _ESCAPED_CATEGORIES:
+        return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+    return char
+
+
+def printable(text: object, *, keep_lines: bool = False) -> str:
+    """``str(text)`` with its control characters written as escapes.
+
+    Parameters
+    ----------
+    text : object
+        A name, a path or a message (made a str).
+    keep_lines : bool
+        Keep newlines and tabs (a log, a traceback); by default they are escaped too, so
+        that the result is one line.
+
+    Returns
+    -------
+    str
+        The text with C0 and C1 controls, DEL, format characters (``U+202E`` ...), line
+        separators and surrogates written as ``\\xNN`` / ``\\uNNNN`` (a surrogate-escaped
+        byte as the byte, ``\\xff``).  Printable text is returned unchanged, and the result
+        is printable: ``printable(printable(t)) == printable(t)``.
+    """
+    text = str(text)
+    return _CANDIDATES.sub(lambda m: _escape(m.group(), keep_lines), text)
 
 
 def output_name(name: object, what: str = "name") -> str:
@@ -107,21 +174,49 @@ def _umask() -> int:
     return mask
 
 
-def _temporary(target: Path) -> str:
-    """Create the temporary file that will become ``target`` (in the same folder)."""
-    problem = None
+def _target_problem(target: Path) -> str | None:
+    """Why ``target`` cannot be written (replaced by a temporary renamed onto it), or None."""
     try:
         st = os.lstat(target)
     except FileNotFoundError:
         st = None
     except (OSError, ValueError) as exc:
-        problem = getattr(exc, "strerror", None) or str(exc)
+        return getattr(exc, "strerror", None) or str(exc)
     if st is not None and stat.S_ISDIR(st.st_mode):
-        problem = "it is a directory"
-    elif st is not None and not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
-        problem = "it exists and is not a regular file"
-    elif problem is None and len(os.fsencode(target.name)) > 255:
-        problem = "the file name is longer than 255 bytes"
+        return "it is a directory"
+    if st is not None and not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
+        return "it exists and is not a regular file"
+    if st is not None and stat.S_ISREG(st.st_mode) and _read_only(target, st):
+        return (
+            f"it is read-only (mode {stat.S_IMODE(st.st_mode):04o}; gshade does not replace a "
+            "read-only file)"
+        )
+    if len(os.fsencode(target.name)) > 255:
+        return "the file name is longer than 255 bytes"
+    return _through_link(target)
+
+
+def _read_only(path: Path, st: os.stat_result) -> bool:
+    """Whether a regular file is read-only: no write bit at all (as root too), or none for
+    this process."""
+    return not st.st_mode & 0o222 or not os.access(path, os.W_OK)
+
+
+def check_target(target: str | os.PathLike) -> Path:
+    """``target`` if a file can be written there (:func:`staged` would accept it; its folder
+    is not looked at), else a :class:`GshadeError` naming it: a directory, a device, a
+    read-only file, a name over 255 bytes, a link on the way below a :func:`confined`
+    folder.  Nothing is created."""
+    path = Path(target)
+    problem = _target_problem(path)
+    if problem is not None:
+        raise GshadeError(f"{path}: cannot write the file: {problem}")
+    return path
+
+
+def _temporary(target: Path) -> str:
+    """Create the temporary file that will become ``target`` (in the same folder)."""
+    problem = _target_problem(target)
     if problem is None:
         stem = target.name[:_TEMP_STEM]
         try:
@@ -138,6 +233,18 @@ def _temporary(target: Path) -> str:
             if isinstance(exc, FileNotFoundError):
                 problem = f"the folder {target.parent} does not exist"
     raise GshadeError(f"{target}: cannot write the file: {problem}")
+
+
+def _mode(target: Path) -> int:
+    """The permission bits a file replacing ``target`` gets: those of the regular file it
+    replaces, else the ordinary ones (0666 less the umask)."""
+    try:
+        st = os.lstat(target)
+    except OSError:
+        st = None
+    if st is not None and stat.S_ISREG(st.st_mode):
+        return stat.S_IMODE(st.st_mode) & 0o777
+    return 0o666 & ~_umask()
 
 
 #: This process's temporaries not yet renamed onto their targets (for signal handlers).
@@ -173,9 +280,12 @@ def staged(targets: Sequence[str | os.PathLike]) -> Iterator[list[str]]:
     ------
     GshadeError
         If a target cannot be written (its folder is missing or read-only, it is a
-        directory or a device, its name is too long), naming the target.
+        directory, a device or a read-only file, its name is too long, it is reached
+        through a link below a :func:`confined` folder), or two targets are one file,
+        naming the target.
     """
     paths = [Path(t) for t in targets]
+    _distinct_outputs([(str(p), p) for p in paths])
     for folder in {p.parent for p in paths} - _cleaned:  # what killed runs left, once
         remove_stale_temporaries(folder)
         _cleaned.add(folder)
@@ -186,7 +296,7 @@ def staged(targets: Sequence[str | os.PathLike]) -> Iterator[list[str]]:
         yield temporaries
         for path, name in zip(paths, temporaries, strict=True):
             try:
-                os.chmod(name, 0o666 & ~_umask())
+                os.chmod(name, _mode(path))
                 os.replace(name, path)
                 _live.discard(name)
             except OSError as exc:
@@ -254,3 +364,316 @@ def _running(pid: int) -> bool:
     except (PermissionError, OverflowError):
         return True
     return True
+
+
+# --------------------------------------------------------------------------- folders
+
+#: The folders of :func:`confined` blocks: (absolute path, as the user wrote it).
+_roots: list[tuple[str, str]] = []
+
+
+@contextmanager
+def confined(root: str | os.PathLike) -> Iterator[Path]:
+    """A block in which nothing is written through a symbolic link below ``root``.
+
+    ``root`` itself may be a link (the user chose it); but while the block runs,
+    :func:`staged` (and so :func:`atomic_write` and every writer) refuses a target whose
+    folder lies below ``root`` and is reached through a link there (``root/views ->
+    elsewhere``), with a :class:`GshadeError` naming the link.  Blocks nest.
+    """
+    entry = (os.path.abspath(root), str(root))
+    _roots.append(entry)
+    try:
+        yield Path(root)
+    finally:
+        _roots.remove(entry)
+
+
+def _through_link(target: Path) -> str | None:
+    """Why ``target`` is reached through a symbolic link below a :func:`confined` folder,
+    or None."""
+    parent = os.path.abspath(target.parent)
+    for root, shown in _roots:
+        if not parent.startswith(root.rstrip(os.sep) + os.sep):
+            continue
+        current = root
+        for part in os.path.relpath(parent, root).split(os.sep):
+            current = os.path.join(current, part)
+            try:
+                st = os.lstat(current)
+            except OSError:
+                break  # missing: creating the temporary says so
+            if stat.S_ISLNK(st.st_mode):
+                inside = os.path.join(shown, os.path.relpath(current, root))
+                return (
+                    f"{inside} is a symbolic link (nothing is written through a link inside "
+                    f"{shown})"
+                )
+    return None
+
+
+def output_folder(parent: str | os.PathLike, name: str, *, create: bool = True) -> Path:
+    """The subfolder ``parent/name`` of an output folder, made if need be (``create``),
+    never through a symbolic link.
+
+    Parameters
+    ----------
+    parent : path-like
+        The folder the user chose (it may itself be a link).
+    name : str
+        The subfolder's name (``"views"``, ``"logs"``): one name, checked by
+        :func:`output_name`.
+    create : bool
+        Make it when it does not exist; with False only check what is there.
+
+    Returns
+    -------
+    Path
+        ``parent / name``.
+
+    Raises
+    ------
+    GshadeError
+        If it exists as a symbolic link (even to a folder) or as something other than a
+        folder, or cannot be made, naming it.
+    """
+    folder = Path(parent) / output_name(name, f"{parent}: subfolder")
+    if create:
+        try:
+            os.mkdir(folder)
+        except FileExistsError:
+            pass
+        except OSError as exc:
+            raise GshadeError(f"{folder}: cannot create the folder ({exc.strerror})") from None
+    try:
+        st = os.lstat(folder)
+    except FileNotFoundError:
+        if create:
+            raise GshadeError(f"{folder}: cannot create the folder (it vanished)") from None
+        return folder
+    except OSError as exc:
+        raise GshadeError(f"{folder}: cannot use the folder ({exc.strerror})") from None
+    if stat.S_ISLNK(st.st_mode):
+        raise GshadeError(
+            f"{folder}: expected a folder, got a symbolic link (nothing is written through a "
+            f"link inside {parent})"
+        )
+    if not stat.S_ISDIR(st.st_mode):
+        raise GshadeError(f"{folder}: expected a folder, got a file that is not one")
+    return folder
+
+
+def missing_folders(folder: str | os.PathLike, head: str | None = None) -> list[Path]:
+    """The folders to make so that ``folder`` exists, outermost first (none if it exists);
+    nothing is made.
+
+    Raises
+    ------
+    GshadeError
+        If ``folder`` or the nearest existing path above it is not a folder, or the folders
+        could not be made there (no write permission): ``HEAD (why)``, ``head`` by default
+        ``FOLDER: cannot create the folder``.
+    """
+    path = Path(folder)
+    head = head or f"{path}: cannot create the folder"
+    missing: list[Path] = []
+    current = path
+    while True:
+        try:
+            st = os.stat(current)  # links are followed: the user chose this path
+        except (FileNotFoundError, NotADirectoryError):  # (a file on the way: said below)
+            missing.append(current)
+            if current.parent == current:
+                break
+            current = current.parent
+            continue
+        except (OSError, ValueError) as exc:
+            reason = getattr(exc, "strerror", None) or str(exc)
+            raise GshadeError(f"{head} ({current}: {reason})") from None
+        if not stat.S_ISDIR(st.st_mode):
+            raise GshadeError(f"{head} ({current} exists and is not a folder)")
+        if missing and not os.access(current, os.W_OK | os.X_OK):
+            raise GshadeError(f"{head} ({current}: permission denied)")
+        break
+    return missing[::-1]
+
+
+@contextmanager
+def created_folders(folders: Iterable[str | os.PathLike]) -> Iterator[list[Path]]:
+    """Make ``folders`` (as :func:`missing_folders` lists them, outermost first) for a
+    block; if the block fails, those still empty are removed again.
+
+    Raises
+    ------
+    GshadeError
+        If one cannot be made (those made before it are removed), naming it.
+    """
+    made: list[Path] = []
+
+    def undo() -> None:
+        for path in reversed(made):
+            try:
+                os.rmdir(path)
+            except OSError:
+                pass
+
+    for folder in dict.fromkeys(Path(f) for f in folders):
+        try:
+            os.mkdir(folder)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            undo()
+            raise GshadeError(f"{folder}: cannot create the folder ({exc.strerror})") from None
+        made.append(folder)
+    try:
+        yield made
+    except BaseException:
+        undo()
+        raise
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def _input_key(path: str | os.PathLike) -> str:
+    return os.path.realpath(path)
+
+
+def _output_key(path: str | os.PathLike) -> str:
+    """Where an output lands: its folder resolved, its own name not (a link there is
+    replaced, not followed)."""
+    path = Path(path)
+    return os.path.join(os.path.realpath(path.parent), path.name)
+
+
+def _inode(path: str | os.PathLike, follow: bool) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path) if follow else os.lstat(path)
+    except (OSError, ValueError):
+        return None
+    if not follow and stat.S_ISLNK(st.st_mode):
+        return None
+    return st.st_dev, st.st_ino
+
+
+def _same(a_key: str, a_inode: tuple | None, b_key: str, b_inode: tuple | None) -> bool:
+    return a_key == b_key or (a_inode is not None and a_inode == b_inode)
+
+
+def _distinct_outputs(outputs: Sequence[tuple[str, str | os.PathLike]]) -> None:
+    """Refuse two ``(label, path)`` outputs that are one file."""
+    seen: list[tuple[str, str, tuple | None]] = []
+    for label, path in outputs:
+        key, inode = _output_key(path), _inode(path, follow=False)
+        for other_label, other_key, other_inode in seen:
+            if _same(key, inode, other_key, other_inode):
+                raise GshadeError(
+                    f"{label}: expected a file other than {other_label} (one file cannot hold "
+                    "two outputs)"
+                )
+        seen.append((label, key, inode))
+
+
+def distinct_files(
+    inputs: Iterable[tuple[str, str | os.PathLike]],
+    outputs: Iterable[tuple[str, str | os.PathLike | None]],
+    *,
+    among_outputs: bool = True,
+) -> None:
+    """Refuse outputs that would replace an input, or each other.
+
+    Files are compared by their resolved paths (an input's links followed; an output's
+    folder resolved but not its own name, since a link there is replaced, not followed)
+    and, where both exist, by device and inode (hard links, case-insensitive names).
+
+    Parameters
+    ----------
+    inputs : iterable of (label, path)
+        The files the command reads, e.g. ``("the scene file", "scene.toml")``.
+    outputs : iterable of (label, path or None)
+        The files it writes, e.g. ``("-o", "out.exr")``; None entries are skipped.
+    among_outputs : bool
+        Also refuse two outputs that are one file.
+
+    Raises
+    ------
+    GshadeError
+        One line: ``LABEL PATH: expected a file other than INPUT ...``.
+    """
+    wanted = [(label, path) for label, path in outputs if path is not None and str(path)]
+    read = [(label, path, _input_key(path), _inode(path, follow=True)) for label, path in inputs]
+    for label, path in wanted:
+        key, inode = _output_key(path), _inode(path, follow=False)
+        for in_label, in_path, in_key, in_inode in read:
+            if _same(key, inode, in_key, in_inode):
+                raise GshadeError(
+                    f"{label} {path}: expected an output other than {in_label} {in_path} "
+                    "(it would be replaced)"
+                )
+    if among_outputs:
+        _distinct_outputs([(f"{label} {path}", path) for label, path in wanted])
+
+
+# --------------------------------------------------------------------------- locks
+
+#: The lock file :func:`folder_lock` falls back on where a folder cannot be locked itself.
+LOCK_NAME = ".gshade.lock"
+
+
+@contextmanager
+def folder_lock(folder: str | os.PathLike, busy: str) -> Iterator[Path]:
+    """Hold an exclusive lock on ``folder`` for a block, or refuse at once.
+
+    The folder itself is locked (``flock`` on the directory: nothing is written into it);
+    where its file system cannot lock a directory (NFS emulates ``flock`` with POSIX locks,
+    which need a file open for writing) the lock is taken on the empty hidden file
+    ``folder/.gshade.lock`` instead, which then stays (removing it would race with the next
+    run).  The lock is not waited for: while another process holds it, a
+    :class:`GshadeError` ``FOLDER: BUSY`` is raised and nothing is written.  It ends with
+    the block, or with the process however it ends.
+
+    Raises
+    ------
+    GshadeError
+        If the folder is locked, is not a writable folder, or cannot be locked.
+    """
+    import fcntl
+
+    path = Path(folder)
+
+    def refuse(exc: OSError, what: str = "") -> NoReturn:
+        reason = f"{what}is a symbolic link" if exc.errno == errno.ELOOP else exc.strerror
+        raise GshadeError(f"{folder}: cannot write to the output folder ({reason})") from None
+
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    except OSError as exc:
+        refuse(exc)
+    try:
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise GshadeError(f"{folder}: cannot write to the output folder (permission denied)")
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise GshadeError(f"{folder}: {busy}") from None
+        except OSError:  # a directory this file system cannot lock: a lock file there
+            os.close(fd)
+            fd = -1
+            flags = os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | getattr(os, "O_NOFOLLOW", 0)
+            try:
+                fd = os.open(path / LOCK_NAME, flags, 0o666 & ~_umask())
+            except OSError as exc:
+                refuse(exc, f"{path / LOCK_NAME} ")
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise GshadeError(f"{folder}: {busy}") from None
+            except OSError as exc:
+                raise GshadeError(
+                    f"{folder}: cannot lock the output folder ({exc.strerror})"
+                ) from None
+        yield path
+    finally:
+        if fd >= 0:
+            os.close(fd)
