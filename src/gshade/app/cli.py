@@ -4,7 +4,10 @@
 Exit statuses: 0 success, 2 bad input (one line on stderr naming the file, the key or line,
 what was expected and what was found; never a traceback), 130 after Ctrl-C, 128 + the signal
 after SIGTERM or SIGHUP.  ``compare`` keeps idiff's statuses (0 pass, 1 warning, 2 failure,
-3 size or channel mismatch, 4 unreadable file) and gives usage errors 5.
+3 size or channel mismatch, 4 unreadable file) and gives usage errors 5.  Every line printed
+shows names and messages through :func:`gshade.app.terminal.printable`: a file name's
+control characters (terminal escapes, BEL, line breaks, bytes that are not UTF-8) are
+written as escapes, never sent to the terminal.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from .. import __version__
 from ..errors import GshadeError
 from . import commands
 from .flags import in_flags
+from .terminal import printable
 
 __all__ = ["build_parser", "console", "main"]
 
@@ -27,7 +31,14 @@ __all__ = ["build_parser", "console", "main"]
 COMPARE_USAGE = 5
 
 
-class _SubcommandParser(argparse.ArgumentParser):
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, its error messages (which quote the arguments) made printable."""
+
+    def error(self, message: str) -> NoReturn:
+        super().error(printable(message))
+
+
+class _SubcommandParser(_Parser):
     """A subcommand's parser; with ``usage_status``, its argument errors (``--fail abc``, a
     missing or an unrecognised argument) are one line ``PROG: error: ...`` and that exit
     status (``gshade compare``: 5, apart from idiff's 0-4) instead of usage and status 2."""
@@ -39,7 +50,7 @@ class _SubcommandParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         if self.usage_status is None:
             super().error(message)
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        print(f"{self.prog}: error: {printable(message)}", file=sys.stderr)
         sys.exit(self.usage_status)
 
     def parse_known_args(
@@ -55,7 +66,7 @@ class _SubcommandParser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """The parser; each subcommand's arguments carry ``run`` (its function in
     :mod:`gshade.app.commands`) and ``error_status`` (for a GshadeError, default 2)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="gshade",
         description="Render the shape quality of parametric surfaces (Kiciak's shape functions).",
     )
@@ -289,8 +300,7 @@ def main(argv: list[str] | None = None) -> int:
         # the library names its parameters; here they are the flags that set them
         scene = getattr(args, "scene", None)
         message = in_flags(str(exc), str(Path(scene)) if scene else "")
-        message = message.replace("\r", "\\r").replace("\n", "\\n")  # one line
-        print(f"gshade: error: {message}", file=sys.stderr)
+        print(f"gshade: error: {printable(message)}", file=sys.stderr)  # one line, shown
         return getattr(args, "error_status", 2)
     except KeyboardInterrupt:  # outputs are written atomically: nothing partial is left
         print("gshade: interrupted", file=sys.stderr)

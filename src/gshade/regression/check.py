@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import GshadeError
-from ..io.outputs import output_file
+from ..io.outputs import distinct_files, output_file, printable
 from .comparison import (
     ChannelMismatch,
     Comparison,
@@ -44,6 +44,7 @@ __all__ = [
     "check",
     "check_scene",
     "find_scenes",
+    "missing_references",
 ]
 
 #: Settings of a check render unless the scene's ``[check]`` table says otherwise.
@@ -60,7 +61,10 @@ EXACT_CHANNELS = frozenset({"f", "u", "v", "patch", "P.X", "P.Y", "P.Z"})
 @dataclass
 class CheckResult:
     """One scene's check: ``status`` is PASS, WARNING, FAILURE, ERROR or NEW (no reference
-    yet, and one was written)."""
+    yet, and one was written).  ``name``, ``message`` and ``log`` are printable text
+    (:func:`gshade.io.outputs.printable`: a file name's control characters and bytes
+    that are not UTF-8 escaped), as terminals, XML, HTML and JSON can show them; ``scene``
+    and ``reference`` are the files' real paths."""
 
     name: str
     scene: Path
@@ -95,6 +99,20 @@ def find_scenes(paths: list[str] | None) -> list[Path]:
     if not found:
         raise GshadeError(f"{', '.join(map(str, items))}: no scene files (*.toml) found")
     return found
+
+
+def missing_references(references: str | os.PathLike, *, update: bool) -> bool:
+    """Whether the reference folder is to be made (it does not exist, and ``update``); a
+    :class:`GshadeError` if it does not exist without ``update``.  Nothing is made."""
+    references = Path(references)
+    if references.is_dir():
+        return False
+    if not update:
+        raise GshadeError(
+            f"{references}: the reference folder does not exist "
+            "(use update=True to create it with the current renders)"
+        )
+    return True
 
 
 def _thresholds(settings: dict) -> Thresholds:
@@ -199,12 +217,14 @@ def check_scene(
     except Exception as exc:  # a broken scene must not stop the others
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return CheckResult(
-            name,
+            printable(name),  # the file's stem, if the scene did not load
             path,
             "ERROR",
-            f"does not render: {reason}",
+            printable(f"does not render: {reason}"),
             seconds=time.perf_counter() - start,
-            log="" if isinstance(exc, GshadeError) else traceback.format_exc(),
+            log=""
+            if isinstance(exc, GshadeError)
+            else printable(traceback.format_exc(), keep_lines=True),
         )
     reference = output_file(references, name, ".exr")  # the name was checked at loading
     result = CheckResult(name, path, "FAILURE", "", reference, image=image)
@@ -228,6 +248,10 @@ def check_scene(
     if update_all or (update and result.status not in ("PASS", "WARNING")):
         existed = reference.exists()
         try:
+            distinct_files(
+                [("the scene file", path)] + [("the data file", f) for f in scene.data_files],
+                [("the reference", reference)],
+            )
             _write_reference(image, reference)
         except GshadeError as exc:  # this scene's reference only: the others go on
             result.status, result.message = "ERROR", f"cannot write the reference: {exc}"
@@ -237,6 +261,7 @@ def check_scene(
             else:
                 result.written, result.status = "created", "NEW"
                 result.message = f"new scene: {reference} written"
+    result.message = printable(result.message)  # it names the reference folder
     result.seconds = time.perf_counter() - start
     return result
 
@@ -257,14 +282,8 @@ def check(
     (:func:`gshade.regression.statistical.z_test`) instead of thresholds: for noisy ``lit``
     renders across machines or variants."""
     references = Path(references)
-    if not references.is_dir():
-        if update or update_all:
-            references.mkdir(parents=True)
-        else:
-            raise GshadeError(
-                f"{references}: the reference folder does not exist "
-                "(use update=True to create it with the current renders)"
-            )
+    if missing_references(references, update=update or update_all):
+        references.mkdir(parents=True)
     results = []
     for path in scenes:
         result = check_scene(

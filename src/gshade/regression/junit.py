@@ -11,14 +11,15 @@ scene file, the reference and the HTML report when there is one.  Every test cas
 ``<system-out>`` holds that line and those paths, passing ones too (a WARNING is a pass, as
 in ``gshade check``; so is a reference just written).  Only the elements and attributes of
 the common JUnit schema are used (those of Jenkins' ``junit-10.xsd``, which pytest's
-``xunit2`` files follow, and ``<error>``); characters XML cannot hold are written as
-``\\xNN``.
+``xunit2`` files follow, and ``<error>``); names, paths and messages are written as
+:func:`gshade.io.outputs.printable` shows them: control characters (those XML cannot
+hold, terminal escapes), format characters and bytes of a file name that are not UTF-8 as
+``\\xNN`` / ``\\uNNNN``, so that the file is always written and always valid UTF-8 XML.
 """
 
 from __future__ import annotations
 
 import os
-import re
 import socket
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
@@ -26,7 +27,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from .. import __version__
-from ..io.outputs import atomic_write
+from ..io.outputs import atomic_write, printable
 from .check import CheckResult
 
 __all__ = ["SUITE", "junit_writer", "junit_xml", "write_junit"]
@@ -35,13 +36,11 @@ __all__ = ["SUITE", "junit_writer", "junit_xml", "write_junit"]
 SUITE = "gshade check"
 CLASSNAME = "gshade.check"
 
-#: Characters XML 1.0 does not allow (apart from tab, newline and carriage return).
-_ILLEGAL = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
-
 
 def _text(value: object) -> str:
-    """``value`` as text XML can hold: characters it forbids are written as ``\\xNN``."""
-    return _ILLEGAL.sub(lambda m: f"\\x{ord(m.group()):02x}", str(value))
+    """``value`` as text XML can hold (and a CI page can show): its control characters,
+    surrogates and noncharacters written as escapes; lines kept."""
+    return printable(value, keep_lines=True)
 
 
 def _headline(result: CheckResult) -> str:
