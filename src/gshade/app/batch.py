@@ -11,15 +11,20 @@ dies (a crash, the OOM killer) or runs past the time limit.  Up-to-date outputs 
 header's ``batch_hash``: scene text, data files, overrides, gshade version; ``batch_png``:
 the PNG's sha256) are skipped unless forced.  ``DIR/manifest.json`` lists every job and is
 rewritten as they end.  Outputs are staged (:func:`gshade.io.outputs.staged`): nothing
-partial is left, and a re-run removes the temporaries a killed run left.
+partial is left, and a re-run removes the temporaries a killed run left.  One batch at a
+time writes into a folder (:func:`gshade.io.outputs.folder_lock`; another is refused at
+once, so that the manifest names what is on disk), nothing is written through a symbolic
+link inside it (``DIR/logs`` may not be one), and no output replaces a scene file.
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 import os
 import time
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -40,6 +45,7 @@ if TYPE_CHECKING:
     from .worker_pool import DaskPool, Outcome, WorkerPool
 
 __all__ = [
+    "BUSY",
     "DEFAULT_TIMEOUT",
     "Job",
     "JobResult",
@@ -54,6 +60,8 @@ __all__ = [
 
 #: Default time limit of one job, in seconds.
 DEFAULT_TIMEOUT = 3600.0
+#: The message of a batch refused because another writes into its folder.
+BUSY = "another batch is writing here (wait for it to end, or choose another folder)"
 
 
 @dataclass
@@ -71,8 +79,9 @@ class JobResult:
 
 
 def validate_batch_options(workers: int, timeout: float, scheduler: str | None = None) -> None:
-    """Refuse fewer than 1 worker, a time limit not above 0 and a scheduler address that is
-    empty or not ``tcp://`` / ``tls://`` (a :class:`GshadeError`, one line)."""
+    """Refuse fewer than 1 worker, a time limit not above 0, a scheduler address that is
+    empty or not ``tcp://`` / ``tls://``, and a scheduler without Dask's ``distributed``
+    installed (a :class:`GshadeError`, one line)."""
     from .worker_pool import validate_address
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -81,6 +90,15 @@ def validate_batch_options(workers: int, timeout: float, scheduler: str | None =
         raise GshadeError(f"timeout: expected a number of seconds above 0, got {timeout}")
     if scheduler is not None:
         validate_address(scheduler)
+        try:
+            found = importlib.util.find_spec("distributed") is not None
+        except (ImportError, ValueError):  # a broken installation, or sys.modules[...] = None
+            found = False
+        if not found:
+            raise GshadeError(
+                "scheduler: Dask's distributed package is not installed "
+                '(pip install "gshade[dask]")'
+            )
 
 
 # ----------------------------------------------------------------- one job
@@ -128,7 +146,7 @@ def _outputs(folder: Path, name: str) -> tuple[Path, Path]:
 def _write_log(out: Path, job: Job, text: str) -> str | None:
     """Write ``DIR/logs/<name>.log`` (replacing, never following, what is there); its path,
     or None if it cannot be written."""
-    from ..io.outputs import atomic_write, output_file
+    from ..io.outputs import atomic_write, distinct_files, output_file, output_folder
 
     name = job.log or job.name
     try:
@@ -136,7 +154,9 @@ def _write_log(out: Path, job: Job, text: str) -> str | None:
     except GshadeError:  # a Job made by hand, with a name that cannot name a file
         path = out / "logs" / f"{log_stem(name)}.log"
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        out.mkdir(parents=True, exist_ok=True)  # (a job's status asked for by hand)
+        output_folder(out, "logs")  # never through a symbolic link
+        distinct_files([("the scene file", job.scene)], [("the log", path)])
         atomic_write(path, ".log", lambda tmp: Path(tmp).write_text(text, errors="replace"))
     except (GshadeError, OSError):
         return None
@@ -148,6 +168,13 @@ def _fail(result: JobResult, out: Path, job: Job, message: str, detail: str = ""
     result.message = message
     result.log = _write_log(out, job, f"{job.scene} {dict(job.overrides)}\n{message}\n\n{detail}")
     return result
+
+
+def _not_onto_the_scene(job: Job, *outputs: Path) -> None:
+    """Refuse a job whose outputs would replace its scene file."""
+    from ..io.outputs import distinct_files
+
+    distinct_files([("the scene file", job.scene)], [("the output", p) for p in outputs])
 
 
 def job_status(job: Job, folder: str, force: bool) -> JobResult:
@@ -163,6 +190,7 @@ def job_status(job: Job, folder: str, force: bool) -> JobResult:
 
         exr, png = _outputs(out, job.name)
         result.outputs = [str(exr), str(png)]
+        _not_onto_the_scene(job, exr, png)
         scene_hash = job.scene_hash or load_scene(job.scene, dict(job.overrides)).text_hash
         result.hash = _job_hash(scene_hash)
     except Exception as exc:
@@ -265,16 +293,21 @@ class _Progress:
         self.flush(now=True)
 
 
-def _output_folder(folder: str | os.PathLike) -> Path:
+def _output_folder(folder: str | os.PathLike, jobs: list[Job]) -> list[Path]:
+    """The folders to make for the output folder (:func:`gshade.io.outputs.missing_folders`),
+    once everything that can be refused was: it is not a file, its ``logs`` is not a
+    symbolic link, ``manifest.json`` is no scene file.  Nothing is made."""
+    from ..io.outputs import distinct_files, missing_folders, output_folder
+
     out = Path(folder)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".gshade-write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        raise GshadeError(f"{out}: cannot write to the output folder ({exc.strerror})") from None
-    return out
+    to_make = missing_folders(out, f"{out}: cannot write to the output folder")
+    if not to_make:
+        output_folder(out, "logs", create=False)
+    distinct_files(
+        [("the scene file", s) for s in dict.fromkeys(job.scene for job in jobs)],
+        [("the manifest", out / "manifest.json")],
+    )
+    return to_make
 
 
 def run_batch(
@@ -299,34 +332,42 @@ def run_batch(
     worker.  Workers are started from this thread, which must outlive them (on Linux they
     are sent SIGTERM when it ends).
     """
-    from ..io.outputs import remove_stale_temporaries
+    from ..io.outputs import confined, created_folders, folder_lock, remove_stale_temporaries
     from .worker_pool import DaskPool, WorkerPool
 
     validate_batch_options(workers, timeout, scheduler)
-    out = _output_folder(folder)
-    remove_stale_temporaries(out)  # those a killed run left
-    state = _Progress(out, jobs, progress if progress is not None else os.isatty(2))
-    todo: list[int] = []
-    try:
-        for k, job in enumerate(jobs):  # up-to-date outputs are found without any worker
-            result = job_status(job, str(out), force)
-            if result.status == "todo":
-                state.expect(k, result)
-                todo.append(k)
-            else:
-                state.finish(k, result)
-        state.flush(now=True)  # every job listed before the first render
-        if todo and scheduler is not None:
-            with DaskPool(render_job, scheduler) as pool:
-                _collect(state, todo, pool)
-        elif todo:
-            size = min(workers, len(todo))
-            with WorkerPool(render_job, size, timeout=timeout, initializer=_warm_worker) as pool:
-                _collect(state, todo, pool)
-    finally:
-        state.close()
-        if scheduler is None:
-            remove_stale_temporaries(out)
+    out = Path(folder)
+    with ExitStack() as stack:
+        # the cluster is reached first: a scheduler that is not there makes nothing
+        dask = stack.enter_context(DaskPool(render_job, scheduler)) if scheduler else None
+        # made once nothing is left to refuse; removed again if still empty on a failure
+        stack.enter_context(created_folders(_output_folder(out, jobs)))
+        stack.enter_context(folder_lock(out, BUSY))  # one batch at a time writes here
+        stack.enter_context(confined(out))  # nothing through a link inside it
+        remove_stale_temporaries(out)  # those a killed run left
+        state = _Progress(out, jobs, progress if progress is not None else os.isatty(2))
+        todo: list[int] = []
+        try:
+            for k, job in enumerate(jobs):  # up-to-date outputs are found without any worker
+                result = job_status(job, str(out), force)
+                if result.status == "todo":
+                    state.expect(k, result)
+                    todo.append(k)
+                else:
+                    state.finish(k, result)
+            state.flush(now=True)  # every job listed before the first render
+            if todo and dask is not None:
+                _collect(state, todo, dask)
+            elif todo:
+                size = min(workers, len(todo))
+                with WorkerPool(
+                    render_job, size, timeout=timeout, initializer=_warm_worker
+                ) as pool:
+                    _collect(state, todo, pool)
+        finally:
+            state.close()
+            if scheduler is None:
+                remove_stale_temporaries(out)
     return [r for r in state.results if r is not None]
 
 

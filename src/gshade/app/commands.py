@@ -4,7 +4,10 @@ compare, check, batch, figure and view.
 Each takes the parsed arguments (:func:`gshade.app.cli.build_parser`) and returns the exit
 status.  Bad input raises a GshadeError, which :func:`gshade.app.cli.main` reports in one
 line in the command line's words (:mod:`gshade.app.flags`).  Everything a command needs is
-imported when it runs, so that ``gshade --help`` starts at once.
+imported when it runs, so that ``gshade --help`` starts at once.  Every line printed goes
+through :func:`gshade.app.terminal.say` (names and messages with their control characters
+escaped).  No output may replace an input or another output
+(:func:`gshade.io.outputs.distinct_files`): that is refused before anything is written.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from pathlib import Path
 
 from ..errors import GshadeError
 from .flags import in_flags, parameter
+from .terminal import printable, say
 
 __all__ = [
     "batch",
@@ -50,7 +54,7 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
 
 def render(args: argparse.Namespace) -> int:
     """``gshade render``: the EXR (and PNG), written together once both are complete."""
-    from ..io.outputs import output_file, staged, write_to
+    from ..io.outputs import distinct_files, output_file, staged, write_to
     from ..rendering import render as render_scene
     from ..scene import load_scene
 
@@ -58,6 +62,10 @@ def render(args: argparse.Namespace) -> int:
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
     html = args.html
     targets = [output] + ([Path(args.png)] if args.png else []) + ([Path(html)] if html else [])
+    distinct_files(
+        [("the scene file", args.scene)] + [("the data file", f) for f in scene.data_files],
+        [("-o" if args.output else "the EXR", output), ("--png", args.png), ("--html", html)],
+    )
     # the outputs' temporaries are made first: an unwritable target fails before rendering,
     # and the targets change only once every file is written
     with staged(targets) as names:
@@ -70,7 +78,7 @@ def render(args: argparse.Namespace) -> int:
             writers.append(view_writer(page, html, labels=[output.name]))
         for target, writer, name in zip(targets, writers, names, strict=True):
             write_to(name, writer, target)
-    print(
+    say(
         f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
         f"{image.metadata['legend']}"
     )
@@ -85,7 +93,7 @@ def info(args: argparse.Namespace) -> int:
     from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args))
-    print(f"scene {scene.name} ({scene.path})")
+    say(f"scene {scene.name} ({scene.path})")
     for k, surface in enumerate(scene.surfaces):
         kinds: dict[str, int] = {}
         for patch in surface.patches:
@@ -94,7 +102,7 @@ def info(args: argparse.Namespace) -> int:
             label += " rational" if getattr(patch, "rational", False) else ""
             kinds[label] = kinds.get(label, 0) + 1
         summary = ", ".join(f"{n} x {label}" for label, n in kinds.items())
-        print(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
+        say(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
         if surface.cad is not None:
             _print_cad_faces(surface.cad)
     points = []
@@ -111,14 +119,14 @@ def info(args: argparse.Namespace) -> int:
             irregular.append(f"patch {index}: " + (where or f"{int(mask.sum())} sample points"))
     pts = np.concatenate(points)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    print(f"  patches: {len(points)}")
-    print(
+    say(f"  patches: {len(points)}")
+    say(
         f"  bounding box: [{', '.join(f'{x:.6g}' for x in lo)}] .. "
         f"[{', '.join(f'{x:.6g}' for x in hi)}]"
     )
-    print("  irregular points:" + ("" if irregular else " none"))
+    say("  irregular points:" + ("" if irregular else " none"))
     for line in irregular:
-        print(f"    {line}")
+        say(f"    {line}")
     return 0
 
 
@@ -127,16 +135,16 @@ def _print_cad_faces(cad) -> None:
     approximated (with the error), degrees, rational, trimmed, inner loops."""
     model = cad.model
     lo, hi = model.bounds
-    print(
+    say(
         f"    model: {len(model.faces)} faces, unit {model.unit}, bounding box "
         f"[{', '.join(f'{x:.6g}' for x in lo)}] .. [{', '.join(f'{x:.6g}' for x in hi)}]"
     )
-    print(f"    {'face':>5}  {'kind':<10}  {'exact':<16}  degree   rational  trimmed  holes")
+    say(f"    {'face':>5}  {'kind':<10}  {'exact':<16}  degree   rational  trimmed  holes")
     for i in cad.faces:
         face = model.faces[i]
         exact = "exact" if face.exact else f"approx {face.error:.2g} {model.unit}"
         degree = f"{face.patch.degree[0]}x{face.patch.degree[1]}"
-        print(
+        say(
             f"    {i:>5}  {face.kind:<10}  {exact:<16}  {degree:<7}  "
             f"{'yes' if face.patch.rational else 'no':<8}  "
             f"{'yes' if face.trimmed else 'no':<7}  {face.inner_loops}"
@@ -204,14 +212,14 @@ def continuity(args: argparse.Namespace) -> int:
     )
     for j in report:
         where = f"{j.sides[0]}-{j.sides[1]}" if j.sides else f"e{j.edge:<6}"
-        print(
+        say(
             f"{j.patches[0]:>4} {j.patches[1]:>4}  {where}  {j.cls:>5}  "
             f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
             f"{j.curvature_gradient_jump:9.2e}"
         )
     counts = {c: sum(j.cls == c for j in report) for c in ("G3", "G2", "G1", "G0", "none")}
     summary = ", ".join(f"{n} {c}" for c, n in counts.items() if n)
-    print(f"{len(report)} junctions" + (f": {summary}" if summary else ""))
+    say(f"{len(report)} junctions" + (f": {summary}" if summary else ""))
     return 0
 
 
@@ -250,6 +258,7 @@ def compare(args: argparse.Namespace) -> int:
     raised, for :func:`gshade.app.cli.main` to report with status 5."""
     import json
 
+    from ..io.outputs import distinct_files
     from ..regression.comparison import EXIT_STATUS, ChannelMismatch, Thresholds, UnreadableImage
     from ..regression.diff_images import compare_and_write_diffs
 
@@ -259,6 +268,19 @@ def compare(args: argparse.Namespace) -> int:
         raise GshadeError(
             f"--channels: expected channel names such as R,G,B, got {args.channels!r}"
         )
+    # a difference image may not replace an image compared, nor the other one (usage
+    # errors: status 5)
+    diffs = [("--diff", args.diff), ("--diff-png", args.diff_png)]
+    distinct_files(
+        [("TEST.exr", args.test), ("REF.exr", args.reference)], diffs, among_outputs=False
+    )
+    try:
+        distinct_files([], diffs)
+    except GshadeError:
+        raise GshadeError(
+            f"--diff and --diff-png: expected two different files, got {args.diff} and "
+            f"{args.diff_png}"
+        ) from None
     try:
         result = compare_and_write_diffs(
             args.test,
@@ -271,10 +293,10 @@ def compare(args: argparse.Namespace) -> int:
             ssim=args.ssim,
         )
     except UnreadableImage as exc:
-        print(f"gshade: error: {exc}", file=sys.stderr)
+        say(f"gshade: error: {exc}", file=sys.stderr)
         return EXIT_STATUS["UNREADABLE"]
     except ChannelMismatch as exc:
-        print(f"gshade: error: {exc}", file=sys.stderr)
+        say(f"gshade: error: {exc}", file=sys.stderr)
         return EXIT_STATUS["MISMATCH"]
     if args.json:
         # non-finite metrics are null (as_dict): the output is always strict JSON
@@ -282,72 +304,112 @@ def compare(args: argparse.Namespace) -> int:
     else:
         for name, m in {**result.per_channel, **result.per_group}.items():
             at = f" at ({m.max_at[0]}, {m.max_at[1]})" if m.max_at else ""
-            print(
+            say(
                 f"  {name:>6}: max {m.max_error:.6g}{at}, mean {m.mean_error:.6g}, "
                 f"RMSE {m.rmse:.6g}, PSNR {m.psnr:.4g} dB (range {m.data_range:.4g})"
             )
         v = result.all_values
         if v is not None:
-            print(
+            say(
                 f"  values: mean {v.mean_error:.6g}, RMSE {v.rmse:.6g}, PSNR {v.psnr:.4g} dB "
                 f"(peak {v.peak:.4g}; over all {v.values} pixel values, as idiff)"
             )
-        print(result.summary())
+        say(result.summary())
     return result.exit_status
 
 
 def check(args: argparse.Namespace) -> int:
     """``gshade check``: one line per scene as it is checked, then the counts (and the report
-    and JUnit XML files, if asked); 2 if any scene failed."""
-    from ..io.outputs import staged, write_to
+    and JUnit XML files, if asked); 2 if any scene failed.
+
+    Everything that can be refused is refused before anything is made: scenes not found, a
+    missing reference folder without ``--update``, a ``--junit`` or ``--report`` that cannot
+    be written or would replace an input (a scene file, a reference) or each other, a
+    ``--report`` folder whose ``views`` is a symbolic link.  The folders made for them are
+    removed again if the command fails."""
+    from dataclasses import replace
+
+    from ..io.outputs import (
+        check_target,
+        confined,
+        created_folders,
+        distinct_files,
+        missing_folders,
+        output_folder,
+        staged,
+        write_to,
+    )
     from ..regression.check import check as check_scenes
-    from ..regression.check import find_scenes
+    from ..regression.check import find_scenes, missing_references
     from ..regression.junit import junit_writer
     from ..regression.report import write_report
 
     scenes = find_scenes(args.scenes)
-    junit = [Path(args.junit)] if args.junit else []
-    for target in junit:  # its folder is made if need be, as --report's
-        try:
-            target.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise GshadeError(
-                f"--junit {args.junit}: cannot create the folder {target.parent} ({exc.strerror})"
-            ) from None
-    # the JUnit file's temporary is made first: an unwritable --junit fails before anything
-    # else is written or rendered; the file is written whatever the scenes' verdicts
-    with staged(junit) as names:
-        if args.report:  # an unusable report folder fails before any scene renders
-            try:
-                Path(args.report).mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
-                raise GshadeError(
-                    f"--report {args.report}: cannot create the folder ({exc.strerror})"
-                ) from None
-
-        def progress(result) -> None:
-            result.message = in_flags(result.message)  # for the report too
-            print(result.line(), flush=True)
-
-        results = check_scenes(
-            scenes,
-            Path(args.references),
-            update=args.update,
-            update_all=args.update_all,
-            statistical=args.statistical,
-            progress=progress,
+    references = Path(args.references)
+    missing_references(references, update=args.update or args.update_all)
+    junit = Path(args.junit) if args.junit else None
+    report = Path(args.report) if args.report else None
+    folders: list[Path] = []
+    if junit is not None:  # its folder is made if need be, as --report's
+        folders += missing_folders(
+            junit.parent, f"--junit {args.junit}: cannot create the folder {junit.parent}"
         )
-        report = write_report(results, Path(args.report)) if args.report else None
-        if report is not None:
-            print(f"report: {report}")
-        for target, name in zip(junit, names, strict=True):
-            write_to(name, junit_writer(results, report=report), target)
-            print(f"JUnit XML: {target}")
+        check_target(junit)
+    pages = []
+    if report is not None:
+        folders += missing_folders(report, f"--report {args.report}: cannot create the folder")
+        output_folder(report, "views", create=False)  # not a link (nothing is made yet)
+        pages = [report / "report.html", report / "summary.json"]
+        for page in pages:
+            check_target(page)
+    inputs = [("the scene file", scene) for scene in scenes]
+    if references.is_dir():  # the references compared (--junit refs/ball.exr)
+        inputs += [("the reference", ref) for ref in sorted(references.glob("*.exr"))]
+    distinct_files(
+        inputs,
+        [("--junit", junit)] + [("--report", page) for page in pages],
+    )
+    report_error: GshadeError | None = None
+    with created_folders(folders):
+        # the JUnit file's temporary is made first: an unwritable --junit fails before
+        # anything is rendered; the file is written whatever the scenes' verdicts (and even
+        # if the report cannot be)
+        with staged([junit] if junit else []) as names:
+
+            def progress(result) -> None:
+                result.message = in_flags(result.message)  # for the report too
+                say(result.line(), flush=True)
+
+            results = check_scenes(
+                scenes,
+                references,
+                update=args.update,
+                update_all=args.update_all,
+                statistical=args.statistical,
+                progress=progress,
+            )
+            written: Path | None = None
+            if report is not None:
+                # the report shows the scene files' paths as printable text (a name that
+                # is not UTF-8 cannot be written into an HTML page)
+                shown = [replace(r, scene=Path(printable(r.scene))) for r in results]
+                try:
+                    with confined(report):  # nothing through a link inside the folder
+                        written = write_report(shown, report)
+                except GshadeError as exc:
+                    report_error = exc
+                else:
+                    say(f"report: {written}")
+            for target, name in zip([junit] if junit else [], names, strict=True):
+                write_to(name, junit_writer(results, report=written), target)
+                say(f"JUnit XML: {target}")
+        if report_error is not None:  # the folders made for it go, unless they hold files
+            raise report_error
     failed = [r for r in results if not r.ok]
-    written = sum(bool(r.written) for r in results)
-    print(
+    updated = sum(bool(r.written) for r in results)
+    say(
         f"{len(results) - len(failed)} passed, {len(failed)} failed"
-        + (f" ({written} references written)" if written else "")
+        + (f" ({updated} references written)" if updated else "")
     )
     return 0 if not failed else 2
 
@@ -375,9 +437,9 @@ def batch(args: argparse.Namespace) -> int:
     failed = [r for r in results if r.status == "failed"]
     for r in failed:
         name = r.name if len(r.name) <= 80 else r.name[:79] + "…"
-        print(f"failed: {name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
+        say(f"failed: {name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)
     counts = {s: sum(r.status == s for r in results) for s in ("rendered", "up to date")}
-    print(
+    say(
         f"{counts['rendered']} rendered, {counts['up to date']} up to date, "
         f"{len(failed)} failed; manifest: {Path(args.output) / 'manifest.json'}"
     )
@@ -388,17 +450,21 @@ def view(args: argparse.Namespace) -> int:
     """``gshade view``: one self-contained HTML page of 1 to 3 EXRs; the images are read and
     checked before anything is written."""
     from ..display.html_view import view_writer
-    from ..io.outputs import output_name, staged, write_to
+    from ..io.outputs import distinct_files, output_name, staged, write_to
 
     first = Path(args.images[0])
     output = Path(args.output) if args.output else Path(output_name(first.stem, "IMAGE") + ".html")
+    distinct_files(
+        [("IMAGE.exr", image) for image in args.images],
+        [("-o" if args.output else "the page", output)],
+    )
     try:
         writer = view_writer(args.images, output, title=args.title)
     except GshadeError as exc:  # the library's parameter is the command's IMAGE arguments
         raise GshadeError(str(exc).replace("images: ", "IMAGE.exr: ", 1)) from None
     with staged([output]) as (name,):
         write_to(name, writer, output)
-    print(
+    say(
         f"{output}: {len(args.images)} image{'s' if len(args.images) > 1 else ''}, "
         f"{output.stat().st_size} bytes"
     )
@@ -406,9 +472,16 @@ def view(args: argparse.Namespace) -> int:
 
 
 def figure(args: argparse.Namespace) -> int:
-    """``gshade figure``: render the spec's panels and write the figure."""
+    """``gshade figure``: render the spec's panels and write the figure (which may not
+    replace the spec or a row's scene file)."""
+    from ..io.outputs import distinct_files
     from .figure import load_figure_spec, make_figure
 
-    path = make_figure(load_figure_spec(args.spec), args.output)
-    print(f"{path}")
+    spec = load_figure_spec(args.spec)
+    distinct_files(
+        [("SPEC", args.spec)] + [("the row's scene file", row) for row in spec.rows],
+        [("-o", args.output)],
+    )
+    path = make_figure(spec, args.output)
+    say(f"{path}")
     return 0
