@@ -425,7 +425,10 @@ def batch(args: argparse.Namespace) -> int:
     validate_batch_options(
         args.jobs, args.timeout, args.scheduler
     )  # before anything is read or made
-    jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
+    from ..io.cad_process import kernel_time_limit
+
+    with kernel_time_limit(args.timeout):  # a CAD file read to plan takes no longer than a job
+        jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))
     results = run_batch(
         jobs,
         args.output,
