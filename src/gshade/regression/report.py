@@ -104,7 +104,7 @@ def _write_view(
     attributes left out of the view (a hostile or broken reference), or why there is no
     view.  Nothing here ends the report: a bad reference costs its scene's view at most."""
     from ..display.html_view import view_writer
-    from ..io.outputs import atomic_write
+    from ..io.outputs import atomic_write, output_folder
 
     if r.image is None:
         return None, []
@@ -122,7 +122,7 @@ def _write_view(
     try:
         writer = view_writer(images, target, labels=labels, title=r.name)
         notes = [_named(note, r) for note in writer.notes]
-        _views_folder(folder)
+        output_folder(folder, "views")  # made if need be, never through a link
         atomic_write(target, ".html", writer)
     except (GshadeError, OSError) as exc:
         return None, [f"no view: {_named(str(exc), r)}"]
@@ -137,15 +137,6 @@ def _named(text: str, r: CheckResult) -> str:
         if text.startswith(f"{label}: "):
             return f"{path or 'the new image'}: {text.removeprefix(label + ': ')}"
     return text
-
-
-def _views_folder(folder: Path) -> Path:
-    """``folder/views``, made if need be (not through a symbolic link)."""
-    views = folder / "views"
-    if views.is_symlink():
-        raise GshadeError(f"{views}: expected a folder, got a symbolic link (not followed)")
-    views.mkdir(exist_ok=True)
-    return views
 
 
 def _section(r: CheckResult, reference: _Image | None, view: str | None, notes: list[str]) -> str:
