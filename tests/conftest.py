@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +19,12 @@ from gshade.geometry import BSplinePatch
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
+
+# gshade's content-keyed caches (the optimised hole fillings) go to a folder of this test
+# session's, which its subprocesses inherit, never to the user's ~/.cache
+if "GSHADE_CACHE_DIR" not in os.environ:
+    os.environ["GSHADE_CACHE_DIR"] = tempfile.mkdtemp(prefix="gshade-tests-cache-")
+    atexit.register(shutil.rmtree, os.environ["GSHADE_CACHE_DIR"], True)
 
 ROOT = Path(__file__).resolve().parents[1]
 TEAPOT = ROOT / "scenes" / "data" / "teapot.txt"

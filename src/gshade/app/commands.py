@@ -169,9 +169,10 @@ def continuity(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..analysis.continuity import Tolerances, continuity_report
+    from ..analysis.continuity import Tolerances, continuity_report, validate_samples
     from ..scene import load_scene
 
+    validate_samples(args.samples)  # before the scene (and a CAD file) is read
     scene = load_scene(args.scene, _scene_overrides(args))
     patches = list(scene.patches)
     cad = any(s.cad is not None for s in scene.surfaces)
@@ -467,6 +468,8 @@ def view(args: argparse.Namespace) -> int:
         raise GshadeError(str(exc).replace("images: ", "IMAGE.exr: ", 1)) from None
     with staged([output]) as (name,):
         write_to(name, writer, output)
+    for note in writer.notes:  # a header attribute left out of the page
+        say(f"gshade: warning: {note}", file=sys.stderr)
     say(
         f"{output}: {len(args.images)} image{'s' if len(args.images) > 1 else ''}, "
         f"{output.stat().st_size} bytes"
