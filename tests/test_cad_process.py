@@ -25,7 +25,7 @@ pytest.importorskip("OCP")
 
 from gshade import GshadeError
 from gshade.app.cli import main
-from gshade.io import cad_process
+from gshade.io import cad_process, cad_zygote
 from gshade.io.cad import read_cad
 from gshade.io.cad_edges import shared_edges
 from gshade.io.cad_mesh import mesh_faces
@@ -53,17 +53,22 @@ def parts(tmp_path_factory) -> dict[str, Path]:
     return out
 
 
-def _children_of(pid: int) -> list[int]:
-    out = []
+def _descendants(pid: int) -> list[int]:
+    """The processes below ``pid`` (its children, theirs, ...)."""
+    parents: dict[int, int] = {}
     for entry in os.listdir("/proc"):
         if entry.isdigit():
             try:
                 with open(f"/proc/{entry}/stat") as f:
-                    fields = f.read().rsplit(")", 1)[1].split()
-            except OSError:
+                    parents[int(entry)] = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
                 continue
-            if int(fields[1]) == pid:
-                out.append(int(entry))
+    out, todo = [], [pid]
+    while todo:
+        below = [p for p, parent in parents.items() if parent == todo[-1]]
+        todo.pop()
+        out += below
+        todo += below
     return out
 
 
@@ -250,9 +255,9 @@ def test_sigterm_is_honoured_while_the_kernel_loops(parts, tmp_path):
     )
     try:
         kernel: list[int] = []
-        while not kernel and gshade.poll() is None:  # until the kernel's process runs
+        while len(kernel) < 2 and gshade.poll() is None:  # the zygote and the model's child
             time.sleep(0.1)
-            kernel = _children_of(gshade.pid)
+            kernel = _descendants(gshade.pid)
         time.sleep(1.0)  # well into the reader's loop
         gshade.send_signal(signal.SIGTERM)
         _, err = gshade.communicate(timeout=300)  # a hang guard only: far below 600 s
@@ -265,3 +270,49 @@ def test_sigterm_is_honoured_while_the_kernel_loops(parts, tmp_path):
             break
         time.sleep(0.1)
     assert kernel and not any(_alive(k) for k in kernel)
+
+
+def _parent(pid: int) -> int:
+    with open(f"/proc/{pid}/stat") as f:
+        return int(f.read().rsplit(")", 1)[1].split()[1])
+
+
+def test_models_are_forked_from_one_zygote(parts):
+    """The kernel's libraries are loaded once, by the zygote; each model's process is
+    forked from it."""
+    a, b = read_cad(parts["sheet.step"]), read_cad(parts["box.brep"])
+    first, second = a.shape._child, b.shape._child
+    assert isinstance(first, cad_zygote.Forked) and isinstance(second, cad_zygote.Forked)
+    assert first.zygote is second.zygote and first.pid != second.pid
+    assert _parent(first.pid) == _parent(second.pid) == first.zygote.process.pid
+    assert _parent(first.zygote.process.pid) == os.getpid()
+
+
+def test_without_the_zygote_a_model_gets_a_process_of_its_own(parts, monkeypatch):
+    monkeypatch.setenv("GSHADE_CAD_ZYGOTE", "off")
+    monkeypatch.setattr(cad_zygote, "_zygotes", {})
+    model = read_cad(parts["sheet.step"])
+    assert isinstance(model.shape._child, subprocess.Popen)
+    assert _parent(model.shape._child.pid) == os.getpid()
+    here = read_cad(parts["sheet.step"], isolated=False)
+    assert (model.faces[0].patch.points == here.faces[0].patch.points).all()
+
+
+def test_a_dead_zygote_costs_its_models_only(parts, monkeypatch):
+    """The zygote killed: its models' processes die with it (one line when used), and the
+    next model is read all the same (a process of its own, then a new zygote)."""
+    monkeypatch.setattr(cad_zygote, "_zygotes", {})  # a zygote of this test's own
+    model = read_cad(parts["sheet.step"])
+    child = model.shape._child
+    child.zygote.process.kill()
+    child.zygote.process.wait()
+    for _ in range(100):
+        if not _alive(child.pid):
+            break
+        time.sleep(0.05)
+    assert not _alive(child.pid)
+    with pytest.raises(GshadeError, match="the CAD kernel"):
+        mesh_faces(model, 1.0)
+    for _ in range(2):
+        again = read_cad(parts["sheet.step"])
+        assert len(again.faces) == 1 and len(mesh_faces(again, 1.0).triangles) > 0

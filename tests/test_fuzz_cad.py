@@ -115,7 +115,7 @@ def _one_clean_line(status: int, err: str, path) -> None:
 @pytest.mark.parametrize("mutation", sorted(MUTATIONS))
 @pytest.mark.parametrize("seed", SEEDS)
 def test_damaged_cad_file(seed, mutation, seeds, tmp_path, capsys, monkeypatch):
-    monkeypatch.setenv("GSHADE_CAD_TIMEOUT", "10")  # loops end here: still one clean line
+    monkeypatch.setenv("GSHADE_CAD_TIMEOUT", "5")  # loops end here: still one clean line
     monkeypatch.chdir(tmp_path)
     data = MUTATIONS[mutation](seeds[seed], seed)
     path = tmp_path / f"x{seed[seed.index('.') :]}"

@@ -5,7 +5,8 @@ byte is enough: a misspelt entity name, a knot count of -3, a file cut in half) 
 crash the process (SIGSEGV), loop for minutes without returning to Python (so that a
 SIGTERM handler, which is Python, never runs), or allocate gigabytes for a file of a
 kilobyte.  So every kernel call on a model runs in a child process of its own, one per
-model, started when the model is read and ended when the model is dropped:
+model, started when the model is read and ended when the model is dropped (forked from a
+process that has the kernel's libraries loaded: :mod:`gshade.io.cad_zygote`):
 
 - **reading** (:func:`gshade.io.cad.read_cad`) in the child; the faces come back (exact
   patches, boxes, loops: plain arrays), the kernel's shape stays in the child;
@@ -163,15 +164,11 @@ class KernelProcess:
 
     def __init__(self, path: str | os.PathLike) -> None:
         self.path = str(path)
+        from .cad_zygote import start_child
+
         self._log = tempfile.TemporaryFile()
         try:
-            self._child: subprocess.Popen | None = subprocess.Popen(
-                [sys.executable, "-m", "gshade.io.cad_process", str(os.getpid())],
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                stderr=self._log,
-                close_fds=True,
-            )
+            self._child: Any = start_child(self._log)  # a Popen, or the zygote's Forked
         except OSError as exc:
             self._log.close()
             raise GshadeError(f"{path}: cannot start the CAD kernel's process ({exc})") from None
@@ -290,7 +287,7 @@ class _Ended(Exception):
     pass
 
 
-def _stop(child: subprocess.Popen, log: Any) -> None:
+def _stop(child: Any, log: Any) -> None:
     """Kill the child (it may be deep in the kernel, ignoring SIGTERM) and reap it."""
     try:
         if child.poll() is None:
@@ -304,7 +301,7 @@ def _stop(child: subprocess.Popen, log: Any) -> None:
                 stream.close()
 
 
-def _ending(child: subprocess.Popen, status: int | None, exc: BaseException) -> str:
+def _ending(child: Any, status: int | None, exc: BaseException) -> str:
     """How the child ended, in words: "crashed (SIGSEGV)", "ended with status 3"."""
     code = child.returncode if status is None else status
     if code is not None and code < 0:
@@ -320,7 +317,7 @@ def _ending(child: subprocess.Popen, status: int | None, exc: BaseException) -> 
     return f"stopped answering ({type(exc).__name__})"
 
 
-def _send(child: subprocess.Popen, message: bytes) -> None:
+def _send(child: Any, message: bytes) -> None:
     assert child.stdin is not None
     try:
         child.stdin.write(_HEADER.pack(len(message)) + message)
@@ -329,7 +326,7 @@ def _send(child: subprocess.Popen, message: bytes) -> None:
         raise _Ended from None
 
 
-def _receive(child: subprocess.Popen, deadline: float, tick: Callable[[], None]) -> bytes:
+def _receive(child: Any, deadline: float, tick: Callable[[], None]) -> bytes:
     """One message from the child, waiting in Python (signals are handled) until
     ``deadline``, calling ``tick`` while it waits."""
     assert child.stdout is not None
