@@ -270,10 +270,12 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
     state = session.config.stash.get(_SESSION, None)
     if state is None or state.report is None or not state.results:
         return
+    from ..io.outputs import confined
     from ..regression.report import write_report
 
     try:
-        write_report(state.results, state.report)
+        with confined(state.report):  # nothing written through a link inside it
+            write_report(state.results, state.report)
     except GshadeError as exc:  # said in the summary: the tests' outcomes stand
         state.report_error = str(exc)
 
@@ -284,10 +286,12 @@ def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
     if state is None or not (state.written or state.results):
         return
     terminalreporter.section("gshade")
+    from ..io.outputs import printable
+
     for r in state.written:
-        terminalreporter.write_line(f"{r.written} reference {r.reference} ({r.scene})")
+        terminalreporter.write_line(printable(f"{r.written} reference {r.reference} ({r.scene})"))
     if state.report_error:
-        terminalreporter.write_line(f"no report: {state.report_error}", red=True)
+        terminalreporter.write_line(printable(f"no report: {state.report_error}"), red=True)
     elif state.report is not None and state.results:
         terminalreporter.write_line(
             f"report of {len(state.results)} scenes: {state.report / 'report.html'}"
