@@ -163,3 +163,22 @@ def test_swept_faces_are_the_kernels_surfaces(tmp_path, kind):
         )
         _agrees_with_the_kernel(face, kernel_face, rng, 30)
         assert (face.arcs[0] is not None) == (kind == "revolution")
+
+
+def test_a_full_turn_written_a_sliver_too_long_is_read(tmp_path):
+    """A cylinder face whose angle runs from -pi to pi + 6.7e-11, as Fusion 360 writes
+    them: read (not refused), its patch the kernel's surface at the kernel's parameters."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_CylindricalSurface
+    from OCP.gp import gp_Ax3
+
+    u0, u1 = -3.1415926535900573, 3.141592653656146
+    surface = Geom_CylindricalSurface(gp_Ax3(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), 2.0)
+    face = BRepBuilderAPI_MakeFace(surface, u0, u1, 0.0, 5.0, 1e-7).Face()
+    model = read_cad(write_shape(face, tmp_path / "overturn.brep"), isolated=False)
+    (cad,) = model.faces
+    assert cad.kind == "cylinder"
+    rng = np.random.default_rng(1)
+    _agrees_with_the_kernel(cad, _faces(model.shape)[0], rng, 25)
+    with pytest.raises(Exception, match="expected a0 < a1"):
+        arc(-np.pi, np.pi + 1e-6)  # more than a sliver: still refused

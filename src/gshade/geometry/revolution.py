@@ -31,6 +31,11 @@ def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
     return BSplineCurve(np.asarray(centre, float) + radius * c, 2, knots, _CIRCLE_WEIGHTS)
 
 
+#: How far (relative) an arc may exceed a full turn: far below any CAD file's tolerance
+#: (6e-9 rad), far above the round-off of a range written as -pi to pi.
+TURN_OVERSHOOT = 1e-9
+
+
 def _arc_segments(a0: float, a1: float) -> tuple[int, float]:
     """The number of equal segments of the arc from a0 to a1 (each at most a quarter turn)
     and their angle."""
@@ -43,8 +48,14 @@ def arc(a0: float, a1: float) -> BSplineCurve:
     quadratic segments of equal angle Delta <= pi/2 with weights 1, cos(Delta/2), 1 (Piegl &
     Tiller, section 7.5), the knots (double inside) at the segments' end angles, so that
     the parameter equals the angle at every knot; between knots see :func:`arc_parameters`.
+
+    A full turn may overshoot 2 pi by :data:`TURN_OVERSHOOT` of it, as CAD systems write
+    periodic faces' ranges (Fusion 360: -pi to pi + 6.7e-11); the arc then covers its start
+    twice over that sliver.
     """
-    if not (np.isfinite(a0) and np.isfinite(a1) and a0 < a1 <= a0 + 2 * np.pi * (1 + 1e-12)):
+    if not (
+        np.isfinite(a0) and np.isfinite(a1) and a0 < a1 <= a0 + 2 * np.pi * (1 + TURN_OVERSHOOT)
+    ):
         raise GshadeError(f"arc: expected a0 < a1 <= a0 + 2 pi, got a0={a0!r}, a1={a1!r}")
     count, delta = _arc_segments(a0, a1)
     ends = a0 + delta * np.arange(count + 1)
