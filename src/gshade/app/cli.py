@@ -294,6 +294,7 @@ def main(argv: list[str] | None = None) -> int:
     # floating-point trouble is found by explicit checks (finite inputs, finite images) and
     # reported in one line: numpy's own warnings would only add lines before it
     np.seterr(all="ignore")
+    _prestart_cad_kernel(args)
     try:
         return args.run(args)
     except GshadeError as exc:
@@ -310,6 +311,18 @@ def main(argv: list[str] | None = None) -> int:
             print(f"gshade: terminated by signal {_signalled[0]}", file=sys.stderr)
             return 128 + _signalled[0]
         raise
+
+
+def _prestart_cad_kernel(args: argparse.Namespace) -> None:
+    """Given a CAD file to read, start the kernel's zygote now: it loads the kernel's
+    libraries while this process loads its own (:func:`gshade.io.cad_zygote.prestart`)."""
+    from ..io.cad import CAD_EXTENSIONS
+
+    given = [getattr(args, "scene", None), *(getattr(args, "scenes", None) or [])]
+    if any(isinstance(p, str) and Path(p).suffix.lower() in CAD_EXTENSIONS for p in given):
+        from ..io.cad_zygote import prestart
+
+        prestart()
 
 
 def console() -> None:

@@ -27,7 +27,7 @@ import threading
 import time
 from typing import Any
 
-__all__ = ["Forked", "start_child"]
+__all__ = ["Forked", "prestart", "start_child"]
 
 #: Seconds the zygote may take to load the kernel's libraries, or to answer a request.
 _READY_SECONDS = 120.0
@@ -53,6 +53,12 @@ def start_child(log: Any) -> Any:
         stderr=log,
         close_fds=True,
     )
+
+
+def prestart() -> None:
+    """Start the zygote now, without waiting for it: it loads the kernel's libraries while
+    this process goes on (e.g. the command line, given a CAD file, loading its own)."""
+    _zygote()
 
 
 def _zygote() -> _Zygote | None:
@@ -110,10 +116,15 @@ class _Zygote:
             raise started[0]
         self.process: subprocess.Popen = started[0]
         self.socket = ours
-        self.lock = threading.Lock()
-        if self._ask(None, _READY_SECONDS) != b"ready":
-            self.close()
-            raise OSError("the CAD kernel's zygote did not start")
+        self.lock = threading.RLock()
+        self.ready = False  # said by the zygote once it has loaded the libraries
+
+    def wait_ready(self) -> None:
+        with self.lock:
+            if not self.ready:
+                if self._ask(None, _READY_SECONDS) != b"ready":
+                    raise OSError("the CAD kernel's zygote did not start")
+                self.ready = True
 
     def _ask(self, message: bytes | None, seconds: float, fds: list[int] | None = None) -> bytes:
         """Send ``message`` (with ``fds``) and return the answer, waiting in Python."""
@@ -134,6 +145,7 @@ class _Zygote:
             return answer
 
     def fork(self, log: int) -> Forked:
+        self.wait_ready()
         requests = os.pipe()
         answers = os.pipe()
         try:
