@@ -9,7 +9,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import show
-from ..io.files import file_kind
 from .tables import Table
 
 __all__ = ["DATA_PATH_VARIABLE", "DataFiles", "data_roots"]
@@ -45,6 +44,8 @@ class DataFiles:
     def find(self, t: Table, name: str) -> Path:
         """The data file a surface's ``file`` key names (relative to the scene file),
         checked to lie within one of the roots once symbolic links are resolved."""
+        from ..io.files import file_kind  # here: gshade.io loads OpenEXR
+
         data_file = self.base / name
         try:
             resolved = data_file.resolve()

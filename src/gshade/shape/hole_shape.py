@@ -90,7 +90,6 @@ import hashlib
 import json
 import os
 import stat
-import tempfile
 import threading
 import time
 from collections import OrderedDict
@@ -794,6 +793,8 @@ def _remember(key: str, x: NDArray[np.float64], info: ShapeOptimisation) -> None
 
 def _store(key: str, x: NDArray[np.float64], info: ShapeOptimisation) -> None:
     """Keep a result in memory and, best effort, on disk (an unwritable folder: memory)."""
+    import tempfile  # here, not on the import path of every command
+
     _remember(key, x, info)
     folder = cache_folder()
     if folder is None:
