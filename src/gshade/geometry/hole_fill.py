@@ -345,7 +345,7 @@ class HoleFilling:
         A basis Z of the conditions' null space: every x + Z Y meets them (C Z = 0).
     shape : object or None
         The report of a nonlinear optimisation that moved ``nets`` within that space
-        (:func:`gshade.shape.hole_shape.optimise_filling`), or None.
+        (:func:`gshade.shape.hole_shape_cache.optimise_filling`), or None.
     """
 
     patches: tuple[BezierPatch, ...]

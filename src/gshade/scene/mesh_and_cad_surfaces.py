@@ -19,7 +19,8 @@ from ..geometry.hole_fill import JUNCTIONS
 from ..geometry.hole_surface import filled_surface
 from ..geometry.subdivision import subdivision_patches
 from ..limits import MAX_HOLE_MESH_FACES, MAX_HOLES, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
-from ..shape.hole_shape import SHAPE_MEASURES, optimise_filling
+from ..shape.hole_shape import SHAPE_MEASURES
+from ..shape.hole_shape_cache import optimise_filling
 from .data_files import DataFiles
 from .model import CadFaces
 from .surfaces import surface_type
