@@ -19,16 +19,8 @@ import pytest
 from gshade import GshadeError
 from gshade.app.cli import main
 from gshade.app.terminal import printable
-from gshade.io.outputs import (
-    atomic_write,
-    confined,
-    created_folders,
-    distinct_files,
-    folder_lock,
-    missing_folders,
-    output_folder,
-    staged,
-)
+from gshade.io.output_folders import created_folders, folder_lock, missing_folders, output_folder
+from gshade.io.outputs import atomic_write, confined, distinct_files, staged
 
 SMALL = '[render]\nwidth = 16\nheight = 12\nspp = 1\nlighting = "flat"\n'
 CHECK = "[check]\nwidth = 16\nheight = 12\nspp = 1\n"

@@ -12,8 +12,8 @@ header's ``batch_hash``: scene text, data files, overrides, gshade version; ``ba
 the PNG's sha256) are skipped unless forced.  ``DIR/manifest.json`` lists every job and is
 rewritten as they end.  Outputs are staged (:func:`gshade.io.outputs.staged`): nothing
 partial is left, and a re-run removes the temporaries a killed run left.  One batch at a
-time writes into a folder (:func:`gshade.io.outputs.folder_lock`; another is refused at
-once, so that the manifest names what is on disk), nothing is written through a symbolic
+time writes into a folder (:func:`gshade.io.output_folders.folder_lock`; another is refused
+at once, so that the manifest names what is on disk), nothing is written through a symbolic
 link inside it (``DIR/logs`` may not be one), and no output replaces a scene file.
 """
 
@@ -146,7 +146,8 @@ def _outputs(folder: Path, name: str) -> tuple[Path, Path]:
 def _write_log(out: Path, job: Job, text: str) -> str | None:
     """Write ``DIR/logs/<name>.log`` (replacing, never following, what is there); its path,
     or None if it cannot be written."""
-    from ..io.outputs import atomic_write, distinct_files, output_file, output_folder
+    from ..io.output_folders import output_folder
+    from ..io.outputs import atomic_write, distinct_files, output_file
 
     name = job.log or job.name
     try:
@@ -294,10 +295,12 @@ class _Progress:
 
 
 def _output_folder(folder: str | os.PathLike, jobs: list[Job]) -> list[Path]:
-    """The folders to make for the output folder (:func:`gshade.io.outputs.missing_folders`),
-    once everything that can be refused was: it is not a file, its ``logs`` is not a
-    symbolic link, ``manifest.json`` is no scene file.  Nothing is made."""
-    from ..io.outputs import distinct_files, missing_folders, output_folder
+    """The folders to make for the output folder
+    (:func:`gshade.io.output_folders.missing_folders`), once everything that can be refused
+    was: it is not a file, its ``logs`` is not a symbolic link, ``manifest.json`` is no
+    scene file.  Nothing is made."""
+    from ..io.output_folders import missing_folders, output_folder
+    from ..io.outputs import distinct_files
 
     out = Path(folder)
     to_make = missing_folders(out, f"{out}: cannot write to the output folder")
@@ -332,7 +335,8 @@ def run_batch(
     worker.  Workers are started from this thread, which must outlive them (on Linux they
     are sent SIGTERM when it ends).
     """
-    from ..io.outputs import confined, created_folders, folder_lock, remove_stale_temporaries
+    from ..io.output_folders import created_folders, folder_lock
+    from ..io.outputs import confined, remove_stale_temporaries
     from .worker_pool import DaskPool, WorkerPool
 
     validate_batch_options(workers, timeout, scheduler)

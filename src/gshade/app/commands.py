@@ -330,16 +330,8 @@ def check(args: argparse.Namespace) -> int:
     removed again if the command fails."""
     from dataclasses import replace
 
-    from ..io.outputs import (
-        check_target,
-        confined,
-        created_folders,
-        distinct_files,
-        missing_folders,
-        output_folder,
-        staged,
-        write_to,
-    )
+    from ..io.output_folders import created_folders, missing_folders, output_folder
+    from ..io.outputs import check_target, confined, distinct_files, staged, write_to
     from ..regression.check import check as check_scenes
     from ..regression.check import find_scenes, missing_references
     from ..regression.junit import junit_writer

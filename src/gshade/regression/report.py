@@ -104,7 +104,8 @@ def _write_view(
     attributes left out of the view (a hostile or broken reference), or why there is no
     view.  Nothing here ends the report: a bad reference costs its scene's view at most."""
     from ..display.html_view import view_writer
-    from ..io.outputs import atomic_write, output_folder
+    from ..io.output_folders import output_folder
+    from ..io.outputs import atomic_write
 
     if r.image is None:
         return None, []
