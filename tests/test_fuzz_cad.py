@@ -24,6 +24,7 @@ from gshade.app.cli import main
 from gshade.io.image import read_exr
 
 from .cad_parts import bspline_sheet, filleted_box, write_shape
+from .test_fuzz import CASE_TIMEOUT, _alarm  # the scenes' hang guard (300 s), not a speed test
 
 SEEDS = ("box.step", "box.igs", "box.brep", "sheet.step", "sheet.igs", "sheet.brep", "ball.3dm")
 
@@ -120,6 +121,11 @@ def test_damaged_cad_file(seed, mutation, seeds, tmp_path, capsys, monkeypatch):
     data = MUTATIONS[mutation](seeds[seed], seed)
     path = tmp_path / f"x{seed[seed.index('.') :]}"
     path.write_bytes(data)
+    with _alarm(CASE_TIMEOUT):  # a hang of gshade's own (the kernel's ends at 5 s)
+        _info_then_render(path, tmp_path, capsys)
+
+
+def _info_then_render(path, tmp_path, capsys) -> None:
     status = main(["info", str(path)])
     out, err = capsys.readouterr()
     if status != 0:
