@@ -235,6 +235,7 @@ def test_ranges_come_from_the_trimmed_region_only():
     rows1, cols1 = atlas.tile_slices(1)
     values[rows1, cols1, 0] = 1e6  # patch 1: wild outside its trim...
     values[rows1.start + 3 : rows1.start + 6, cols1.start + 3 : cols1.start + 6, 0] = 0.5
+    values[rows1.start + 4, cols1.start + 4, 0] = 0.53  # (not constant: the period unmoved)
     valid = np.ones((atlas.height, atlas.width), np.float32)
     image = np.zeros((atlas.height, atlas.width, 3), np.float32)
     tex = ShapeTextures(atlas, [values], [valid], [valid], image, image, image, image)

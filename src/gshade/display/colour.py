@@ -75,6 +75,47 @@ def _nearest_edge(t, duty, ops):
     return ops.select(at_fall, duty - t, rise - t), at_fall
 
 
+#: Stripe coordinates s known only to single precision (a renderer's f from float32 data,
+#: its slopes from differences of such data): within this many units in the last place of
+#: a float32 s of an edge, a pixel whose footprint is narrower still lies on the edge.
+SETTLE_ULPS = 64
+
+
+def settled_on_edges(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
+    """The stripe coordinate s (f / period + phase) and the pixel's footprint (``a``, ``b``,
+    as for :func:`coverage_formula`) with s put exactly on its nearest stripe edge, and the
+    footprint set to 0, where s lies within :data:`SETTLE_ULPS` single-precision ulps of s
+    (at least 2^-20 periods) of that edge and the footprint is narrower still; elsewhere as
+    they are.
+
+    A constant f (a plane under isophotes or reflection lines) carries single-precision
+    round-off from the renderer's textures, in its value and in its slopes (exactly 0 in
+    some cells, a few ulps in others): on an edge, that noise alone would pick each pixel's
+    colour (salt and pepper, or bands of half-grey).  Settled, every such pixel is the same
+    point sample on the edge, hence of the same colour (the edge's dark side: a rise at an
+    integer, the light one at a fall).  A footprint wider than the noise is filtered as it
+    is.  Use float64.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> s = 10.0 + np.array([-3e-7, 0.0, 4e-7, 1e-3])
+    >>> settled, a, b = settled_on_edges(s, np.full(4, 1e-9), np.zeros(4), 0.5)
+    >>> settled.tolist(), a.tolist()
+    ([10.0, 10.0, 10.0, 10.001], [0.0, 0.0, 0.0, 1e-09])
+    """
+    whole = ops.floor(s)
+    t = s - whole
+    offset, _ = _nearest_edge(t, duty, ops)
+    tol = ops.maximum(ops.abs(s) * (SETTLE_ULPS * 2.0**-24), 2.0**-20)
+    settle = (ops.abs(offset) <= tol) & ((ops.abs(a) + ops.abs(b)) <= tol)
+    return (
+        ops.select(settle, whole + (t + offset), s),
+        ops.select(settle, 0.0 * a, a),
+        ops.select(settle, 0.0 * b, b),
+    )
+
+
 def _dark_side(cdf, at_fall, ops):
     """The dark fraction of a distribution whose mass left of an edge is ``cdf``."""
     return ops.select(at_fall, cdf, 1.0 - cdf)

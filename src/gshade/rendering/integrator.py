@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula
+from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula, settled_on_edges
 from ..runtime.backend import drjit_ops
 from .atlas import GEOMETRY, SHAPE, Atlas, bilinear, cell_centre, hermite, locate_cell, tile_bounds
 from .newton import newton_step
@@ -264,6 +264,7 @@ def _define(mi):
                 s = Float64(f) / Float64(self.period) + Float64(self.phase)
                 a = Float64(fx) / Float64(self.period)
                 b = Float64(fy) / Float64(self.period)
+                s, a, b = settled_on_edges(s, a, b, self.duty, ops)  # a constant f: one colour
                 cov = Float(coverage_formula(s, a, b, self.duty, ops))
                 colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
                 if self.display == BOTH:

@@ -2,8 +2,10 @@
 map, and the legend that says so.
 
 The stripes' period is ``period``, or the span of the striped function over the atlas divided
-by ``stripes``; the colour range is ``range``, or robust percentiles of the colour-mapped
-function (symmetric about 0 for signed functions), see :func:`gshade.display.auto_range`.
+by ``stripes``, moved a little where that would put a constant region's value on a stripe
+edge (:func:`period_off_edges`); the colour range is ``range``, or robust percentiles of the
+colour-mapped function (symmetric about 0 for signed functions), see
+:func:`gshade.display.auto_range`.
 """
 
 from __future__ import annotations
@@ -17,7 +19,15 @@ from ..display import Legend, auto_range, validate_colormap, validate_range
 from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
 from .textures import ShapeTextures
 
-__all__ = ["UNITS", "DisplayStyle", "display_style", "legend", "shape_functions"]
+__all__ = [
+    "UNITS",
+    "DisplayStyle",
+    "constant_values",
+    "display_style",
+    "legend",
+    "period_off_edges",
+    "shape_functions",
+]
 
 #: Units of each function's values, for legends.
 UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
@@ -98,7 +108,10 @@ def display_style(
     )
     span = (0.0, 100.0) if area is None else (0.5, 99.5)
     f_lo, f_hi = auto_range(tex.values[0][..., 0], valid[0], percentiles=span, weights=area)
-    period = shape.period if shape.period is not None else (f_hi - f_lo) / shape.stripes
+    period = shape.period
+    if period is None:
+        flat = constant_values(tex.values[0][..., 0], valid[0], tex.atlas.tile)
+        period = period_off_edges((f_hi - f_lo) / shape.stripes, flat, shape.phase, shape.duty)
     lut = colormap = None
     if shape.display != "stripes":
         import matplotlib
@@ -108,6 +121,85 @@ def display_style(
         colormap = validate_colormap(shape.colormap or ("coolwarm" if signed else "viridis"))
         lut = _srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
     return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
+
+
+#: The automatic period keeps constant values at least this far (in periods) from an edge,
+#: moving by at most :data:`PERIOD_NUDGE` of itself.
+EDGE_MARGIN = 0.1
+PERIOD_NUDGE = 0.2
+
+
+def constant_values(values: NDArray, valid: NDArray, tile: int) -> NDArray[np.float64]:
+    """The values of the tiles (patches, faces) on which f is constant: one value per atlas
+    tile of ``tile`` x ``tile`` texels whose valid texels (at least 4) all hold it (a plane
+    under isophotes, a sphere under curvature ...; a cylinder's isophotes, constant only
+    along its axis, are not).
+
+    Examples
+    --------
+    >>> f = np.zeros((4, 8), np.float32)
+    >>> f[:, :4] = 0.7  # the first 4 x 4 tile: constant
+    >>> f[:, 4:] = np.linspace(0, 1, 4)  # the second: f varies across it
+    >>> constant_values(f, np.ones((4, 8), bool), 4).round(6).tolist()
+    [0.7]
+    """
+    v = np.asarray(values, dtype=np.float32)
+    ok = np.asarray(valid, dtype=bool)
+    rows, cols = v.shape[0] // tile, v.shape[1] // tile
+    if rows * cols == 0:
+        return np.empty(0)
+
+    def tiles(a: NDArray) -> NDArray:
+        a = a[: rows * tile, : cols * tile]
+        return a.reshape(rows, tile, cols, tile).transpose(0, 2, 1, 3).reshape(-1, tile * tile)
+
+    v, ok = tiles(v), tiles(ok)
+    lo = np.where(ok, v, np.inf).min(axis=1)
+    hi = np.where(ok, v, -np.inf).max(axis=1)
+    flat = (ok.sum(axis=1) >= 4) & (lo == hi)
+    return np.unique(lo[flat]).astype(np.float64)
+
+
+def _edge_distance(s: NDArray, duty: float) -> NDArray:
+    """Distance (in periods) of stripe coordinates s to the nearest stripe edge."""
+    t = np.mod(s, 1.0)
+    return np.minimum.reduce([t, np.abs(t - duty), 1.0 - t])
+
+
+def period_off_edges(
+    period: float, constant: NDArray, phase: float = 0.0, duty: float = 0.5
+) -> float:
+    """The automatic stripe period ``period``, or the nearest one within
+    :data:`PERIOD_NUDGE` of it that keeps every ``constant`` value at least
+    :data:`EDGE_MARGIN` periods from a stripe edge (the one keeping them farthest if none
+    does): a plane is then well inside one stripe, not on an edge where round-off would
+    pick its colour (the span's end, which sets the automatic period, would always be on
+    one).  A value 0 is 0 periods whatever the period, and is left on its edge (one colour
+    all the same: :func:`gshade.display.colour.settled_on_edges`).
+
+    Examples
+    --------
+    >>> round(period_off_edges(0.1, np.array([0.7])), 6)  # 7 periods: on an edge; 6.90 with this
+    0.1015
+    >>> period_off_edges(0.1, np.array([0.725]))  # 7.25: mid-stripe already
+    0.1
+    """
+    constant = np.asarray(constant, dtype=np.float64)
+    # 0 is 0 periods whatever the period: it stays on its edge, where the renderer settles it
+    constant = constant[np.abs(constant) > 1e-9 * abs(period)]
+    if constant.size == 0 or not (np.isfinite(period) and period > 0):
+        return period
+    nudges = np.linspace(-PERIOD_NUDGE, PERIOD_NUDGE, 161)
+    nudges = nudges[np.argsort(np.abs(nudges), kind="stable")]  # the smallest change first
+    best, best_margin = period, -1.0
+    for nudge in nudges:
+        candidate = period * (1.0 + nudge)
+        margin = float(_edge_distance(constant / candidate + phase, duty).min())
+        if margin >= EDGE_MARGIN:
+            return float(candidate)
+        if margin > best_margin:
+            best, best_margin = float(candidate), margin
+    return best
 
 
 def _area_element(tex: ShapeTextures) -> NDArray | None:
