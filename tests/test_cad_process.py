@@ -23,7 +23,7 @@ import pytest
 
 pytest.importorskip("OCP")
 
-from gshade import GshadeError
+from gshade import GshadeError, limits
 from gshade.app.cli import main
 from gshade.io import cad_process, cad_zygote
 from gshade.io.cad import read_cad
@@ -175,7 +175,7 @@ def test_the_time_limit_is_the_smaller_of_the_setting_and_the_block(monkeypatch)
     with cad_process.kernel_time_limit(None):
         assert cad_process.kernel_seconds() == 30
     monkeypatch.delenv("GSHADE_CAD_TIMEOUT")
-    assert cad_process.kernel_seconds() == cad_process.CAD_SECONDS
+    assert cad_process.kernel_seconds() == limits.CAD_SECONDS
     for bad in ("0", "-3", "soon", "nan", "inf"):
         monkeypatch.setenv("GSHADE_CAD_TIMEOUT", bad)
         with pytest.raises(GshadeError, match="GSHADE_CAD_TIMEOUT: expected a positive"):
@@ -185,8 +185,8 @@ def test_the_time_limit_is_the_smaller_of_the_setting_and_the_block(monkeypatch)
 def test_a_runaway_allocation_is_refused(parts, monkeypatch):
     """Reading within a tiny address-space budget: the kernel's allocation fails, and the
     caller hears of the memory (or of a crash at the limit), in one line."""
-    monkeypatch.setattr(cad_process, "READ_MEMORY_BASE", 2**20)
-    monkeypatch.setattr(cad_process, "READ_MEMORY_PER_BYTE", 0)
+    monkeypatch.setattr(limits, "CAD_READ_MEMORY_BASE", 2**20)
+    monkeypatch.setattr(limits, "CAD_READ_MEMORY_PER_BYTE", 0)
     with pytest.raises(GshadeError) as info:
         read_cad(parts["box.step"])
     message = str(info.value)

@@ -18,6 +18,9 @@ import re
 from .errors import GshadeError
 
 __all__ = [
+    "CAD_READ_MEMORY_BASE",
+    "CAD_READ_MEMORY_PER_BYTE",
+    "CAD_SECONDS",
     "MAX_CONTINUITY_SAMPLES",
     "MAX_DATA_FILE_BYTES",
     "MAX_DEGREE",
@@ -38,6 +41,7 @@ __all__ = [
     "MAX_TEXTURE_RESOLUTION",
     "MIN_CHORD_TOLERANCE",
     "MIN_DIRECTION",
+    "cad_read_memory",
     "gigabytes",
     "memory_budget",
     "memory_limit",
@@ -193,6 +197,28 @@ def memory_budget() -> tuple[int, str]:
 def memory_limit() -> int:
     """Bytes a render may use (:func:`memory_budget`'s limit)."""
     return memory_budget()[0]
+
+
+#: CAD files (:mod:`gshade.io.cad_process`): the wall-clock seconds one kernel call (reading
+#: a file, meshing it) may take by default (``GSHADE_CAD_TIMEOUT``), and the address space a
+#: file's reading may take beyond the kernel's own: the base, plus so much per byte of the
+#: file (measured: the kernel holds 20-150 bytes per byte of a STEP or IGES file it read).
+CAD_SECONDS = 120
+CAD_READ_MEMORY_BASE = 2**30
+CAD_READ_MEMORY_PER_BYTE = 256
+
+
+def cad_read_memory(file_bytes: int) -> int:
+    """The address space (bytes) the CAD kernel may take to read a file of ``file_bytes``:
+    :data:`CAD_READ_MEMORY_BASE` + :data:`CAD_READ_MEMORY_PER_BYTE` x its size, at most
+    :func:`memory_limit`.
+
+    Examples
+    --------
+    >>> cad_read_memory(0) == min(CAD_READ_MEMORY_BASE, memory_limit())
+    True
+    """
+    return min(CAD_READ_MEMORY_BASE + CAD_READ_MEMORY_PER_BYTE * max(file_bytes, 0), memory_limit())
 
 
 def gigabytes(n: int) -> str:

@@ -29,6 +29,7 @@ __all__ = [
     "auto_range",
     "colour_map",
     "combine",
+    "edge_offset",
     "stripe_coverage",
     "stripe_period",
     "stripes",
@@ -81,6 +82,19 @@ def _nearest_edge(t, duty, ops):
 SETTLE_ULPS = 64
 
 
+def edge_offset(s, duty, ops: ArrayOps = NUMPY_NAN):
+    """The offset (in periods) from stripe coordinates s to their nearest stripe edge (a
+    rise at a whole number, a fall at a whole number + ``duty``): edge - s.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> edge_offset(np.array([10.05, 10.45, 10.8]), 0.5).round(6).tolist()
+    [-0.05, 0.05, 0.2]
+    """
+    return _nearest_edge(s - ops.floor(s), duty, ops)[0]
+
+
 def settled_on_edges(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
     """The stripe coordinate s (f / period + phase) and the pixel's footprint (``a``, ``b``,
     as for :func:`coverage_formula`) with s put exactly on its nearest stripe edge, and the
@@ -106,7 +120,7 @@ def settled_on_edges(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
     """
     whole = ops.floor(s)
     t = s - whole
-    offset, _ = _nearest_edge(t, duty, ops)
+    offset = edge_offset(s, duty, ops)
     tol = ops.maximum(ops.abs(s) * (SETTLE_ULPS * 2.0**-24), 2.0**-20)
     settle = (ops.abs(offset) <= tol) & ((ops.abs(a) + ops.abs(b)) <= tol)
     return (

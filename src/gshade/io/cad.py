@@ -28,6 +28,7 @@ __all__ = [
     "CadModel",
     "arc_map",
     "faces_bounds",
+    "in_scene",
     "read_cad",
     "reader_module",
     "trimmed_points",
@@ -217,7 +218,8 @@ def read_cad(
             f"{path.suffix or '(none)'!r}"
         )
     if isolated:
-        from .cad_process import KernelProcess, read_memory
+        from ..limits import cad_read_memory
+        from .cad_process import KernelProcess
 
         if not _installed(_LIBRARIES[reader]):  # said here, without a child to start
             raise GshadeError(
@@ -231,7 +233,7 @@ def read_cad(
             size = 0
         kernel = KernelProcess(path)
         model: CadModel = kernel.call(
-            "read", (path, sew, tolerance), doing="reading it", memory=read_memory(size)
+            "read", (path, sew, tolerance), doing="reading it", memory=cad_read_memory(size)
         )
         model.shape = kernel
         return model
@@ -253,6 +255,20 @@ def reader_module(path: str | os.PathLike) -> Any:
             f"{path}: reading {path.suffix} files needs the CAD libraries ({INSTALL}): {exc}"
         ) from None
     return module
+
+
+def in_scene(
+    error: GshadeError, where: str, scene: str | os.PathLike, path: str | os.PathLike
+) -> GshadeError:
+    """A CAD file's error (it names the file ``path``) as said about the scene that reads
+    it: ``WHERE: ERROR`` (``where`` names the scene file and its surface), or the error as
+    it is when the scene is that CAD file (a CAD file given as the scene: named once)."""
+    try:
+        if os.path.samefile(scene, path):
+            return error
+    except (OSError, TypeError):
+        pass
+    return GshadeError(f"{where}: {error}")
 
 
 def _installed(module: str) -> bool:

@@ -15,14 +15,14 @@ process that has the kernel's libraries loaded: :mod:`gshade.io.cad_zygote`):
   ``shape`` is a :class:`KernelProcess`, and in this process when it is the kernel's shape.
 
 Each call is bounded in wall-clock time (:func:`kernel_seconds`: ``GSHADE_CAD_TIMEOUT``,
-default :data:`CAD_SECONDS`, or less inside :func:`kernel_time_limit`), in CPU time (so
-that an orphaned child ends by itself) and in address space (reading: :func:`read_memory` of
-the file's size; operations: :func:`gshade.limits.memory_limit`).  A crash, an overrun or a
-runaway allocation is one :class:`~gshade.errors.GshadeError` naming the file ("the CAD
-kernel crashed (SIGSEGV) reading it", "... took longer than 120 s reading it", "... needed
-more than 1.2 GB reading it"), and the child is gone; this process is unharmed and answers
-signals at once (it waits for the child in Python).  The child dies with this process
-(``PR_SET_PDEATHSIG``).
+default :data:`gshade.limits.CAD_SECONDS`, or less inside :func:`kernel_time_limit`), in CPU
+time (so that an orphaned child ends by itself) and in address space (reading:
+:func:`gshade.limits.cad_read_memory` of the file's size; operations:
+:func:`gshade.limits.memory_limit`).  A crash, an overrun or a runaway allocation is one
+:class:`~gshade.errors.GshadeError` naming the file ("the CAD kernel crashed (SIGSEGV)
+reading it", "... took longer than 120 s reading it", "... needed more than 1.2 GB reading
+it"), and the child is gone; this process is unharmed and answers signals at once (it waits
+for the child in Python).  The child dies with this process (``PR_SET_PDEATHSIG``).
 
 Results come back pickled and are unpickled with an allow-list of classes
 (:class:`_Results`): a child whose memory a hostile file corrupted cannot make this process
@@ -48,24 +48,15 @@ from collections.abc import Callable, Iterator
 from typing import Any, ClassVar, TypeVar
 
 from ..errors import GshadeError
-from ..limits import memory_limit
+from ..limits import CAD_SECONDS, memory_limit
 
 __all__ = [
-    "CAD_SECONDS",
+    "CHILD_MODULES",
     "KernelProcess",
     "kernel_operation",
     "kernel_seconds",
     "kernel_time_limit",
-    "read_memory",
 ]
-
-#: Wall-clock seconds one kernel call (reading a file, meshing it) may take by default.
-CAD_SECONDS = 120
-#: Address space a file's reading may take beyond the kernel's own: this, plus
-#: :data:`READ_MEMORY_PER_BYTE` times the file's size (at most the memory limit).
-READ_MEMORY_BASE = 2**30
-#: Measured: the kernel holds 20-150 bytes per byte of a STEP or IGES file it has read.
-READ_MEMORY_PER_BYTE = 256
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -79,6 +70,9 @@ _POLL = 0.25
 _OPERATIONS: dict[str, Callable[..., Any]] = {}
 #: Modules whose marked functions the child may import to find them.
 _OPERATION_MODULES = ("gshade.io.cad", "gshade.io.cad_mesh", "gshade.io.cad_edges")
+#: What a child loads before its bounds are set, beside the file's reader (the zygote loads
+#: them, and the readers, once for all its children: :mod:`gshade.io.cad_zygote`).
+CHILD_MODULES = ("numpy", "matplotlib.path", *_OPERATION_MODULES)
 
 #: What native code's exceptions say when an allocation (or a library's mapping) failed.
 _OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
@@ -88,7 +82,7 @@ _limit: list[float] = []  # kernel_time_limit's stack
 
 def kernel_seconds() -> float:
     """The wall-clock seconds one kernel call may take: ``GSHADE_CAD_TIMEOUT`` (a positive
-    number), default :data:`CAD_SECONDS`; less inside
+    number), default :data:`gshade.limits.CAD_SECONDS`; less inside
     :func:`kernel_time_limit`."""
     text = os.environ.get("GSHADE_CAD_TIMEOUT", "").strip()
     seconds = float(CAD_SECONDS)
@@ -116,19 +110,6 @@ def kernel_time_limit(seconds: float | None) -> Iterator[None]:
         yield
     finally:
         _limit.pop()
-
-
-def read_memory(file_bytes: int) -> int:
-    """The address space (bytes) the kernel may take to read a file of ``file_bytes``:
-    :data:`READ_MEMORY_BASE` + :data:`READ_MEMORY_PER_BYTE` x its size, at most
-    :func:`gshade.limits.memory_limit`.
-
-    Examples
-    --------
-    >>> read_memory(0) == min(READ_MEMORY_BASE, memory_limit())
-    True
-    """
-    return min(READ_MEMORY_BASE + READ_MEMORY_PER_BYTE * max(file_bytes, 0), memory_limit())
 
 
 def kernel_operation(doing: str) -> Callable[[F], F]:
@@ -259,28 +240,34 @@ class _Overrun(Exception):
     pass
 
 
-class _MemoryWatch:
-    """The child's peak address space against its limit, sampled while waiting for it
-    (``/proc``): a native allocation that fails at the limit often crashes rather than
-    raise, and then this tells why."""
+#: A peak address space this close to the limit (bytes) counts as having reached it.
+_MEMORY_MARGIN = 64 * 2**20
 
-    #: A peak this close to the limit (bytes) counts as having reached it.
-    MARGIN = 64 * 2**20
+
+def _at_memory_limit(pid: int | str = "self") -> bool:
+    """Whether the process's peak address space (``/proc``: VmPeak) reached its limit
+    (``RLIMIT_AS``), within :data:`_MEMORY_MARGIN`; False where that cannot be read."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            peak = next(int(s.split()[1]) * 1024 for s in f if s.startswith("VmPeak:"))
+        with open(f"/proc/{pid}/limits") as f:
+            limit = next(s.split()[3] for s in f if s.startswith("Max address space"))
+    except (OSError, StopIteration, IndexError, ValueError):
+        return False
+    return limit.isdigit() and peak >= int(limit) - _MEMORY_MARGIN
+
+
+class _MemoryWatch:
+    """The child's peak address space against its limit, sampled while waiting for it: a
+    native allocation that fails at the limit often crashes rather than raise, and then
+    this tells why."""
 
     def __init__(self, pid: int) -> None:
         self.pid = pid
         self.exhausted = False
 
     def __call__(self) -> None:
-        try:
-            with open(f"/proc/{self.pid}/status") as f:
-                peak = next(int(s.split()[1]) * 1024 for s in f if s.startswith("VmPeak:"))
-            with open(f"/proc/{self.pid}/limits") as f:
-                limit = next(s.split()[3] for s in f if s.startswith("Max address space"))
-        except (OSError, StopIteration, IndexError, ValueError):
-            return
-        if limit.isdigit() and peak >= int(limit) - self.MARGIN:
-            self.exhausted = True
+        self.exhausted = self.exhausted or _at_memory_limit(self.pid)
 
 
 class _Ended(Exception):
@@ -433,20 +420,6 @@ def _bound(memory: int, seconds: float) -> None:
             resource.setrlimit(which, (soft, hard))
 
 
-def _at_memory_limit() -> bool:
-    """Whether this process's peak address space reached its limit (within
-    :attr:`_MemoryWatch.MARGIN`)."""
-    try:
-        import resource
-
-        limit, _ = resource.getrlimit(resource.RLIMIT_AS)
-        with open("/proc/self/status") as f:
-            peak = next(int(s.split()[1]) * 1024 for s in f if s.startswith("VmPeak:"))
-    except (ImportError, OSError, StopIteration, ValueError):
-        return False
-    return limit != resource.RLIM_INFINITY and peak >= limit - _MemoryWatch.MARGIN
-
-
 def _serve(parent: int) -> None:
     """Answer the parent's requests on the inherited stdin/stdout until it closes them."""
     import importlib
@@ -473,7 +446,8 @@ def _serve(parent: int) -> None:
 
                 path, sew, tolerance = args
                 reader_module(path)  # the libraries are loaded outside the bounds
-                importlib.import_module("matplotlib.path")  # (the faces' regions)
+                for name in CHILD_MODULES:
+                    importlib.import_module(name)
                 _bound(memory, seconds)
                 model = read_cad(path, sew, tolerance, isolated=False)
                 from dataclasses import replace

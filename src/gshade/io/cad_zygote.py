@@ -205,20 +205,19 @@ class Forked:
 
 
 def _preload() -> None:
-    """Load what the children use, once (what is not installed is left out)."""
+    """Load what the children use, once: the readers of every CAD format and
+    :data:`gshade.io.cad_process.CHILD_MODULES` (what is not installed is left out)."""
     import importlib
 
-    for module in (
-        "numpy",
-        "matplotlib.path",
-        "gshade.io.cad",
-        "gshade.io.cad_mesh",
-        "gshade.io.cad_edges",
-        "gshade.io.cad_occt",
-        "gshade.io.cad_3dm",
-    ):
+    from .cad import CAD_EXTENSIONS, reader_module
+    from .cad_process import CHILD_MODULES
+
+    for module in CHILD_MODULES:
         with contextlib.suppress(Exception):
             importlib.import_module(module)
+    for extension in CAD_EXTENSIONS:
+        with contextlib.suppress(Exception):
+            reader_module(f"model{extension}")
 
 
 def _zygote_main(parent: int, fd: int) -> None:

@@ -276,22 +276,15 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
     for surface, index in cad:
         try:
             meshes.append((tessellate_faces(surface.cad, surface.patches, deflection), index))
-        except GshadeError as exc:  # it names the CAD file: the scene too, unless it is it
-            if _same_file(scene.path, surface.cad.model.path):
-                raise
-            raise GshadeError(f"{surface.source}: {exc}") from None
+        except GshadeError as exc:
+            from ..io.cad import in_scene
+
+            raise in_scene(exc, surface.source, scene.path, surface.cad.model.path) from None
     mesh = join_meshes(meshes, resolution)
     validate_memory(where, settings, len(mesh.positions), len(patches) * tile**2)
     if len(mesh.faces) == 0:
         raise GshadeError(f"{where}: the tessellation left no triangle")
     return mesh
-
-
-def _same_file(a, b) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except (OSError, TypeError):
-        return False
 
 
 def _metadata(

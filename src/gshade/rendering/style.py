@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..display import Legend, auto_range, validate_colormap, validate_range
+from ..display.colour import edge_offset
 from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
 from .textures import ShapeTextures
 
@@ -160,12 +161,6 @@ def constant_values(values: NDArray, valid: NDArray, tile: int) -> NDArray[np.fl
     return np.unique(lo[flat]).astype(np.float64)
 
 
-def _edge_distance(s: NDArray, duty: float) -> NDArray:
-    """Distance (in periods) of stripe coordinates s to the nearest stripe edge."""
-    t = np.mod(s, 1.0)
-    return np.minimum.reduce([t, np.abs(t - duty), 1.0 - t])
-
-
 def period_off_edges(
     period: float, constant: NDArray, phase: float = 0.0, duty: float = 0.5
 ) -> float:
@@ -194,7 +189,7 @@ def period_off_edges(
     best, best_margin = period, -1.0
     for nudge in nudges:
         candidate = period * (1.0 + nudge)
-        margin = float(_edge_distance(constant / candidate + phase, duty).min())
+        margin = float(np.abs(edge_offset(constant / candidate + phase, duty)).min())
         if margin >= EDGE_MARGIN:
             return float(candidate)
         if margin > best_margin:

@@ -6,7 +6,6 @@ model).  Registered in :mod:`.surfaces`' registry like every type.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
@@ -144,13 +143,6 @@ def _swapped(patch: BSplinePatch) -> BSplinePatch:
     return BSplinePatch(points, patch.degree[::-1], patch.knots[::-1], weights)
 
 
-def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
 def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, float]]:
     """A face's parameter box clipped into its patch's domain."""
     (u0, u1), (v0, v1) = box
@@ -172,7 +164,7 @@ def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, floa
     Key("tolerance", "number > 0", None, "the sewing tolerance (model units)", "from the size"),
 )
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
-    from ..io.cad import read_cad
+    from ..io.cad import in_scene, read_cad
 
     name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()
@@ -193,10 +185,8 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     data_file = files.find(t, name)
     try:
         model = read_cad(data_file, sew=sew, tolerance=tolerance)
-    except GshadeError as exc:  # it names the CAD file: the scene too, unless it is that file
-        if _same_file(t.file, data_file):
-            raise
-        raise GshadeError(f"{t.file}: {t.prefix}{exc}") from None
+    except GshadeError as exc:
+        raise in_scene(exc, f"{t.file}: {t.prefix}".rstrip(": "), t.file, data_file) from None
     count = len(model.faces)
     chosen = list(range(count)) if faces is None else [int(i) for i in faces]
     for i in chosen:
