@@ -26,12 +26,14 @@ __all__ = [
     "INSTALL",
     "CadFace",
     "CadModel",
+    "LeftOutFace",
     "arc_map",
     "faces_bounds",
     "in_scene",
     "read_cad",
     "reader_module",
     "trimmed_points",
+    "usable",
 ]
 
 #: The file extensions read as CAD models, and the reader of each.
@@ -110,13 +112,37 @@ class CadFace:
         return max(len(self.loops) - 1, 0)
 
 
+@dataclass(frozen=True)
+class LeftOutFace:
+    """A face of a model that is not rendered: its number (as ``gshade info`` lists the
+    model's faces), what is wrong with it and what was tried.
+
+    Examples
+    --------
+    >>> LeftOutFace(3, "a trimming wire intersects itself", "the kernel's healing").line()
+    "face 3 left out: a trimming wire intersects itself (tried: the kernel's healing)"
+    """
+
+    index: int
+    why: str
+    tried: str
+
+    def line(self) -> str:
+        """The one line said about the face: ``face N left out: WHY (tried: TRIED)``."""
+        return f"face {self.index} left out: {self.why} (tried: {self.tried})"
+
+
 @dataclass
 class CadModel:
     """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi) (of
     the trimmed faces, sampled: :func:`faces_bounds`).
 
-    ``shape`` is the kernel's shape, whose faces are ``faces`` in order (STEP, IGES, BREP:
-    as read, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
+    ``faces`` are the faces gshade renders, in the file's order, each with its number
+    (``CadFace.index``); ``left_out`` the faces it cannot use (still invalid after the
+    kernel's healing, or failing to convert or evaluate: :class:`LeftOutFace`), and
+    ``healed`` what the kernel's healing changed, a line each.  ``shape`` is the kernel's
+    shape, whose faces are all of them, face ``i`` the ``i``-th (STEP, IGES, BREP: as read and
+    healed, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
     rebuilt from the file's B-rep), or the :class:`~gshade.io.cad_process.KernelProcess`
     that holds it (a model read ``isolated``).  ``precision`` is the distance accuracy the file
     declares (a STEP file's global uncertainty, model units; 0 where none is declared).
@@ -128,6 +154,24 @@ class CadModel:
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
     shape: object | None = None
     precision: float = 0.0
+    left_out: list[LeftOutFace] = field(default_factory=list)
+    healed: list[str] = field(default_factory=list)
+
+    @property
+    def face_count(self) -> int:
+        """The number of faces in the file (rendered and left out)."""
+        return len(self.faces) + len(self.left_out)
+
+    def face(self, index: int) -> CadFace:
+        """The face numbered ``index`` (a KeyError when it is left out or out of range)."""
+        for face in self.faces:
+            if face.index == index:
+                return face
+        raise KeyError(index)
+
+    def reason_left_out(self, index: int) -> LeftOutFace | None:
+        """The face ``index``'s :class:`LeftOutFace`, or None when it is rendered."""
+        return next((f for f in self.left_out if f.index == index), None)
 
 
 def arc_map(
@@ -279,3 +323,20 @@ def _installed(module: str) -> bool:
         return importlib.util.find_spec(module) is not None
     except (ImportError, ValueError, AttributeError):
         return False
+
+
+def usable(face: CadFace, n: int = 5) -> CadFace:
+    """The face, checked to evaluate to finite points and first derivatives at an n x n
+    grid of its box; a GshadeError saying what does not (the reader leaves it out)."""
+    (u0, u1), (v0, v1) = face.box
+    if not all(np.isfinite(x) for x in (u0, u1, v0, v1)) or u1 <= u0 or v1 <= v0:
+        raise GshadeError(f"its parameter box {face.box} is empty or not finite")
+    (a0, a1), (b0, b1) = face.patch.domain
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    with np.errstate(all="ignore"):
+        d = np.asarray(
+            face.patch.derivatives(np.clip(u.ravel(), a0, a1), np.clip(v.ravel(), b0, b1), 1)
+        )
+    if not np.isfinite(d).all():
+        raise GshadeError("its surface does not evaluate to finite points (NaN or infinity)")
+    return face

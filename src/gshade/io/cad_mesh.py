@@ -20,14 +20,14 @@ arrays come out; :mod:`gshade.rendering` wraps them for display.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from .cad import CadModel
+from .cad import CadModel, LeftOutFace
 from .cad_process import kernel_operation
 
 __all__ = ["FaceMesh", "mesh_faces"]
@@ -52,6 +52,9 @@ class FaceMesh:
         True for vertices on their face's boundary (placed at the kernel's node).
     node_gap : float
         The largest distance between S(u, v) and the kernel's node over interior vertices.
+    left_out : list of LeftOutFace
+        The faces asked for that have no triangles here (the mesher gave none, or failed on
+        them, or the reader left them out), in order.
     """
 
     positions: NDArray[np.float64]
@@ -60,6 +63,7 @@ class FaceMesh:
     triangles: NDArray[np.int32]
     boundary: NDArray[np.bool_]
     node_gap: float
+    left_out: list[LeftOutFace] = field(default_factory=list)
 
 
 @kernel_operation("meshing it")
@@ -80,19 +84,21 @@ def mesh_faces(
     angle : float
         The largest angle (radians) between neighbouring triangles' normals.
     faces : sequence of int, optional
-        Mesh only these faces (default: all); faces among them share their edges' nodes.
+        Mesh only these faces (default: all the model's usable faces); faces among them
+        share their edges' nodes.
+
+    Returns
+    -------
+    FaceMesh
+        The faces' triangles; a face the mesher gives no triangles (or fails on), or that
+        the reader left out, is in its ``left_out`` instead, and the others are meshed.
 
     Raises
     ------
     GshadeError
-        One line naming the file (and the face): no kernel shape (a ``.3dm`` model), bad
-        parameters, a mesher failure, or a face the mesher left without triangles.
+        One line naming the file: no kernel shape, bad parameters, a face number out of
+        range.
     """
-    from OCP.BRep import BRep_Builder
-    from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.BRepTools import BRepTools
-    from OCP.TopoDS import TopoDS_Compound
-
     from .cad_occt import _faces, _why
 
     path = model.path
@@ -104,39 +110,43 @@ def mesh_faces(
         raise GshadeError(f"angle: expected a positive number of radians, got {angle!r}")
     shape: Any = model.shape
     kernel_faces = _faces(shape)
-    if len(kernel_faces) != len(model.faces):
+    if len(kernel_faces) != model.face_count:
         raise GshadeError(
-            f"{path}: the kernel's shape has {len(kernel_faces)} faces for {len(model.faces)}"
+            f"{path}: the kernel's shape has {len(kernel_faces)} faces for {model.face_count}"
         )
-    chosen = list(range(len(kernel_faces))) if faces is None else [int(i) for i in faces]
-    for i in chosen:
+    usable = {face.index: face for face in model.faces}
+    asked = list(usable) if faces is None else [int(i) for i in faces]
+    for i in asked:
         if not 0 <= i < len(kernel_faces):
             raise GshadeError(f"{path}: no face {i} (the model has {len(kernel_faces)})")
-    target = shape
-    if faces is not None:
-        target = TopoDS_Compound()
-        builder = BRep_Builder()
-        builder.MakeCompound(target)
-        for i in dict.fromkeys(chosen):
-            builder.Add(target, kernel_faces[i])
+    left_out: dict[int, LeftOutFace | None] = {
+        i: model.reason_left_out(i) for i in asked if i not in usable
+    }
+    chosen = [i for i in dict.fromkeys(asked) if i in usable]
     try:
-        BRepTools.Clean_s(target)  # the deflection asked for, not an earlier mesh's
-        mesher = BRepMesh_IncrementalMesh(target, float(deflection), False, float(angle), True)
-        if not mesher.IsDone():
-            raise RuntimeError("not done")
-    except Exception as exc:
-        raise GshadeError(f"{path}: the kernel could not mesh the faces ({_why(exc)})") from None
+        _mesh(kernel_faces, chosen, deflection, angle)
+    except Exception:  # the mesher failed on the whole: face by face
+        for i in chosen:
+            try:
+                _mesh(kernel_faces, [i], deflection, angle)
+            except Exception as exc:
+                left_out[i] = LeftOutFace(i, f"the kernel's mesher failed ({_why(exc)})", MESHING)
     parts = []
     count = 0
     for i in chosen:
+        if i in left_out:
+            continue
         try:
-            part = _face_mesh(kernel_faces[i], model.faces[i])
+            part = _face_mesh(kernel_faces[i], usable[i])
         except GshadeError as exc:
-            raise GshadeError(f"{path}: face {i}: {exc}") from None
+            left_out[i] = LeftOutFace(i, str(exc), MESHING)
+            continue
         except Exception as exc:
-            raise GshadeError(f"{path}: face {i}: the kernel failed ({_why(exc)})") from None
-        parts.append((part, count))
+            left_out[i] = LeftOutFace(i, f"the kernel failed ({_why(exc)})", MESHING)
+            continue
+        parts.append((part, count, i))
         count += len(part[0])
+    said = [f for i, f in left_out.items() if f is not None]
     if not parts:
         return FaceMesh(
             np.empty((0, 3)),
@@ -145,17 +155,40 @@ def mesh_faces(
             np.empty((0, 3), np.int32),
             np.empty(0, bool),
             0.0,
+            said,
         )
     return FaceMesh(
-        positions=np.concatenate([p[0] for p, _ in parts]),
-        uv=np.concatenate([p[1] for p, _ in parts]),
-        face=np.concatenate(
-            [np.full(len(p[0]), i, np.int32) for (p, _), i in zip(parts, chosen, strict=True)]
-        ),
-        triangles=np.concatenate([p[2] + offset for p, offset in parts]).astype(np.int32),
-        boundary=np.concatenate([p[3] for p, _ in parts]),
-        node_gap=max(p[4] for p, _ in parts),
+        positions=np.concatenate([p[0] for p, _, _ in parts]),
+        uv=np.concatenate([p[1] for p, _, _ in parts]),
+        face=np.concatenate([np.full(len(p[0]), i, np.int32) for p, _, i in parts]),
+        triangles=np.concatenate([p[2] + offset for p, offset, _ in parts]).astype(np.int32),
+        boundary=np.concatenate([p[3] for p, _, _ in parts]),
+        node_gap=max(p[4] for p, _, _ in parts),
+        left_out=said,
     )
+
+
+#: What was tried on a face left without triangles, as the warnings say it.
+MESHING = "meshing it with the kernel's mesher"
+
+
+def _mesh(kernel_faces: list, chosen: list[int], deflection: float, angle: float) -> None:
+    """Mesh the faces ``chosen`` of ``kernel_faces`` with the kernel's mesher (its meshes
+    stored on the faces); faces among them share their edges' nodes."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+    from OCP.TopoDS import TopoDS_Compound
+
+    target = TopoDS_Compound()
+    builder = BRep_Builder()
+    builder.MakeCompound(target)
+    for i in chosen:
+        builder.Add(target, kernel_faces[i])
+    BRepTools.Clean_s(target)  # the deflection asked for, not an earlier mesh's
+    mesher = BRepMesh_IncrementalMesh(target, float(deflection), False, float(angle), True)
+    if not mesher.IsDone():
+        raise RuntimeError("not done")
 
 
 def _face_mesh(face: Any, cad: Any) -> tuple:

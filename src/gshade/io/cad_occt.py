@@ -22,7 +22,6 @@ from OCP.BRep import BRep_Builder, BRep_Tool
 from OCP.BRepAdaptor import BRepAdaptor_Curve2d, BRepAdaptor_Surface
 from OCP.BRepBndLib import BRepBndLib
 from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert, BRepBuilderAPI_Sewing
-from OCP.BRepCheck import BRepCheck_Analyzer, BRepCheck_Face, BRepCheck_Status, BRepCheck_Wire
 from OCP.BRepTools import BRepTools, BRepTools_WireExplorer
 from OCP.GeomAbs import GeomAbs_Line, GeomAbs_SurfaceType
 from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
@@ -34,13 +33,14 @@ from OCP.Interface import Interface_Static
 from OCP.STEPControl import STEPControl_Reader
 from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_REVERSED, TopAbs_SHELL, TopAbs_WIRE
 from OCP.TopExp import TopExp_Explorer
-from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Shape
+from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
-from .cad import CadFace, CadModel, arc_map, faces_bounds
+from .cad import CadFace, CadModel, LeftOutFace, arc_map, faces_bounds, usable
+from .cad_healing import HEALING, heal, shape_faces
 from .cad_quadrics import analytic_patch, builds
 from .files import read_bytes
 from .step_accuracy import step_uncertainty
@@ -91,13 +91,23 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
     if sew or (sew is None and _has_free_faces(shape)):
         rough = _rough_bounds(shape, path)
         diagonal = float(np.linalg.norm(rough[1] - rough[0]))
-        shape = _sew(
-            shape, path, tolerance if tolerance is not None else _sew_tolerance(shape, diagonal)
-        )
-        faces = _faces(shape)
-        if not faces:
+        tol = tolerance if tolerance is not None else _sew_tolerance(shape, diagonal)
+        healing = heal(_sew(shape, path, tol))
+        if sew and not healing.faces:
             raise GshadeError(f"{path}: holds no surfaces once its faces are sewn")
-    _check_valid(shape, faces, path)
+        lost = len(healing.faces) < len(faces)
+        if sew is None and (lost or healing.invalid):  # sewn by choice: unless it spoilt faces
+            unsewn = heal(shape, faces)
+            if lost or len(unsewn.invalid) < len(healing.invalid):
+                unsewn.changes.append(
+                    f"read unsewn: sewing gave {len(healing.faces)} faces of {len(faces)}, "
+                    f"{len(healing.invalid)} of them invalid ({len(unsewn.invalid)} unsewn)"
+                )
+                healing = unsewn
+    else:
+        healing = heal(shape, faces)
+    shape, faces = healing.shape, healing.faces
+    left_out = {i: LeftOutFace(i, why, HEALING) for i, why in healing.invalid.items()}
     if all(_own(face) for face in faces):  # exact NURBS without the kernel's help
         converted, nurbs = shape, faces
     else:
@@ -107,12 +117,19 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         raise GshadeError(f"{path}: the NURBS conversion gave {len(nurbs)} faces for {len(faces)}")
     out = []
     for index, (face, conv) in enumerate(zip(faces, nurbs, strict=True)):
+        if index in left_out:
+            continue
         try:
-            out.append(_face(index, face, conv, own=converted is shape))
+            out.append(usable(_face(index, face, conv, own=converted is shape)))
         except GshadeError as exc:
-            raise GshadeError(f"{path}: face {index}: {exc}") from None
+            left_out[index] = LeftOutFace(index, str(exc), "reading its surface and trims")
         except Exception as exc:
-            raise GshadeError(f"{path}: face {index}: the kernel failed ({_why(exc)})") from None
+            left_out[index] = LeftOutFace(
+                index, f"the kernel failed ({_why(exc)})", "reading its surface and trims"
+            )
+    if not out:
+        first = left_out[min(left_out)]
+        raise GshadeError(f"{path}: no usable face ({len(left_out)} left out; {first.line()})")
     precision = step_uncertainty(path) if ext in (".step", ".stp") else 0.0
     return CadModel(
         path=path,
@@ -121,6 +138,8 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         bounds=faces_bounds(out),
         shape=converted,
         precision=precision,
+        left_out=[left_out[i] for i in sorted(left_out)],
+        healed=healing.changes,
     )
 
 
@@ -193,91 +212,7 @@ def _nonempty(shape: TopoDS_Shape | None, path: Path, said: str) -> TopoDS_Shape
     return shape
 
 
-def _faces(shape: TopoDS_Shape) -> list:
-    """The shape's faces in the kernel's traversal order."""
-    out = []
-    explorer = TopExp_Explorer(shape, TopAbs_FACE)
-    while explorer.More():
-        out.append(TopoDS.Face(explorer.Current()))
-        explorer.Next()
-    return out
-
-
-#: What the kernel's checks (BRepCheck) report, in words.
-_INVALID = {
-    "BRepCheck_SelfIntersectingWire": "a trimming wire intersects itself",
-    "BRepCheck_IntersectingWires": "its trimming wires intersect each other",
-    "BRepCheck_InvalidImbricationOfWires": "its trimming wires are wrongly nested",
-    "BRepCheck_NotClosed": "a trimming wire is not closed",
-    "BRepCheck_BadOrientationOfSubshape": "a trimming wire runs the wrong way",
-}
-
-
-def _check_valid(shape: TopoDS_Shape, faces: list, path: Path) -> None:
-    """Refuse a shape the kernel's checks (``BRepCheck_Analyzer``) find invalid, naming the
-    first invalid face and, where it can be told, what is wrong with it.
-
-    The check of the whole shape costs a few hundredths of a second on models of 40-100
-    faces; the faces are looked at one by one only when it fails.
-    """
-    try:
-        with captured_output():
-            if BRepCheck_Analyzer(shape).IsValid():
-                return
-            for index, face in enumerate(faces):
-                if not BRepCheck_Analyzer(face).IsValid():
-                    raise GshadeError(
-                        f"{path}: face {index}: the kernel reports the face invalid "
-                        f"({_invalid_why(face)})"
-                    )
-    except GshadeError:
-        raise
-    except Exception as exc:
-        raise GshadeError(f"{path}: the kernel could not check the model ({_why(exc)})") from None
-    raise GshadeError(f"{path}: the kernel reports the model invalid (its faces pass alone)")
-
-
-def _invalid_why(face: Any) -> str:
-    """What the kernel finds wrong with an invalid face, in a few words."""
-    ok = BRepCheck_Status.BRepCheck_NoError
-    checks = BRepCheck_Face(face)
-    statuses = [checks.IntersectWires(True), checks.ClassifyWires(True)]
-    explorer = TopExp_Explorer(face, TopAbs_WIRE)
-    while explorer.More():
-        wire = BRepCheck_Wire(TopoDS.Wire(explorer.Current()))
-        e1, e2 = TopoDS_Edge(), TopoDS_Edge()
-        statuses += [wire.Closed(True), wire.SelfIntersect(face, e1, e2, True)]
-        explorer.Next()
-    for status in statuses:
-        if status != ok:
-            return _INVALID.get(status.name, status.name.removeprefix("BRepCheck_"))
-    off = _off_surface(face)
-    if off is not None:
-        return off
-    return "BRepCheck finds it invalid"
-
-
-def _off_surface(face: Any) -> str | None:
-    """'edge k lies d off the face's surface' for the first edge whose 3D curve's midpoint
-    lies farther from the surface than the edge's tolerance, or None."""
-    surface = BRep_Tool.Surface_s(face)
-    explorer = TopExp_Explorer(face, TopAbs_EDGE)
-    k = 0
-    while explorer.More():
-        edge = TopoDS.Edge(explorer.Current())
-        explorer.Next()
-        curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
-        t0, t1 = BRep_Tool.Range_s(edge)
-        if curve is not None:
-            projection = GeomAPI_ProjectPointOnSurf(curve.Value(0.5 * (t0 + t1)), surface)
-            tol = BRep_Tool.Tolerance_s(edge)
-            if projection.NbPoints() and projection.LowerDistance() > tol:
-                return (
-                    f"edge {k} lies {projection.LowerDistance():.3g} off the face's surface, "
-                    f"tolerance {tol:.3g}"
-                )
-        k += 1
-    return None
+_faces = shape_faces  # the shape's faces in the kernel's traversal order
 
 
 def _has_free_faces(shape: TopoDS_Shape) -> bool:

@@ -362,6 +362,7 @@ class _Results(pickle.Unpickler):
             ("numpy._core.numeric", "_frombuffer"),
             ("gshade.io.cad", "CadFace"),
             ("gshade.io.cad", "CadModel"),
+            ("gshade.io.cad", "LeftOutFace"),
             ("gshade.io.cad_mesh", "FaceMesh"),
             ("gshade.io.cad_edges", "CadEdge"),
             ("gshade.geometry.bspline", "BSplinePatch"),
