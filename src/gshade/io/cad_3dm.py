@@ -468,18 +468,23 @@ def _fix_ambiguous(
         e, lo, hi = 1 - d, grid.lo[d], grid.hi[d]
         for a, b in itertools.pairwise(cuts):
             x = uv[a:b, d]
+            loose = free[a:b] == d  # at a pole: any x names the point
             seam = (x - lo <= _SEAM * span[d]) | (hi - x <= _SEAM * span[d])
-            if not seam.any():
+            if not (seam & ~loose).any():
                 continue
+            seam |= loose
             if seam.all():
-                travel = uv[b - 1, e] - uv[a, e]
+                step = np.diff(uv[a:b, e])
+                if grid.closed[e]:  # across the other seam (a torus's corner): the short way
+                    step = (step + 0.5 * span[e]) % span[e] - 0.5 * span[e]
+                travel = float(step.sum())
                 if abs(travel) <= 1e-9 * span[e]:
                     continue
                 high = (travel > 0) if (d == 0) == outer else (travel < 0)
                 x[:] = hi if high else lo
                 continue
             away = np.flatnonzero(~seam)
-            for i in np.flatnonzero(seam):
+            for i in np.flatnonzero(seam & ~loose):
                 j = away[np.argmin(np.abs(away - i))]
                 side_hi = x[j] - lo > hi - x[j]
                 if side_hi and x[i] - lo <= _SEAM * span[d]:
