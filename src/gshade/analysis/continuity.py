@@ -20,6 +20,7 @@ tolerances (``none`` if even the gap is larger).
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +31,9 @@ from ..geometry.differential import IRREGULAR_TOL, _cross, _dot, normal_curvatur
 from ..geometry.patch import unit_to_domain
 from ..limits import MAX_CONTINUITY_SAMPLES
 from ..shape import evaluate
+
+if TYPE_CHECKING:
+    from .knot_lines import KnotLine
 
 __all__ = [
     "Junction",
@@ -72,7 +76,9 @@ class Tolerances:
 @dataclass
 class Junction:
     """A measured junction: two patches' sides, or (``edge`` set) a B-rep edge of a CAD
-    model between two faces (``patches`` the face numbers; no sides)."""
+    model between two faces (``patches`` the face numbers; no sides), or (``knot`` set) an
+    interior knot line of one B-spline patch or face (``patches`` its number twice; no
+    sides; :mod:`gshade.analysis.knot_lines`)."""
 
     patches: tuple[int, int]
     sides: tuple[str, str] | None
@@ -84,12 +90,18 @@ class Junction:
     curvature_gradient_jump: float
     samples: int
     edge: int | None = None
+    knot: KnotLine | None = None
 
     def as_dict(self) -> dict:
         d = asdict(self)
         d["class"] = d.pop("cls")
         d["patches"] = list(self.patches)
-        if self.edge is None:
+        d.pop("knot")
+        if self.knot is not None:
+            for key in ("sides", "reversed", "edge"):
+                d.pop(key)
+            d.update(self.knot.as_dict(self.patches[0]))
+        elif self.edge is None:
             d.pop("edge")
             d["sides"] = list(self.sides or ())
         else:
@@ -448,8 +460,10 @@ def continuity_report(
     tolerances: Tolerances | None = None,
     pairs: list[tuple[int, str, int, str]] | None = None,
 ) -> list[Junction]:
-    """Every junction of the patches, measured and classified; with ``pairs`` ((i, side_i,
-    j, side_j), ...), just those, each checked to be a junction (:func:`junction_between`).
+    """Every junction of the patches, measured and classified, then every interior knot
+    line of their B-spline patches (:func:`gshade.analysis.knot_lines.patch_knot_lines`);
+    with ``pairs`` ((i, side_i, j, side_j), ...), just those, each checked to be a junction
+    (:func:`junction_between`).
 
     Bounded: ``samples`` from 1 to ``MAX_SAMPLES`` (4096), at most ``MAX_PAIRS`` (10,000)
     pairs, and :func:`find_junctions` refuses a boundary shared by more than
@@ -470,4 +484,8 @@ def continuity_report(
     for junction, m in zip(junctions, measure_all(patches, junctions, samples), strict=True):
         i, si, j, sj, rev = junction
         out.append(Junction((i, j), (si, sj), rev, classify(m, tol), samples=samples, **m))
+    if pairs is None:  # and the B-spline patches' interior knot lines
+        from .knot_lines import patch_knot_lines
+
+        out.extend(patch_knot_lines(patches, samples=samples, tolerances=tol))
     return out

@@ -31,6 +31,7 @@ from .continuity import (
     geometry_of,
     validate_samples,
 )
+from .knot_lines import cad_knot_lines
 
 __all__ = ["EdgeLine", "edge_report", "scene_continuity", "scene_diagonal"]
 
@@ -91,7 +92,7 @@ def edge_report(
     gap, angle, jump, gradient = (np.concatenate(m) for m in zip(*parts, strict=True))
     out = []
     for m, edge in enumerate(edges):
-        measures = {
+        measures: dict = {  # floats (a plain dict: Junction has non-float fields too)
             "gap": float(gap[m]),
             "normal_angle_deg": float(angle[m]),
             "curvature_jump": float(jump[m]),
@@ -177,8 +178,9 @@ def scene_continuity(
     tolerances: Tolerances | None = None,
     lines: int = 0,
 ) -> tuple[list[Junction], list[EdgeLine]]:
-    """The continuity report of a scene: the junctions of its patches (not CAD faces) and
-    the B-rep edges of each ``cad`` surface.
+    """The continuity report of a scene: the junctions of its patches (not CAD faces), with
+    their knot lines, and the B-rep edges of each ``cad`` surface, then its faces' knot
+    lines (:mod:`gshade.analysis.knot_lines`: numbered and drawn like the edges).
 
     Patch junctions number the scene's patches; edge rows the faces of their model.  With
     ``lines`` > 0, each edge also comes as an :class:`EdgeLine` with its parameter curves
@@ -209,6 +211,11 @@ def scene_continuity(
             report, _ = edge_report(cad.model, list(cad.faces), samples=samples, tolerances=tol)
             if lines:
                 drawn.extend(_lines(cad, int(start), report, lines))
+            knots, knot_lines = cad_knot_lines(
+                cad, int(start), samples=samples, tolerances=tol, lines=lines
+            )
+            report = report + knots
+            drawn.extend(knot_lines)
         except GshadeError as exc:
             raise GshadeError(f"{surface.source}: {exc}") from None
         out.extend(report)

@@ -2,7 +2,8 @@
 
 Every junction found by :func:`gshade.analysis.continuity.continuity_report` is drawn as an
 anti-aliased line of constant screen width along the shared edge, on each side that is
-visible.  The line is found from the image's own exact data channels, not from a
+visible (a B-spline patch's interior knot line, :mod:`gshade.analysis.knot_lines`, along
+u = u* on its own patch).  The line is found from the image's own exact data channels, not from a
 projection of the edge: at a pixel of patch i, the distance to its edge u = u0 in pixels is
 |u - u0| / |grad_screen u|, with the screen gradient of u from differences of the ``u``
 channel inside patch i.  So the line sits where the surface's edge is, occluded where the
@@ -89,12 +90,7 @@ def draw_junctions(
     gradients = {name: _screen_gradient(x, patch) for name, x in params.items()}
     coverage = {cls: np.zeros(patch.shape) for cls in CLASS_COLOURS}
     for junction in junctions:
-        if junction.sides is None:
-            continue  # a B-rep edge: drawn from ``edges``
-        for k, side in zip(junction.patches, junction.sides, strict=True):
-            name = side[0]
-            (u0, u1), (v0, v1) = domains[k]
-            edge = {"u0": u0, "u1": u1, "v0": v0, "v1": v1}[side]
+        for k, name, edge in _iso_lines(junction, domains):
             on = patch == k
             if not on.any():
                 continue
@@ -131,6 +127,22 @@ def draw_junctions(
         rgb = rgb * (1.0 - c) + np.asarray(CLASS_COLOURS[cls]) * c * alpha
     for i, name in enumerate("RGB"):
         out[name] = rgb[..., i].astype(np.float32)
+    return out
+
+
+def _iso_lines(junction: Junction, domains: list) -> list[tuple[int, str, float]]:
+    """The iso-parameter lines (patch, "u" or "v", value) that draw a junction: its two
+    sides, or a scene patch's knot line; none for a B-rep edge or a CAD face's knot line
+    (drawn from ``edges``)."""
+    line = junction.knot
+    if line is not None:
+        return [(junction.patches[0], line.direction, line.knot)] if line.on == "patch" else []
+    if junction.sides is None:
+        return []
+    out = []
+    for k, side in zip(junction.patches, junction.sides, strict=True):
+        (u0, u1), (v0, v1) = domains[k]
+        out.append((k, side[0], {"u0": u0, "u1": u1, "v0": v0, "v1": v1}[side]))
     return out
 
 
@@ -207,12 +219,16 @@ MEASURES = ("gap", "normal_angle_deg", "curvature_jump", "curvature_gradient_jum
 
 
 def _drawn(j: Junction) -> dict:
-    """A junction as the header lists it: its patches and sides, or its faces and edge, its
-    class and measures (a non-finite measure as text, "inf", so that the JSON is strict)."""
+    """A junction as the header lists it: its patches and sides, or its faces and edge, or
+    its patch (face) and knot line; its class and measures (a non-finite measure as text,
+    "inf", so that the JSON is strict)."""
     measures = {}
     for name in MEASURES:
         x = float(getattr(j, name))
         measures[name] = x if np.isfinite(x) else str(x)
+    if j.knot is not None:
+        where = j.knot.as_dict(j.patches[0])
+        return {"patches": list(j.patches), **where, "class": j.cls, **measures}
     if j.sides is None:
         return {"edge": j.edge, "patches": list(j.patches), "class": j.cls, **measures}
     return {"patches": list(j.patches), "sides": list(j.sides), "class": j.cls, **measures}

@@ -212,7 +212,10 @@ def continuity(args: argparse.Namespace) -> int:
         f"{'curv.jump':>9}  {'grad.jump':>9}"
     )
     for j in report:
-        where = f"{j.sides[0]}-{j.sides[1]}" if j.sides else f"e{j.edge:<6}"
+        if j.knot is not None:  # a B-spline's interior knot line, e.g. u=0.5
+            where = j.knot.label()
+        else:
+            where = f"{j.sides[0]}-{j.sides[1]}" if j.sides else f"e{j.edge:<6}"
         say(
             f"{j.patches[0]:>4} {j.patches[1]:>4}  {where}  {j.cls:>5}  "
             f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "

@@ -1,0 +1,306 @@
+"""Interior knot lines of B-spline patches and faces as junctions (Kiciak, ch. 1–2).
+
+A B-spline patch of degree (p, q) is a union of polynomial (or rational) pieces, one per
+pair of knot spans.  Across an interior knot u* of multiplicity m the pieces meet with
+parametric continuity C^(p - m) (Kiciak, §1.3; Piegl & Tiller, §2.2): where p - m < 3 the
+iso-parameter line u = u* is a junction exactly like a patch boundary, and it is measured
+and classed as one (:mod:`gshade.analysis.continuity`: gap, normal angle, curvature jump,
+curvature-gradient jump; the class is geometric, so a C1 knot line may well be G2).
+
+The two pieces' one-sided derivatives at the knot come from the patch restricted to the
+span on each side, [u_prev, u*] and [u*, u_next] (:meth:`BSplinePatch.restricted`: exact
+knot insertion, the same surface there): each piece evaluated at its own end is the left or
+right limit, where the whole patch would give the right one only.
+
+CAD faces (``cad`` surfaces) count the knot lines of the model's own B-spline surfaces
+(kinds ``bspline`` and ``bezier``; the NURBS forms of planes, quadrics and kernel
+conversions have knots of the conversion, not of the design) strictly inside the face's
+parameter box, and only their part inside the trimming loops: a line outside the trimmed
+region is not listed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry.bspline import BSplinePatch
+from .continuity import Junction, Tolerances, classify, compare_sides, geometry_at
+
+__all__ = [
+    "KNOT_LINE_KINDS",
+    "KnotLine",
+    "cad_knot_lines",
+    "interior_knots",
+    "knot_line_measures",
+    "one_sided_pieces",
+    "patch_knot_lines",
+]
+
+#: The CAD face kinds whose knots are the design's (see the module's docstring).
+KNOT_LINE_KINDS = ("bspline", "bezier")
+#: Knot lines are junctions where the parametric continuity C^(p - m) is below C^3.
+SMOOTH_ORDER = 3
+#: Knots within this fraction of the range of an end are on the boundary, not interior.
+END_MARGIN = 1e-9
+#: Points tested per sample along a trimmed face's knot line (its part inside the loops).
+TRIM_PROBES = 16
+
+
+@dataclass(frozen=True)
+class KnotLine:
+    """Where a knot-line junction is: ``direction`` ``"u"`` for the line u = ``knot`` (it
+    runs along v), ``"v"`` for v = ``knot``; the knot's ``multiplicity`` m and the patch's
+    ``degree`` p in that direction (parametric continuity C^(p - m) across the line);
+    ``on`` ``"patch"`` (a scene's patch) or ``"face"`` (a CAD model's face)."""
+
+    direction: str
+    knot: float
+    multiplicity: int
+    degree: int
+    on: str = "patch"
+
+    @property
+    def parametric_continuity(self) -> int:
+        """p - m: the pieces' parametric continuity order across the line (-1: apart)."""
+        return self.degree - self.multiplicity
+
+    def as_dict(self, number: int) -> dict:
+        """The JSON fields of the line on patch (or face) ``number``."""
+        return {
+            self.on: number,
+            "direction": self.direction,
+            "knot": self.knot,
+            "multiplicity": self.multiplicity,
+            "degree": self.degree,
+            "parametric_continuity": self.parametric_continuity,
+        }
+
+    def label(self) -> str:
+        """The text table's cell, e.g. ``u=0.5``."""
+        return f"{self.direction}={self.knot:<5.3g}"
+
+
+def interior_knots(knots: NDArray, degree: int, lo: float, hi: float) -> list[tuple[float, int]]:
+    """(u*, m) of every distinct knot strictly inside (lo, hi) whose multiplicity m leaves
+    the pieces less than C^3 apart: p - m < 3 (Kiciak, §1.3).  Knots within
+    :data:`END_MARGIN` of the range of an end are left out (a boundary, not a knot line)."""
+    values, counts = np.unique(np.asarray(knots, dtype=np.float64), return_counts=True)
+    margin = END_MARGIN * (hi - lo)
+    keep = (values > lo + margin) & (values < hi - margin) & (degree - counts < SMOOTH_ORDER)
+    return [(float(x), int(m)) for x, m in zip(values[keep], counts[keep], strict=True)]
+
+
+def one_sided_pieces(
+    patch: BSplinePatch, direction: str, knot: float
+) -> tuple[BSplinePatch, BSplinePatch]:
+    """The polynomial pieces on both sides of the interior knot line: the patch restricted
+    to [u_prev, u*] and [u*, u_next] in ``direction`` (u_prev, u_next the neighbouring
+    distinct knots, within the domain), the whole domain in the other.
+
+    Each piece is exactly the patch there (:meth:`BSplinePatch.restricted`, knot insertion;
+    Piegl & Tiller, §5.2), and its derivatives at its end u* are the one-sided limits
+    d^k/du^k p(u* -) and p(u* +), which the patch itself (evaluated in the span to the
+    right of a knot) does not give on the left.
+    """
+    axis = 0 if direction == "u" else 1
+    U = patch.knots[axis]
+    lo, hi = patch.domain[axis]
+    prev = max(float(U[U < knot].max()), lo)
+    after = min(float(U[U > knot].min()), hi)
+    pieces = []
+    for span in ((prev, knot), (knot, after)):
+        box = [patch.domain[0], patch.domain[1]]
+        box[axis] = span
+        pieces.append(patch.restricted(box))
+    return pieces[0], pieces[1]
+
+
+def knot_line_measures(
+    patch: BSplinePatch,
+    lines: list[tuple[str, float]],
+    along: list[NDArray],
+    directions: int = 8,
+) -> list[dict]:
+    """The four junction measures of each knot line (direction, u*) at its parameters
+    ``along`` it (the other parameter, the same count S for every line).
+
+    Both pieces' derivatives to order 3 (:func:`one_sided_pieces`, regularised where
+    irregular) at (u*, t_s), or (t_s, v*), give, as for patch boundaries
+    (:func:`gshade.analysis.continuity.compare_sides`; Kiciak, ch. 2–3): the gap
+    |p(u*-) - p(u*+)|, the normal angle, the largest jump of the normal curvature
+    k(e) = II(e, e) / I(e, e) over ``directions`` tangent directions e, and the jump of
+    the surface gradients of the mean and Gaussian curvatures.
+    """
+    if not lines:
+        return []
+    sides: list[list] = [[], []]
+    for (direction, knot), t in zip(lines, along, strict=True):
+        fixed = np.full_like(t, knot)
+        uv = (fixed, t) if direction == "u" else (t, fixed)
+        for side, piece in zip(sides, one_sided_pieces(patch, direction, knot), strict=True):
+            side.append(geometry_at(piece, *uv))
+    stacked = []
+    for side in sides:
+        d = np.stack([g[0] for g in side], axis=2)  # (4, 4, J, S, 3)
+        n = np.stack([g[1] for g in side])
+        h = np.stack([g[2].gradient for g in side])
+        k = np.stack([g[3].gradient for g in side])
+        stacked.append((d, n, h, k))
+    d_left = stacked[0][0]
+    runs_along_v = np.array([direction == "u" for direction, _ in lines])[:, None, None]
+    tangent = np.where(runs_along_v, d_left[0, 1], d_left[1, 0])  # along the line
+    gap, angle, jump, gradient = compare_sides(stacked[0], stacked[1], tangent, directions)
+    return [
+        {
+            "gap": float(gap[m]),
+            "normal_angle_deg": float(angle[m]),
+            "curvature_jump": float(jump[m]),
+            "curvature_gradient_jump": float(gradient[m]),
+        }
+        for m in range(len(lines))
+    ]
+
+
+#: Knot lines x samples measured at a time: bounds the derivative arrays (as for patches).
+_CHUNK_POINTS = 2**15
+
+
+def _measured(
+    patch: BSplinePatch,
+    number: int,
+    found: list[tuple[str, float, int, NDArray]],
+    tol: Tolerances,
+    on: str,
+) -> list[Junction]:
+    """Junctions of the knot lines (direction, u*, m, parameters along) of one patch."""
+    out = []
+    samples = len(found[0][3]) if found else 1
+    chunk = max(1, _CHUNK_POINTS // samples)
+    for a in range(0, len(found), chunk):
+        part = found[a : a + chunk]
+        lines = [(d, x) for d, x, _, _ in part]
+        measures = knot_line_measures(patch, lines, [t for *_, t in part])
+        for (direction, knot, m, _), measure in zip(part, measures, strict=True):
+            degree = patch.degree[0 if direction == "u" else 1]
+            line = KnotLine(direction, knot, m, degree, on)
+            out.append(
+                Junction(
+                    (number, number),
+                    None,
+                    False,
+                    classify(measure, tol),
+                    samples=samples,
+                    knot=line,
+                    **measure,
+                )
+            )
+    return out
+
+
+def _spread(lo: float, hi: float, samples: int) -> NDArray:
+    """``samples`` parameters in the middles of equal parts of [lo, hi]."""
+    return lo + (hi - lo) * (np.arange(samples) + 0.5) / samples
+
+
+def patch_knot_lines(patches, *, samples: int, tolerances: Tolerances) -> list[Junction]:
+    """The interior knot lines of the B-spline patches among ``patches`` (:func:`interior_knots`
+    of each direction, over the whole patch), measured at ``samples`` points each along the
+    line (the middles of equal parts) and classed; ``patches`` the patch numbers."""
+    out: list[Junction] = []
+    for number, patch in enumerate(patches):
+        if not isinstance(patch, BSplinePatch):
+            continue
+        found = []
+        for axis, direction in enumerate("uv"):
+            (lo, hi), other = patch.domain[axis], patch.domain[1 - axis]
+            for knot, m in interior_knots(patch.knots[axis], patch.degree[axis], lo, hi):
+                found.append((direction, knot, m, _spread(*other, samples)))
+        out.extend(_measured(patch, number, found, tolerances, "patch"))
+    return out
+
+
+def _inside_loops(loops: list[NDArray], uv: NDArray) -> NDArray[np.bool_]:
+    """Whether each point (n, 2) lies in the trimmed region: inside an odd number of the
+    face's loops (the outer loop and its holes; as :func:`gshade.io.cad.trimmed_points`)."""
+    from matplotlib.path import Path as Polygon
+
+    around = np.zeros(len(uv), dtype=int)
+    for loop in loops:
+        around += Polygon(loop).contains_points(uv)
+    return around % 2 == 1
+
+
+def trimmed_along(face, direction: str, knot: float, lo: float, hi: float, samples: int):
+    """``samples`` parameters along the knot line of a CAD face spread over its part inside
+    the trimming loops (None when no part is): the line [lo, hi] cut in ``samples`` x
+    :data:`TRIM_PROBES` cells, those whose middle is inside kept, and the samples at the
+    middles of equal parts of the kept cells' total length."""
+    if not face.trimmed or not face.loops:
+        return _spread(lo, hi, samples)
+    cells = samples * TRIM_PROBES
+    middle = _spread(lo, hi, cells)
+    fixed = np.full(cells, knot)
+    uv = np.stack([fixed, middle] if direction == "u" else [middle, fixed], axis=-1)
+    kept = np.flatnonzero(_inside_loops(face.loops, uv))
+    if len(kept) == 0:
+        return None
+    position = (np.arange(samples) + 0.5) / samples * len(kept)  # in kept cells' lengths
+    cell = np.minimum(position.astype(int), len(kept) - 1)
+    width = (hi - lo) / cells
+    return lo + (kept[cell] + (position - cell)) * width
+
+
+def _clipped(box, dom) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A face's parameter box clipped into its patch's domain."""
+    (u0, u1), (v0, v1) = box
+    (a0, a1), (b0, b1) = dom
+    return (max(u0, a0), min(u1, a1)), (max(v0, b0), min(v1, b1))
+
+
+def cad_knot_lines(
+    cad, start: int, *, samples: int, tolerances: Tolerances, lines: int = 0
+) -> tuple[list[Junction], list]:
+    """The knot lines of a ``cad`` surface's faces (:class:`gshade.scene.model.CadFaces`:
+    the model, the faces rendered), measured along their parts inside the trimmed regions
+    (:func:`trimmed_along`) and classed; ``patches`` the model's face numbers, like its
+    B-rep edges.
+
+    With ``lines`` > 0 each also comes as an
+    :class:`~gshade.analysis.edge_continuity.EdgeLine` to draw: the iso-parameter line
+    across the face's box at ``lines`` points, in the scene patch's (u, v) (its patch
+    ``start`` + k for the k-th face, u and v swapped where the patch is); drawn on the
+    face's own pixels only, it shows just the part inside the trim.
+    """
+    from .edge_continuity import EdgeLine
+
+    out: list[Junction] = []
+    drawn: list[EdgeLine] = []
+    for k, index in enumerate(cad.faces):
+        face = cad.model.faces[index]
+        patch = face.patch
+        if face.kind not in KNOT_LINE_KINDS or not isinstance(patch, BSplinePatch):
+            continue
+        box = _clipped(face.box, patch.domain)  # as the scene's patch of the face
+        found = []
+        for axis, direction in enumerate("uv"):
+            (lo, hi), (a, b) = box[axis], box[1 - axis]
+            for knot, m in interior_knots(patch.knots[axis], patch.degree[axis], lo, hi):
+                t = trimmed_along(face, direction, knot, a, b, samples)
+                if t is not None:
+                    found.append((direction, knot, m, t))
+        junctions = _measured(patch, index, found, tolerances, "face")
+        out.extend(junctions)
+        if lines:
+            for junction in junctions:
+                line = junction.knot
+                assert line is not None
+                (a, b) = box[1 if line.direction == "u" else 0]
+                t = np.linspace(a, b, lines)
+                fixed = np.full(lines, line.knot)
+                uv = np.stack([fixed, t] if line.direction == "u" else [t, fixed], axis=-1)
+                curve = uv[:, ::-1] if cad.swapped[k] else uv
+                drawn.append(EdgeLine(junction.cls, [(start + k, curve)]))
+    return out, drawn
