@@ -66,7 +66,8 @@ BUSY = "another batch is writing here (wait for it to end, or choose another fol
 
 @dataclass
 class JobResult:
-    """What became of a job: ``status`` is "rendered", "up to date" or "failed"."""
+    """What became of a job: ``status`` is "rendered", "up to date" or "failed";
+    ``warnings`` the CAD faces its render left out, a line each."""
 
     name: str
     scene: str
@@ -76,6 +77,7 @@ class JobResult:
     hash: str = ""
     outputs: list[str] = field(default_factory=list)
     log: str | None = None
+    warnings: list[str] = field(default_factory=list)
 
 
 def validate_batch_options(workers: int, timeout: float, scheduler: str | None = None) -> None:
@@ -229,6 +231,7 @@ def render_job(job: Job, folder: str) -> JobResult:
             }
             write_to(exr_temporary, image.exr_writer(exr), exr)
         result.status = "rendered"
+        result.warnings = list(image.warnings)
     except Exception as exc:
         _fail(result, out, job, failure_reason(exc, job.scene), failure_trace(exc))
     result.seconds = time.perf_counter() - start

@@ -63,6 +63,16 @@ class _SubcommandParser(_Parser):
         return namespace, extras
 
 
+def _strict_flag(parser: argparse.ArgumentParser) -> None:
+    """``--strict``: a CAD face left out is an error (``load_scene(..., strict=True)``)."""
+    parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="a CAD face that cannot be rendered is an error (exit 2, nothing written), "
+        "not a warning (the cad surfaces' scene key strict)",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser; each subcommand's arguments carry ``run`` (its function in
     :mod:`gshade.app.commands`) and ``error_status`` (for a GshadeError, default 2)."""
@@ -110,6 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument(
         "--html", help="also write this HTML page of the EXR (as gshade view makes it)"
     )
+    _strict_flag(render)
     render.set_defaults(run=commands.render)
 
     view = sub.add_parser(
@@ -237,11 +248,13 @@ def build_parser() -> argparse.ArgumentParser:
         "an error if the two boundaries do not coincide; at most 10000 pairs",
     )
     cont.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    _strict_flag(cont)
     cont.set_defaults(run=commands.continuity)
 
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    _strict_flag(info)
     info.set_defaults(run=commands.info)
     return parser
 

@@ -58,7 +58,7 @@ def render(args: argparse.Namespace) -> int:
     from ..rendering import render as render_scene
     from ..scene import load_scene
 
-    scene = load_scene(args.scene, _scene_overrides(args))
+    scene = load_scene(args.scene, _scene_overrides(args), strict=args.strict)
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
     html = args.html
     targets = [output] + ([Path(args.png)] if args.png else []) + ([Path(html)] if html else [])
@@ -78,11 +78,30 @@ def render(args: argparse.Namespace) -> int:
             writers.append(view_writer(page, html, labels=[output.name]))
         for target, writer, name in zip(targets, writers, names, strict=True):
             write_to(name, writer, target)
+    _tell(image.notes, image.warnings)
     say(
         f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
         f"{image.metadata['legend']}"
     )
     return 0
+
+
+def _tell(notes: list[str], warnings: list[str]) -> None:
+    """The notes (what the kernel's healing changed) and warnings (CAD faces left out), a
+    line each on stderr."""
+    for line in notes:
+        say(f"gshade: note: {line}", file=sys.stderr)
+    for line in warnings:
+        say(f"gshade: warning: {line}", file=sys.stderr)
+
+
+def _cad_notes(scene) -> tuple[list[str], list[str]]:
+    """The notes and warnings of a scene's CAD models once read (:func:`_tell`)."""
+    from ..rendering.pipeline import left_out_faces
+
+    models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
+    notes = [f"{path}: healed: {line}" for path, model in models.items() for line in model.healed]
+    return notes, [f"{path}: {face.line()}" for path, face in left_out_faces(scene)]
 
 
 def info(args: argparse.Namespace) -> int:
@@ -92,7 +111,8 @@ def info(args: argparse.Namespace) -> int:
     from ..geometry import irregular_mask
     from ..scene import load_scene
 
-    scene = load_scene(args.scene, _scene_overrides(args))
+    scene = load_scene(args.scene, _scene_overrides(args), strict=args.strict)
+    _tell(*_cad_notes(scene))
     say(f"scene {scene.name} ({scene.path})")
     for k, surface in enumerate(scene.surfaces):
         kinds: dict[str, int] = {}
@@ -131,17 +151,24 @@ def info(args: argparse.Namespace) -> int:
 
 
 def _print_cad_faces(cad) -> None:
-    """A CAD model's unit and bounding box, and per face rendered: its surface kind, exact or
-    approximated (with the error), degrees, rational, trimmed, inner loops."""
+    """A CAD model's unit and bounding box, and per face chosen: its surface kind, exact or
+    approximated (with the error), degrees, rational, trimmed, inner loops; or why it is
+    left out."""
     model = cad.model
     lo, hi = model.bounds
+    lost = f" ({len(model.left_out)} left out)" if model.left_out else ""
     say(
-        f"    model: {len(model.faces)} faces, unit {model.unit}, bounding box "
+        f"    model: {model.face_count} faces{lost}, unit {model.unit}, bounding box "
         f"[{', '.join(f'{x:.6g}' for x in lo)}] .. [{', '.join(f'{x:.6g}' for x in hi)}]"
     )
     say(f"    {'face':>5}  {'kind':<10}  {'exact':<16}  degree   rational  trimmed  holes")
-    for i in cad.faces:
-        face = model.faces[i]
+    left_out = {face.index: face for face in cad.left_out}
+    for i in sorted([*cad.faces, *left_out]):
+        if i in left_out:
+            face = left_out[i]
+            say(f"    {i:>5}  left out: {face.why} (tried: {face.tried})")
+            continue
+        face = model.face(i)
         exact = "exact" if face.exact else f"approx {face.error:.2g} {model.unit}"
         degree = f"{face.patch.degree[0]}x{face.patch.degree[1]}"
         say(
@@ -434,6 +461,9 @@ def batch(args: argparse.Namespace) -> int:
         timeout=args.timeout,
     )
     failed = [r for r in results if r.status == "failed"]
+    for r in results:
+        for line in r.warnings:
+            say(f"warning: {r.name}: {line}", file=sys.stderr)
     for r in failed:
         name = r.name if len(r.name) <= 80 else r.name[:79] + "…"
         say(f"failed: {name} ({r.scene}): {r.message} [log: {r.log}]", file=sys.stderr)

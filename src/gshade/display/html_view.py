@@ -225,6 +225,7 @@ def _image_data(channels: dict, header: ViewHeader, label: str) -> dict:
         "cad": _is_cad(header.attributes, junctions),
         "junctions": junctions or None,
         "junction_colours": header.colours,
+        "left_out": header.left_out,
         "seams": seams,
     }
 

@@ -89,13 +89,15 @@ class ViewHeader:
     ``attributes``: the attributes as strict-JSON values (strings, finite numbers, other
     values as short texts), ``settings`` and ``junctions`` left out; ``settings``: the
     parsed render settings ({} if missing or dropped); ``junctions``: the junctions with
-    two different patches; ``colours``: each class's colour, ``#rrggbb``; ``notes``: the
+    two different patches; ``colours``: each class's colour, ``#rrggbb``; ``left_out``: the
+    CAD faces the render left out (``left_out_faces``), a line each; ``notes``: the
     attributes dropped."""
 
     attributes: dict[str, object] = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     junctions: list[dict] = field(default_factory=list)
     colours: dict[str, str] = field(default_factory=dict)
+    left_out: list[str] = field(default_factory=list)
     notes: list[HeaderNote] = field(default_factory=list)
 
 
@@ -274,6 +276,28 @@ def _junctions(text: object) -> tuple[list[dict], dict[str, str]]:
     return drawn, colours
 
 
+def _left_out(text: object) -> list[str]:
+    """The ``left_out_faces`` attribute: [{"file", "face", "why", "tried"}, ...] as lines
+    ``FILE: face N left out: WHY (tried: TRIED)``."""
+    rows = _loads(text, MAX_JUNCTIONS_TEXT)
+    if not isinstance(rows, list):
+        raise _Bad("left_out_faces: an array of faces", _kind(rows))
+    if len(rows) > MAX_JUNCTIONS:
+        raise _Bad(f"at most {MAX_JUNCTIONS} faces", f"{len(rows)}")
+    lines = []
+    for k, row in enumerate(rows):
+        face = _object(row, f"left_out_faces[{k}]")
+        index = face.get("face")
+        if isinstance(index, bool) or not isinstance(index, int) or index < 0:
+            raise _Bad(f"left_out_faces[{k}].face: an integer >= 0", _kind(index))
+        texts = [face.get(key, "") for key in ("file", "why", "tried")]
+        if not all(isinstance(t, str) for t in texts):
+            raise _Bad(f"left_out_faces[{k}]: file, why and tried as strings", _kind(row))
+        file, why, tried = texts
+        lines.append(f"{file}: face {index} left out: {why} (tried: {tried})")
+    return lines
+
+
 def _plain_value(key: str, value: object) -> object:
     """A plain attribute as a strict-JSON value: a string of bounded length, a number (a
     non-finite one as its text), another value as its short text."""
@@ -328,6 +352,8 @@ def view_header(header: Mapping[str, object]) -> ViewHeader:
                 out.settings = _settings(value)
             elif name == "junctions":
                 out.junctions, out.colours = _junctions(value)
+            elif name == "left_out_faces":
+                out.left_out = _left_out(value)
             else:
                 out.attributes[name] = _plain_value(name, value)
         except _Bad as bad:

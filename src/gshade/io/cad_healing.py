@@ -37,13 +37,6 @@ _INVALID = {
     "BRepCheck_InvalidImbricationOfWires": "its trimming wires are wrongly nested",
     "BRepCheck_NotClosed": "a trimming wire is not closed",
     "BRepCheck_BadOrientationOfSubshape": "a trimming wire runs the wrong way",
-    "BRepCheck_NoCurveOnSurface": "an edge has no curve on the face's surface",
-    "BRepCheck_No3DCurve": "an edge has no 3D curve",
-    "BRepCheck_InvalidSameParameterFlag": "an edge's curves disagree in parameter",
-    "BRepCheck_InvalidCurveOnSurface": "an edge's curve on the surface is invalid",
-    "BRepCheck_EmptyWire": "a trimming wire is empty",
-    "BRepCheck_RedundantWire": "a trimming wire is redundant",
-    "BRepCheck_UnorientableShape": "its surface cannot be oriented",
 }
 
 
@@ -159,17 +152,20 @@ def why_invalid(face: Any) -> str:
 
 
 def _off_surface(face: Any) -> str | None:
-    """'edge k lies d off the face's surface' for the first edge whose 3D curve's midpoint
-    lies farther from the surface than the edge's tolerance, or None."""
+    """What is wrong with the first edge of the face that has no curve on the face's surface
+    or no 3D curve (a pole's edge needs none), or whose 3D curve's midpoint lies farther from
+    the surface than the edge's tolerance ('edge k lies d off ...'); None when none is."""
     try:
         surface = BRep_Tool.Surface_s(face)
         explorer = TopExp_Explorer(face, TopAbs_EDGE)
-        k = 0
+        k = -1
         while explorer.More():
             edge = TopoDS.Edge(explorer.Current())
             explorer.Next()
+            k += 1
+            if BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0) is None:
+                return f"edge {k} has no curve on the face's surface"
             if BRep_Tool.Degenerated_s(edge):  # a pole: no 3D curve of its own
-                k += 1
                 continue
             curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
             if curve is None:
@@ -182,7 +178,6 @@ def _off_surface(face: Any) -> str | None:
                     f"edge {k} lies {projection.LowerDistance():.3g} off the face's surface, "
                     f"tolerance {tol:.3g}"
                 )
-            k += 1
     except Exception:
         return None
     return None

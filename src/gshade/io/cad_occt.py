@@ -100,8 +100,10 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             unsewn = heal(shape, faces)
             if lost or len(unsewn.invalid) < len(healing.invalid):
                 unsewn.changes.append(
-                    f"read unsewn: sewing gave {len(healing.faces)} faces of {len(faces)}, "
-                    f"{len(healing.invalid)} of them invalid ({len(unsewn.invalid)} unsewn)"
+                    f"read unsewn: sewing kept {len(healing.faces)} of the {len(faces)} faces"
+                    if lost
+                    else f"read unsewn: sewn, {len(healing.invalid)} faces are invalid, "
+                    f"unsewn {len(unsewn.invalid)}"
                 )
                 healing = unsewn
     else:

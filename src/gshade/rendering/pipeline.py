@@ -88,7 +88,7 @@ def render(scene, **overrides) -> RenderedImage:
     if settings.junctions:  # measured first: overlapping surfaces fail before rendering
         junctions, edges = _measure_junctions(scene, where)
         lap("junctions")
-    mesh, atlas = _mesh_and_atlas(scene, settings, framing, resolution, where)
+    mesh, atlas, unmeshed = _mesh_and_atlas(scene, settings, framing, resolution, where)
     lap("tessellate")
 
     functions, mapped = shape_functions(scene.shape)
@@ -133,7 +133,21 @@ def render(scene, **overrides) -> RenderedImage:
         from ..analysis.junction_lines import junction_metadata
 
         metadata["junctions"] = junction_metadata(junctions)
-    return RenderedImage(channels, metadata, shown, lap.timings)
+    lost = left_out_faces(scene, unmeshed)
+    if lost:
+        metadata["left_out_faces"] = json.dumps(
+            [
+                {"file": path.name, "face": f.index, "why": f.why, "tried": f.tried}
+                for path, f in lost
+            ]
+        )
+    models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
+    healed = [(path, line) for path, model in models.items() for line in model.healed]
+    if healed:
+        metadata["healed_faces"] = json.dumps([f"{path.name}: {line}" for path, line in healed])
+    warnings = [f"{path}: {face.line()}" for path, face in lost]
+    notes = [f"{path}: healed: {line}" for path, line in healed]
+    return RenderedImage(channels, metadata, shown, lap.timings, warnings, notes)
 
 
 def _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, shape) -> None:
@@ -240,8 +254,8 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
     patches = scene.patches
     tile = tile_size(scene, framing)
     if any(s.cad is not None for s in scene.surfaces):
-        mixed = _mixed_mesh(scene, settings, framing, resolution, where, tile)
-        return mixed, Atlas.for_patches(len(patches), tile)
+        mixed, unmeshed = _mixed_mesh(scene, settings, framing, resolution, where, tile)
+        return mixed, Atlas.for_patches(len(patches), tile), unmeshed
     validate_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
     mesh: TriangleMesh = tessellate(patches, resolution)
     if len(mesh.faces) == 0:
@@ -249,12 +263,13 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
             f"{where}: [render] tessellation: {resolution} vertices per patch side leave no "
             "triangle (the patches collapse at that resolution); expected a larger value"
         )
-    return mesh, Atlas.for_patches(len(patches), tile)
+    return mesh, Atlas.for_patches(len(patches), tile), []
 
 
-def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int) -> TriangleMesh:
+def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int):
     """The mesh of a scene with ``cad`` surfaces: their trimmed faces from the kernel's mesher
-    within the chord tolerance, the other surfaces' patches on the common grid."""
+    within the chord tolerance, the other surfaces' patches on the common grid; and the
+    faces the mesher left without triangles, (model path, LeftOutFace) each."""
     patches = scene.patches
     grid: list[int] = []
     cad = []  # (surface, its patches' global indices)
@@ -273,9 +288,12 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
             (tessellate([patches[i] for i in grid], resolution), np.array(grid, dtype=np.int32))
         )
     deflection = chord_tolerance(scene, settings, framing)
+    unmeshed = []
     for surface, index in cad:
         try:
-            meshes.append((tessellate_faces(surface.cad, surface.patches, deflection), index))
+            faces, lost = tessellate_faces(surface.cad, surface.patches, deflection)
+            meshes.append((faces, index))
+            unmeshed.extend((surface.cad.model.path, face) for face in lost)
         except GshadeError as exc:
             from ..io.cad import in_scene
 
@@ -284,7 +302,15 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
     validate_memory(where, settings, len(mesh.positions), len(patches) * tile**2)
     if len(mesh.faces) == 0:
         raise GshadeError(f"{where}: the tessellation left no triangle")
-    return mesh
+    return mesh, unmeshed
+
+
+def left_out_faces(scene, unmeshed=()) -> list:
+    """The CAD faces a render of ``scene`` leaves out, (model path, LeftOutFace) each in
+    order: those the scene's ``cad`` surfaces left out (:attr:`CadFaces.left_out`) and
+    ``unmeshed``, those the mesher left without triangles."""
+    found = [(s.cad.model.path, face) for s in scene.surfaces if s.cad for face in s.cad.left_out]
+    return sorted([*found, *unmeshed], key=lambda pf: (str(pf[0]), pf[1].index))
 
 
 def _metadata(

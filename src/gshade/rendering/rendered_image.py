@@ -41,12 +41,16 @@ CHANNELS = (
 
 @dataclass
 class RenderedImage:
-    """Channels, header metadata (strings), the legend and the stage timings (seconds)."""
+    """Channels, header metadata (strings), the legend and the stage timings (seconds); the
+    warnings (a CAD face left out, a line each) and notes (what the kernel's healing
+    changed) to tell whoever asked for the render."""
 
     channels: dict[str, NDArray[np.float32]]
     metadata: dict[str, str]
     legend: Legend | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def shape(self) -> tuple[int, int]:

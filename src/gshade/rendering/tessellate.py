@@ -152,7 +152,7 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
     )
 
 
-def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
+def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, list]:
     """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.model.CadFaces`) as a
     triangle mesh from the kernel's mesher (:func:`gshade.io.cad_mesh.mesh_faces`), within
     ``deflection`` (model units) of the faces, but no finer than :data:`MIN_FACE_DEFLECTION`
@@ -161,7 +161,9 @@ def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
     ``patches`` are the surface's patches (one a face, over its box, u and v swapped for the
     faces in ``cad.swapped``): the vertices' params are the kernel's (u, v) normalised to the
     face's box ((v, u) on a swapped face), their normals the exact unit normals of the patch
-    there, and their patch index the face's place in ``cad.faces``.
+    there, and their patch index the face's place in ``cad.faces``.  Also returned: the
+    faces the mesher left without triangles (:class:`gshade.io.cad.LeftOutFace`); on a
+    ``strict`` surface they are a GshadeError instead.
     """
     from ..io.cad_mesh import mesh_faces
 
@@ -169,6 +171,11 @@ def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
     diagonal = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
     floor = MIN_FACE_DEFLECTION * diagonal if np.isfinite(diagonal) else 0.0
     m = mesh_faces(cad.model, max(deflection, floor, 2 * KERNEL_CONFUSION), faces=cad.faces)
+    if m.left_out and cad.strict:
+        more = f", and {len(m.left_out) - 1} more faces" if len(m.left_out) > 1 else ""
+        raise GshadeError(
+            f"{cad.model.path}: {m.left_out[0].line()}{more} (strict: every face must be rendered)"
+        )
     place = {face: k for k, face in enumerate(cad.faces)}
     index = np.array([place[int(f)] for f in m.face], dtype=np.int32)
     params = np.empty_like(m.uv)
@@ -189,7 +196,9 @@ def tessellate_faces(cad, patches, deflection: float) -> TriangleMesh:
     if len(F):
         area = np.linalg.norm(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]), axis=1)
         F = F[area > 1e-14 * scale * scale]
-    return TriangleMesh(P, normals, params, index, np.ascontiguousarray(F, np.int32), 0)
+    return TriangleMesh(P, normals, params, index, np.ascontiguousarray(F, np.int32), 0), list(
+        m.left_out
+    )
 
 
 def join_meshes(

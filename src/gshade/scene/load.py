@@ -130,6 +130,7 @@ def _build(
     base: Path,
     overrides: dict[str, Any] | None,
     data_path: Sequence[str | os.PathLike] | None = None,
+    strict: bool = False,
 ) -> Scene:
     from ..io.outputs import output_name
 
@@ -137,6 +138,8 @@ def _build(
     if overrides:
         raw = apply_overrides(file, raw, dict(overrides))
         _validate_values(file, raw)
+    if strict:
+        raw = _strict(raw)
     top = Table(file, "", raw, TOP_KEYS)
     top.reject_unknown()
     if "name" in raw:
@@ -195,6 +198,7 @@ def load_scene(
     overrides: dict[str, object] | None = None,
     *,
     data_path: Sequence[str | os.PathLike] | None = None,
+    strict: bool = False,
 ) -> Scene:
     """Read and validate a scene file.
 
@@ -214,6 +218,9 @@ def load_scene(
     data_path : sequence of path-like, optional
         Further folders data files may lie in; default: those in the environment variable
         ``GSHADE_DATA_PATH`` (separated by ``os.pathsep``).
+    strict : bool
+        Every ``cad`` surface strict (its key ``strict = true``): a face that cannot be
+        rendered is an error, not a warning.
 
     Returns
     -------
@@ -250,7 +257,20 @@ def load_scene(
         )
     else:
         raw = read_toml(path, "a scene file (TOML)")
-    return _build(raw, str(path), path, base, overrides, data_path)
+    return _build(raw, str(path), path, base, overrides, data_path, strict)
+
+
+def _strict(raw: dict[str, Any]) -> dict[str, Any]:
+    """The scene with ``strict = true`` in each of its ``cad`` surfaces."""
+    tables = raw.get("surface")
+    if not isinstance(tables, list):
+        return raw
+    raw = dict(raw)
+    raw["surface"] = [
+        {**t, "strict": True} if isinstance(t, dict) and t.get("type") == "cad" else t
+        for t in tables
+    ]
+    return raw
 
 
 #: The isophotes' light of a CAD file given as a scene: along the automatic camera's view

@@ -162,9 +162,17 @@ def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, floa
     Key("faces", "list of face numbers (0-based)", None, "the faces rendered", "all"),
     Key("sew", "true or false", None, "sew the faces into shells first", "when unsewn"),
     Key("tolerance", "number > 0", None, "the sewing tolerance (model units)", "from the size"),
+    Key(
+        "strict",
+        "true or false",
+        None,
+        "a face that cannot be rendered (left out, with a warning, by default) is an error",
+        "false",
+    ),
 )
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
-    from ..io.cad import in_scene, read_cad
+    from ..geometry.regularity import degenerate_patch
+    from ..io.cad import LeftOutFace, in_scene, read_cad
 
     name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()
@@ -182,33 +190,62 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
         )
     sew = None if "sew" not in t.data else t.boolean("sew")
     tolerance = None if "tolerance" not in t.data else t.number("tolerance", lo=0)
+    strict = "strict" in t.data and t.boolean("strict")
     data_file = files.find(t, name)
     try:
         model = read_cad(data_file, sew=sew, tolerance=tolerance)
     except GshadeError as exc:
         raise in_scene(exc, f"{t.file}: {t.prefix}".rstrip(": "), t.file, data_file) from None
-    count = len(model.faces)
-    chosen = list(range(count)) if faces is None else [int(i) for i in faces]
-    for i in chosen:
+    count = model.face_count
+    for i in [] if faces is None else [int(i) for i in faces]:
         if i >= count:
             raise t.error(
                 "faces",
                 f"expected face numbers from 0 to {count - 1} ({data_file.name} has {count} "
                 f"faces), got {i}",
             )
+    usable = {face.index: face for face in model.faces}
+    asked = list(usable) if faces is None else list(dict.fromkeys(int(i) for i in faces))
+    left_out = [f for f in model.left_out if faces is None or f.index in asked]
+    chosen = [i for i in asked if i in usable]
     if len(chosen) > MAX_PATCHES:
         raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
     patches: list[Patch] = []
     swapped = []
     for i in chosen:
-        face = model.faces[i]
-        with t.reported("faces"):
-            try:
-                patch = face.patch.restricted(_clipped(face.box, face.patch.domain))
-            except GshadeError as exc:
-                raise GshadeError(f"face {i}: {exc}") from None
+        face = usable[i]
+        try:
+            patch = face.patch.restricted(_clipped(face.box, face.patch.domain))
+        except GshadeError as exc:
+            left_out.append(LeftOutFace(i, str(exc), "restricting its surface to its box"))
+            continue
+        bad = degenerate_patch([patch])
+        if bad is not None:
+            left_out.append(LeftOutFace(i, bad[1], "checking its surface"))
+            continue
         if face.reversed:
             patch = _swapped(patch)
         patches.append(patch)
         swapped.append(bool(face.reversed))
-    return patches, CadFaces(model, tuple(chosen), tuple(swapped))
+    rendered = [i for i in chosen if all(f.index != i for f in left_out)]
+    where = f"{t.file}: {t.prefix}".rstrip(": ")
+    if left_out and strict:
+        raise in_scene(
+            GshadeError(
+                f"{data_file}: {left_out[0].line()}"
+                + (f", and {len(left_out) - 1} more faces" if len(left_out) > 1 else "")
+                + " (strict: every face must be rendered)"
+            ),
+            where,
+            t.file,
+            data_file,
+        )
+    if not rendered:
+        raise in_scene(
+            GshadeError(f"{data_file}: no usable face among those chosen ({left_out[0].line()})"),
+            where,
+            t.file,
+            data_file,
+        )
+    left_out.sort(key=lambda f: f.index)
+    return patches, CadFaces(model, tuple(rendered), tuple(swapped), tuple(left_out), strict)

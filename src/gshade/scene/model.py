@@ -44,11 +44,15 @@ class CadFaces:
     """What the render meshes a ``cad`` surface from: the model read
     (:class:`gshade.io.cad.CadModel`, with the kernel's shape), the face numbers rendered
     (one patch each, in order) and, per face, whether its patch has u and v swapped (a
-    reversed face, so that p_u x p_v points outward)."""
+    reversed face, so that p_u x p_v points outward); the faces of those chosen that are
+    left out (:class:`gshade.io.cad.LeftOutFace`, by the reader or the scene) and whether
+    the surface is ``strict`` (a face left out is an error, also one the mesher leaves)."""
 
     model: Any = field(repr=False)
     faces: tuple[int, ...]
     swapped: tuple[bool, ...]
+    left_out: tuple[Any, ...] = ()
+    strict: bool = False
 
 
 @dataclass(frozen=True)

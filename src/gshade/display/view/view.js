@@ -147,6 +147,7 @@
       legendRow("colour map", own(shape, "colormap"));
       legendRow("parameters", own(shape, "params"));
       if (own(render, "width")) legendRow("render", own(render, "width") + "×" + own(render, "height") + ", " + own(render, "spp") + " spp, " + own(render, "lighting"));
+      for (const line of im.meta.left_out || []) legendRow("left out", line);
       const version = own(h, "gshade_version");
       legendRow("gshade", version ? version + " (" + own(h, "variant") + ")" : undefined);
     });

@@ -1,0 +1,251 @@
+"""One bad face never costs the model (issue 25 point 1): the kernel's healing, faces left
+out with a warning, ``--strict``.
+
+The parts are built with the kernel at test time: a filleted box (26 valid faces) beside a
+face the kernel's checks find invalid, one that the healing repairs (a B-spline face whose
+edges have no curves on its surface) or one it cannot (a face bounded by an open wire).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("OCP")
+
+from OCP.BRep import BRep_Builder
+from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeWire
+from OCP.BRepCheck import BRepCheck_Analyzer
+from OCP.BRepGProp import BRepGProp
+from OCP.collections import Array2_gp_Pnt
+from OCP.GeomAPI import GeomAPI_PointsToBSplineSurface
+from OCP.gp import gp_Pnt
+from OCP.GProp import GProp_GProps
+from OCP.TopoDS import TopoDS_Compound, TopoDS_Face
+
+from gshade.errors import GshadeError
+from gshade.io.cad import read_cad
+from gshade.io.cad_healing import shape_faces
+from gshade.io.cad_mesh import mesh_faces
+from gshade.io.image import read_exr
+
+from .cad_parts import filleted_box, write_shape
+from .test_cad_bad_input import open_wire
+
+SMALL = ["--width", "48", "--height", "36", "--spp", "1"]
+
+
+def no_pcurves():
+    """A wavy B-spline face bounded by its four boundary iso-curves as 3D edges only (built
+    with BRep_Builder: no curves on the surface), which the kernel's checks reject and its
+    healing repairs (it computes the curves on the surface)."""
+    points = Array2_gp_Pnt(1, 4, 1, 4)
+    for i in range(4):
+        for j in range(4):
+            points.SetValue(i + 1, j + 1, gp_Pnt(10 * i, 10 * j, 3 * math.sin(i) * math.cos(j)))
+    surface = GeomAPI_PointsToBSplineSurface(points).Surface()
+    u0, u1, v0, v1 = surface.Bounds()
+    wire = BRepBuilderAPI_MakeWire()
+    for curve in (surface.VIso(v0), surface.UIso(u1), surface.VIso(v1), surface.UIso(u0)):
+        wire.Add(BRepBuilderAPI_MakeEdge(curve).Edge())
+    face, builder = TopoDS_Face(), BRep_Builder()
+    builder.MakeFace(face, surface, 1e-7)
+    builder.Add(face, wire.Wire())
+    return face, surface
+
+
+def with_box(face) -> TopoDS_Compound:
+    """A compound of the filleted box's 26 faces and ``face`` (number 26)."""
+    compound, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(compound)
+    builder.Add(compound, filleted_box())
+    builder.Add(compound, face)
+    return compound
+
+
+def area(face) -> float:
+    """The kernel's own area of a face (BRepGProp, its exact surface integral)."""
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    return props.Mass()
+
+
+def triangle_area(positions, triangles) -> float:
+    p = positions[triangles]
+    return 0.5 * float(np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum())
+
+
+def gshade(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "gshade", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=cwd,
+    )
+
+
+@pytest.fixture(scope="module")
+def parts(tmp_path_factory):
+    """healed.brep: the box and the face without curves on its surface; open.brep: the box
+    and the face bounded by an open wire."""
+    folder = tmp_path_factory.mktemp("healing")
+    face, _ = no_pcurves()
+    assert not BRepCheck_Analyzer(face).IsValid()
+    assert not BRepCheck_Analyzer(open_wire()).IsValid()
+    return {
+        "healed": write_shape(with_box(face), folder / "healed.brep"),
+        "open": write_shape(with_box(open_wire()), folder / "open.brep"),
+    }
+
+
+def test_the_healing_repairs_missing_curves_and_says_so(parts):
+    """The face without curves on its surface is healed: it is read (face 26), the change
+    is said in one line, and its mesh covers it: the triangles' area is the kernel's exact
+    area of the surface within 0.5 %."""
+    model = read_cad(parts["healed"], isolated=False)
+    assert model.left_out == []
+    assert model.healed == [
+        "face 26: valid now (was: edge 0 has no curve on the face's surface)"
+    ], model.healed
+    assert [f.index for f in model.faces] == list(range(27))
+    mesh = mesh_faces(model, 0.01, faces=[26])
+    assert mesh.left_out == [] and len(mesh.triangles) > 0
+    _, surface = no_pcurves()
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+
+    exact = area(BRepBuilderAPI_MakeFace(surface, 1e-7).Face())  # the untrimmed surface
+    assert triangle_area(mesh.positions, mesh.triangles) == pytest.approx(exact, rel=5e-3)
+
+
+def test_a_face_the_healing_cannot_repair_is_left_out_and_the_rest_meshed(parts):
+    """The open-wire face is left out (read_cad names it with what was wrong and what was
+    tried); the 26 others are meshed as when the box is alone."""
+    model = read_cad(parts["open"], isolated=False)
+    assert [f.line() for f in model.left_out] == [
+        "face 26 left out: a trimming wire is not closed "
+        "(tried: the kernel's healing (ShapeFix_Shape))"
+    ]
+    mesh = mesh_faces(model, 0.05)
+    assert [f.index for f in mesh.left_out] == [] and set(mesh.face) == set(range(26))
+    asked = mesh_faces(model, 0.05, faces=[0, 26])  # a left-out face asked for by number
+    assert [f.index for f in asked.left_out] == [26] and set(asked.face) == {0}
+    alone = mesh_faces(
+        read_cad(write_shape(filleted_box(), parts["open"].with_name("box.brep"))), 0.05
+    )
+    assert triangle_area(mesh.positions, mesh.triangles) == pytest.approx(
+        triangle_area(alone.positions, alone.triangles), rel=1e-9
+    )
+
+
+def test_a_face_the_mesher_gives_no_triangles_is_left_out(tmp_path):
+    """A plane face without a wire (the whole, infinite plane: valid to the kernel's checks)
+    gets no triangles from the mesher: mesh_faces leaves it out, with why and what was
+    tried, and meshes the others; automatic sewing, which loses every face of this model,
+    falls back to the unsewn faces and says so."""
+    from OCP.Geom import Geom_Plane
+    from OCP.gp import gp_Pln
+
+    face, builder = TopoDS_Face(), BRep_Builder()
+    builder.MakeFace(face, Geom_Plane(gp_Pln()), 1e-7)
+    model = read_cad(write_shape(with_box(face), tmp_path / "plane.brep"))
+    assert model.healed == ["read unsewn: sewing kept 0 of the 27 faces"]
+    mesh = mesh_faces(model, 0.05)
+    assert [f.line() for f in mesh.left_out] == [
+        "face 26 left out: the kernel's mesher gave no triangles "
+        "(tried: meshing it with the kernel's mesher)"
+    ]
+    assert set(mesh.face) == set(range(26))
+
+
+def test_render_draws_the_rest_and_warns_a_line_a_face(parts, tmp_path):
+    """``gshade render``: exit 0, one warning line naming the file and the face, the EXR's
+    header lists it (left_out_faces), the page's data shows it; the EXR is the box's."""
+    exr, page = tmp_path / "open.exr", tmp_path / "open.html"
+    run = gshade("render", parts["open"], "-o", exr, "--html", page, *SMALL)
+    assert run.returncode == 0, run.stderr
+    warnings = [line for line in run.stderr.splitlines() if "warning" in line]
+    assert warnings == [
+        f"gshade: warning: {parts['open']}: face 26 left out: a trimming wire is not closed "
+        "(tried: the kernel's healing (ShapeFix_Shape))"
+    ], run.stderr
+    _, header = read_exr(exr)
+    assert json.loads(header["left_out_faces"]) == [
+        {
+            "file": "open.brep",
+            "face": 26,
+            "why": "a trimming wire is not closed",
+            "tried": "the kernel's healing (ShapeFix_Shape)",
+        }
+    ]
+    assert "open.brep: face 26 left out: a trimming wire is not closed" in page.read_text()
+
+
+def test_info_lists_the_left_out_face(parts):
+    run = gshade("info", parts["open"])
+    assert run.returncode == 0, run.stderr
+    assert "model: 27 faces (1 left out)" in run.stdout
+    rows = [line.split() for line in run.stdout.splitlines()]
+    assert ["26", "left", "out:", "a", "trimming", "wire", "is", "not", "closed"] == rows[
+        [r[:1] for r in rows].index(["26"])
+    ][:9]
+    assert "face 26 left out" in run.stderr
+
+
+@pytest.mark.parametrize("how", ["flag", "key"])
+def test_strict_makes_a_left_out_face_an_error(parts, tmp_path, how):
+    """``--strict``, or the cad surface's key ``strict = true``: exit 2, one line naming the
+    face, nothing written."""
+    out = tmp_path / "out"
+    out.mkdir()
+    if how == "flag":
+        scene, extra = parts["open"], ["--strict"]
+    else:
+        scene = tmp_path / "strict.toml"
+        scene.write_text(
+            f'[[surface]]\ntype = "cad"\nfile = "{parts["open"].name}"\nstrict = true\n'
+        )
+        (tmp_path / parts["open"].name).write_bytes(parts["open"].read_bytes())
+        extra = []
+    run = gshade("render", scene, "-o", out / "x.exr", "--png", out / "x.png", *extra, *SMALL)
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.splitlines()
+    assert len(lines) == 1 and "Traceback" not in run.stderr, run.stderr
+    assert "face 26 left out: a trimming wire is not closed" in lines[0]
+    assert "strict" in lines[0]
+    assert list(out.iterdir()) == []
+    assert gshade("info", scene, *extra).returncode == 2
+
+
+def test_a_model_of_left_out_faces_only_is_an_error(tmp_path):
+    path = write_shape(open_wire(), tmp_path / "open.brep")
+    with pytest.raises(GshadeError, match="no usable face"):
+        read_cad(path)
+
+
+def test_healing_a_valid_model_changes_nothing(tmp_path):
+    """A valid model is read as it is: no healing, the kernel's faces in their order."""
+    path = write_shape(filleted_box(), tmp_path / "box.brep")
+    model = read_cad(path, isolated=False)
+    assert model.healed == [] and model.left_out == []
+    assert len(shape_faces(model.shape)) == 26 == len(model.faces)
+
+
+def test_batch_lists_the_warnings(parts, tmp_path):
+    out = tmp_path / "batch"
+    run = gshade("batch", parts["open"], "-o", out)
+    assert run.returncode == 0, run.stderr
+    manifest = json.loads((out / "manifest.json").read_text())
+    (job,) = manifest["jobs"]
+    assert [w.split(": ", 1)[1] for w in job["warnings"]] == [
+        "face 26 left out: a trimming wire is not closed "
+        "(tried: the kernel's healing (ShapeFix_Shape))"
+    ]
+    assert "face 26 left out" in run.stderr
+    assert Path(job["outputs"][0]).exists()
