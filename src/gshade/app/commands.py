@@ -200,7 +200,8 @@ def continuity(args: argparse.Namespace) -> int:
     from ..scene import load_scene
 
     validate_samples(args.samples)  # before the scene (and a CAD file) is read
-    scene = load_scene(args.scene, _scene_overrides(args))
+    scene = load_scene(args.scene, _scene_overrides(args), strict=args.strict)
+    _tell(*_cad_notes(scene))
     patches = list(scene.patches)
     cad = any(s.cad is not None for s in scene.surfaces)
     if cad:
