@@ -2,15 +2,16 @@
 
 A B-spline patch of degree (p, q) is a union of polynomial (or rational) pieces, one per
 pair of knot spans.  Across an interior knot u* of multiplicity m the pieces meet with
-parametric continuity C^(p - m) (Kiciak, §1.3; Piegl & Tiller, §2.2): where p - m < 3 the
+parametric continuity C^(p - m) (Kiciak, ch. 1–2; Piegl & Tiller, §2.2): where p - m < 3 the
 iso-parameter line u = u* is a junction exactly like a patch boundary, and it is measured
 and classed as one (:mod:`gshade.analysis.continuity`: gap, normal angle, curvature jump,
 curvature-gradient jump; the class is geometric, so a C1 knot line may well be G2).
 
-The two pieces' one-sided derivatives at the knot come from the patch restricted to the
-span on each side, [u_prev, u*] and [u*, u_next] (:meth:`BSplinePatch.restricted`: exact
-knot insertion, the same surface there): each piece evaluated at its own end is the left or
-right limit, where the whole patch would give the right one only.
+The two pieces' one-sided derivatives at the knot come from the patch over the knot span on
+each side, [u_prev, u*] and [u*, u_next]: by local support, a span's own p + 1 rows of
+control points and 2p + 2 knots are a B-spline that is the patch there (no knot insertion:
+cheap for large nets); each piece evaluated at its own end is the left or right limit,
+where the whole patch would give the right one only.
 
 CAD faces (``cad`` surfaces) count the knot lines of the model's own B-spline surfaces
 (kinds ``bspline`` and ``bezier``; the NURBS forms of planes, quadrics and kernel
@@ -26,8 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..geometry import regularised_derivatives
 from ..geometry.bspline import BSplinePatch
-from .continuity import Junction, Tolerances, classify, compare_sides, geometry_at
+from .continuity import Junction, Tolerances, classify, compare_sides, geometry_of
 
 __all__ = [
     "KNOT_LINE_KINDS",
@@ -85,7 +87,7 @@ class KnotLine:
 
 def interior_knots(knots: NDArray, degree: int, lo: float, hi: float) -> list[tuple[float, int]]:
     """(u*, m) of every distinct knot strictly inside (lo, hi) whose multiplicity m leaves
-    the pieces less than C^3 apart: p - m < 3 (Kiciak, §1.3).  Knots within
+    the pieces less than C^3 apart: p - m < 3 (Kiciak, ch. 1–2).  Knots within
     :data:`END_MARGIN` of the range of an end are left out (a boundary, not a knot line)."""
     values, counts = np.unique(np.asarray(knots, dtype=np.float64), return_counts=True)
     margin = END_MARGIN * (hi - lo)
@@ -96,25 +98,30 @@ def interior_knots(knots: NDArray, degree: int, lo: float, hi: float) -> list[tu
 def one_sided_pieces(
     patch: BSplinePatch, direction: str, knot: float
 ) -> tuple[BSplinePatch, BSplinePatch]:
-    """The polynomial pieces on both sides of the interior knot line: the patch restricted
-    to [u_prev, u*] and [u*, u_next] in ``direction`` (u_prev, u_next the neighbouring
-    distinct knots, within the domain), the whole domain in the other.
+    """The polynomial pieces on both sides of the interior knot line u = u*: the patch over
+    the knot span [u_prev, u*] and over [u*, u_next] in ``direction`` (u_prev, u_next the
+    neighbouring distinct knots), over its whole domain in the other.
 
-    Each piece is exactly the patch there (:meth:`BSplinePatch.restricted`, knot insertion;
-    Piegl & Tiller, §5.2), and its derivatives at its end u* are the one-sided limits
-    d^k/du^k p(u* -) and p(u* +), which the patch itself (evaluated in the span to the
-    right of a knot) does not give on the left.
+    By local support (Piegl & Tiller, §2.2; Kiciak, ch. 1–2) the span [U_k, U_k+1) takes only
+    the points P_(k-p) .. P_k and the knots U_(k-p) .. U_(k+p+1): those alone are a
+    B-spline whose domain is that span and which equals the patch there, derivatives
+    included.  So each piece's derivatives at its end u* are the one-sided limits
+    d^k/du^k p(u* -) and p(u* +); the patch itself, evaluated in the span to the right of
+    a knot, gives the right one only.
     """
     axis = 0 if direction == "u" else 1
     U = patch.knots[axis]
-    lo, hi = patch.domain[axis]
-    prev = max(float(U[U < knot].max()), lo)
-    after = min(float(U[U > knot].min()), hi)
+    p = patch.degree[axis]
+    net = np.moveaxis(patch.points, axis, 0)
+    weights = None if patch.weights is None else np.moveaxis(patch.weights, axis, 0)
     pieces = []
-    for span in ((prev, knot), (knot, after)):
-        box = [patch.domain[0], patch.domain[1]]
-        box[axis] = span
-        pieces.append(patch.restricted(box))
+    for k in (np.searchsorted(U, knot, "left") - 1, np.searchsorted(U, knot, "right") - 1):
+        rows = slice(int(k) - p, int(k) + 1)
+        knots = [patch.knots[0], patch.knots[1]]
+        knots[axis] = U[int(k) - p : int(k) + p + 2]
+        points = np.moveaxis(net[rows], 0, axis)
+        w = None if weights is None else np.moveaxis(weights[rows], 0, axis)
+        pieces.append(BSplinePatch(points, patch.degree, tuple(knots), w))
     return pieces[0], pieces[1]
 
 
@@ -136,19 +143,25 @@ def knot_line_measures(
     """
     if not lines:
         return []
-    sides: list[list] = [[], []]
+    count, samples = len(lines), len(along[0])
+    sides: list[list[NDArray]] = [[], []]  # per side, each line's derivatives (4, 4, S, 3)
     for (direction, knot), t in zip(lines, along, strict=True):
         fixed = np.full_like(t, knot)
         uv = (fixed, t) if direction == "u" else (t, fixed)
         for side, piece in zip(sides, one_sided_pieces(patch, direction, knot), strict=True):
-            side.append(geometry_at(piece, *uv))
+            side.append(regularised_derivatives(piece, *uv, 3).d)
     stacked = []
-    for side in sides:
-        d = np.stack([g[0] for g in side], axis=2)  # (4, 4, J, S, 3)
-        n = np.stack([g[1] for g in side])
-        h = np.stack([g[2].gradient for g in side])
-        k = np.stack([g[3].gradient for g in side])
-        stacked.append((d, n, h, k))
+    for side in sides:  # normals and curvatures of all lines' points at once
+        d, n, h, k = geometry_of(np.concatenate(side, axis=2))
+        shape = (count, samples, 3)
+        stacked.append(
+            (
+                d.reshape(4, 4, *shape),
+                n.reshape(shape),
+                h.gradient.reshape(shape),
+                k.gradient.reshape(shape),
+            )
+        )
     d_left = stacked[0][0]
     runs_along_v = np.array([direction == "u" for direction, _ in lines])[:, None, None]
     tangent = np.where(runs_along_v, d_left[0, 1], d_left[1, 0])  # along the line
