@@ -14,6 +14,7 @@ gives every pair.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,7 +25,7 @@ from ..errors import GshadeError
 from .cad import CadModel
 from .cad_process import kernel_operation
 
-__all__ = ["CadEdge", "shared_edges"]
+__all__ = ["CadEdge", "edges_to_left_out", "shared_edges"]
 
 
 @dataclass
@@ -76,7 +77,27 @@ def shared_edges(
         ) from None
 
 
-def _shared_edges(model: CadModel, samples: int, faces: list[int] | None) -> list[CadEdge]:
+@kernel_operation("finding its edges")
+def edges_to_left_out(
+    model: CadModel, faces: list[int] | None = None
+) -> list[tuple[int, int, int]]:
+    """The edges between one of the model's faces ``faces`` (default: all it renders) and a
+    face it leaves out (``model.left_out``): (edge number, face, left-out face) each, in the
+    numbering of :func:`shared_edges` (their continuity cannot be measured)."""
+    if model.shape is None or not model.left_out:
+        return []
+    left_out = {face.index for face in model.left_out}
+    wanted = {face.index for face in model.faces} if faces is None else set(faces)
+    out = []
+    for e, _, sharing in _edge_faces(model):
+        numbers = sorted({f for f, _ in sharing})
+        out.extend((e, i, j) for i in numbers if i in wanted for j in numbers if j in left_out)
+    return out
+
+
+def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any]]]]:
+    """Each edge of the model's shape that is no pole: its number (0-based, in the kernel's
+    map of edges), the edge, and the faces it bounds other than as a seam, (number, face)."""
     from OCP.BRep import BRep_Tool
     from OCP.collections import (
         IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as EdgeFaces,
@@ -90,38 +111,45 @@ def _shared_edges(model: CadModel, samples: int, faces: list[int] | None) -> lis
     face_map = ShapeMap()
     TopExp.MapShapes_s(model.shape, FACE, face_map)
     number: dict[int, int] = {}  # the map's index -> the model's face number (first seen)
-    explorer, position = TopExp_Explorer(model.shape, FACE), 0  # the order of model.faces
+    explorer, position = TopExp_Explorer(model.shape, FACE), 0  # the faces' numbers
     while explorer.More():
         number.setdefault(face_map.FindIndex(explorer.Current()), position)
         explorer.Next()
         position += 1
-    wanted = set(range(len(model.faces))) if faces is None else set(faces)
     edge_faces = EdgeFaces()
     TopExp.MapShapesAndUniqueAncestors_s(model.shape, EDGE, FACE, edge_faces)
-    fraction = (np.arange(samples) + 0.5) / samples
-    out = []
     for e in range(1, edge_faces.Extent() + 1):
         edge = TopoDS.Edge(edge_faces.FindKey(e))
         if BRep_Tool.Degenerated_s(edge):
             continue
-        mine = []
+        sharing = []
         for shape in edge_faces.FindFromIndex(e):
             face = TopoDS.Face(shape)
             f = number.get(face_map.FindIndex(face))
-            if f is not None and f in wanted and not BRep_Tool.IsClosed_s(edge, face):
-                mine.append((f, face))
+            if f is not None and not BRep_Tool.IsClosed_s(edge, face):
+                sharing.append((f, face))
+        yield e - 1, edge, sharing
+
+
+def _shared_edges(model: CadModel, samples: int, faces: list[int] | None) -> list[CadEdge]:
+    from OCP.BRep import BRep_Tool
+
+    usable = {face.index: face for face in model.faces}
+    wanted = set(usable) if faces is None else set(faces) & set(usable)
+    fraction = (np.arange(samples) + 0.5) / samples
+    out = []
+    for e, edge, sharing in _edge_faces(model):
+        mine = [(f, face) for f, face in sharing if f in wanted]
         if len(mine) < 2:
             continue
         tolerance = float(BRep_Tool.Tolerance_s(edge))
-        curves = {
-            f: model.faces[f].to_patch(_pcurve_points(edge, face, fraction)) for f, face in mine
-        }
+        curves = {f: usable[f].to_patch(_pcurve_points(edge, face, fraction)) for f, face in mine}
         for a in range(len(mine)):
             for b in range(a + 1, len(mine)):
                 i, j = mine[a][0], mine[b][0]
                 if i == j:
                     continue
-                out.append(CadEdge(e - 1, (i, j), (curves[i], curves[j]), tolerance))
+                out.append(CadEdge(e, (i, j), (curves[i], curves[j]), tolerance))
     return out
 
 
