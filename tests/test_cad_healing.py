@@ -37,6 +37,7 @@ from gshade.io.image import read_exr
 
 from .cad_parts import filleted_box, write_shape
 from .test_cad_bad_input import open_wire
+from .test_view_browser import browser, open_page  # noqa: F401  (browser: the fixture)
 
 SMALL = ["--width", "48", "--height", "36", "--spp", "1"]
 
@@ -249,3 +250,41 @@ def test_batch_lists_the_warnings(parts, tmp_path):
     ]
     assert "face 26 left out" in run.stderr
     assert Path(job["outputs"][0]).exists()
+
+
+def test_the_view_page_legend_shows_the_left_out_face(browser, parts, tmp_path):  # noqa: F811
+    """In a real browser (skipped without Chromium and Playwright, except under CI): the
+    page of the render lists the left-out face in its legend."""
+    exr, html = tmp_path / "open.exr", tmp_path / "open.html"
+    assert gshade("render", parts["open"], "-o", exr, "--html", html, *SMALL).returncode == 0
+    page = open_page(browser, html)
+    legend = page.inner_text('[data-role="legend"]')
+    assert "left out" in legend
+    assert "open.brep: face 26 left out: a trimming wire is not closed" in legend
+    page.close()
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("[1, 2]", "left_out_faces[0] as a JSON object"),
+        ('{"face": 3}', "an array of faces"),
+        ('[{"face": -1, "why": "", "tried": "", "file": ""}]', "an integer >= 0"),
+        ('[{"face": true, "why": "", "tried": "", "file": ""}]', "an integer >= 0"),
+        ('[{"face": 1, "why": 3, "tried": "", "file": ""}]', "as strings"),
+        ("not json", "JSON text"),
+    ],
+)
+def test_a_malformed_left_out_header_is_dropped_with_a_note(text, expected):
+    """The view reads ``left_out_faces`` from an EXR it does not trust: a malformed one is
+    left out with a note naming what was expected; a good one becomes lines."""
+    from gshade.display.view_header import view_header
+
+    header = view_header({"left_out_faces": text})
+    assert header.left_out == []
+    assert [n.attribute for n in header.notes] == ["left_out_faces"]
+    assert expected in header.notes[0].expected
+    good = '[{"file": "<b>x</b>.step", "face": 4, "why": "w", "tried": "t"}]'
+    assert view_header({"left_out_faces": good}).left_out == [
+        "<b>x</b>.step: face 4 left out: w (tried: t)"
+    ]
