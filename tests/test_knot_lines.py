@@ -64,7 +64,7 @@ def test_a_double_knot_is_c1_and_g1_with_the_bezier_pieces_curvature_jump():
     assert junction.knot.parametric_continuity == 1
     assert junction.patches == (0, 0) and junction.sides is None
     left, right = profile_curvatures()
-    assert abs(left - right) > 1.0  # a real jump (the oracle: 1.5 - (-0.75))
+    assert abs(left - right) > 1.0  # a real jump: -1.067 on the left, -2.133 on the right
     assert junction.cls == "G1"
     assert junction.curvature_jump == pytest.approx(abs(left - right), rel=1e-9)
     assert junction.gap < 1e-12 and junction.normal_angle_deg < 1e-9
