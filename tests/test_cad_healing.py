@@ -288,3 +288,49 @@ def test_a_malformed_left_out_header_is_dropped_with_a_note(text, expected):
     assert view_header({"left_out_faces": good}).left_out == [
         "<b>x</b>.step: face 4 left out: w (tried: t)"
     ]
+
+
+def box_with_an_open_face():
+    """A 10 x 20 x 30 box whose face 0 is rebuilt (BRepTools_ReShape) on its plane from
+    three of its four edges: an open wire the healing cannot close (the gap is an edge
+    long); the three edges stay shared with the neighbouring faces."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.BRepTools import BRepTools_ReShape
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS_Wire
+
+    box = BRepPrimAPI_MakeBox(10, 20, 30).Shape()
+    face = shape_faces(box)[0]
+    wire, builder = TopoDS_Wire(), BRep_Builder()
+    builder.MakeWire(wire)
+    edges = TopExp_Explorer(face, TopAbs_EDGE)
+    for _ in range(3):
+        builder.Add(wire, edges.Current())
+        edges.Next()
+    rebuilt = TopoDS_Face()
+    builder.MakeFace(rebuilt, BRep_Tool.Surface_s(face), 1e-7)
+    builder.Add(rebuilt, wire)
+    reshape = BRepTools_ReShape()
+    reshape.Replace(face, rebuilt)
+    return reshape.Apply(box)
+
+
+def test_continuity_lists_the_edges_of_a_left_out_face_as_not_measured(tmp_path):
+    """Of the box's 12 edges, the 3 the left-out face still shares are not measured (listed
+    with the face and why), the 8 between the other faces are measured (G0: right angles),
+    the 12th bounds one face only now."""
+    path = write_shape(box_with_an_open_face(), tmp_path / "gap.brep")
+    run = gshade("continuity", path, "--json")
+    assert run.returncode == 0, run.stderr
+    report = json.loads(run.stdout)
+    assert [j["class"] for j in report["junctions"]] == ["G0"] * 8
+    lost = report["not_measured"]
+    assert sorted(e["faces"][1] for e in lost) == [0, 0, 0]
+    assert len({e["edge"] for e in lost}) == 3
+    assert {e["faces"][0] for e in lost} <= {1, 2, 3, 4, 5}
+    assert all(e["why"].startswith("face 0 left out: a trimming wire is not closed") for e in lost)
+    text = gshade("continuity", path)
+    assert text.stdout.splitlines()[-1] == "8 junctions: 8 G0; 3 edges not measured"
+    assert sum("not measured (face 0 left out" in line for line in text.stdout.splitlines()) == 3

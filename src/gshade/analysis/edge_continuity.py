@@ -33,7 +33,7 @@ from .continuity import (
 )
 from .knot_lines import cad_knot_lines
 
-__all__ = ["EdgeLine", "edge_report", "scene_continuity", "scene_diagonal"]
+__all__ = ["EdgeLine", "edge_report", "scene_continuity", "scene_diagonal", "unmeasured_edges"]
 
 
 @dataclass
@@ -154,7 +154,7 @@ def _face_geometry(model, edges: list, samples: int) -> dict:
             points.setdefault(edge.faces[side], []).append((m, edge.uv[side]))
     derivatives = []
     for f, items in points.items():
-        patch = model.faces[f].patch
+        patch = model.face(f).patch
         (u0, u1), (v0, v1) = patch.domain
         uv = np.concatenate([q for _, q in items])
         u = np.clip(uv[:, 0], u0, u1)  # pcurves may stray past the domain by a tolerance
@@ -220,6 +220,30 @@ def scene_continuity(
             raise GshadeError(f"{surface.source}: {exc}") from None
         out.extend(report)
     return out, drawn
+
+
+def unmeasured_edges(scene) -> list[dict]:
+    """The B-rep edges between a face that a ``cad`` surface of the scene renders and one it
+    leaves out (:attr:`gshade.scene.model.CadFaces.left_out`), whose continuity is not
+    measured: ``{"file", "edge", "faces": [face, left-out face], "why"}`` each, ``why`` the
+    left-out face's line (:meth:`gshade.io.cad.LeftOutFace.line`)."""
+    from ..io.cad_edges import edges_to_left_out
+
+    out = []
+    for surface in scene.surfaces:
+        cad = surface.cad
+        if cad is None or not cad.left_out:
+            continue
+        lost = {face.index: face for face in cad.left_out}
+        try:
+            edges = edges_to_left_out(cad.model, list(cad.faces), list(lost))
+        except GshadeError as exc:
+            raise GshadeError(f"{surface.source}: {exc}") from None
+        out.extend(
+            {"file": cad.model.path.name, "edge": e, "faces": [i, j], "why": lost[j].line()}
+            for e, i, j in edges
+        )
+    return out
 
 
 def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine]:

@@ -292,7 +292,7 @@ def cad_knot_lines(
     out: list[Junction] = []
     drawn: list[EdgeLine] = []
     for k, index in enumerate(cad.faces):
-        face = cad.model.faces[index]
+        face = cad.model.face(index)
         patch = face.patch
         if face.kind not in KNOT_LINE_KINDS or not isinstance(patch, BSplinePatch):
             continue

@@ -204,6 +204,7 @@ def continuity(args: argparse.Namespace) -> int:
     _tell(*_cad_notes(scene))
     patches = list(scene.patches)
     cad = any(s.cad is not None for s in scene.surfaces)
+    unmeasured: list[dict] = []
     if cad:
         from ..analysis.edge_continuity import scene_diagonal
 
@@ -219,9 +220,10 @@ def continuity(args: argparse.Namespace) -> int:
         raise GshadeError("--pair: names patch sides; a CAD scene's junctions are B-rep edges")
     try:
         if cad:
-            from ..analysis.edge_continuity import scene_continuity
+            from ..analysis.edge_continuity import scene_continuity, unmeasured_edges
 
             report, _ = scene_continuity(scene, samples=args.samples, tolerances=tol)
+            unmeasured = unmeasured_edges(scene)
         else:
             report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
     except GshadeError as exc:  # about a parameter (a flag), or about the scene's surfaces
@@ -229,11 +231,10 @@ def continuity(args: argparse.Namespace) -> int:
             raise
         raise GshadeError(f"{args.scene}: {exc}") from None
     if args.json:
-        print(
-            json.dumps(
-                {"junctions": [j.as_dict() for j in report], "tolerances": tol.__dict__}, indent=2
-            )
-        )
+        listed: dict = {"junctions": [j.as_dict() for j in report], "tolerances": tol.__dict__}
+        if unmeasured:
+            listed["not_measured"] = unmeasured
+        print(json.dumps(listed, indent=2))
         return 0
     print(
         f"{'patches':>10}  {'sides':>7}  class  {'gap':>9}  {'angle(deg)':>10}  "
@@ -249,9 +250,13 @@ def continuity(args: argparse.Namespace) -> int:
             f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
             f"{j.curvature_gradient_jump:9.2e}"
         )
+    for edge in unmeasured:  # beside a face left out
+        i, j = edge["faces"]
+        say(f"{i:>4} {j:>4}  e{edge['edge']:<6}  not measured ({edge['why']})")
     counts = {c: sum(j.cls == c for j in report) for c in ("G3", "G2", "G1", "G0", "none")}
     summary = ", ".join(f"{n} {c}" for c, n in counts.items() if n)
-    say(f"{len(report)} junctions" + (f": {summary}" if summary else ""))
+    lost = f"; {len(unmeasured)} edges not measured" if unmeasured else ""
+    say(f"{len(report)} junctions" + (f": {summary}" if summary else "") + lost)
     return 0
 
 

@@ -10,6 +10,7 @@ optional dependency (``pip install "gshade[cad]"``).
 
 from __future__ import annotations
 
+import bisect
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -163,10 +164,11 @@ class CadModel:
         return len(self.faces) + len(self.left_out)
 
     def face(self, index: int) -> CadFace:
-        """The face numbered ``index`` (a KeyError when it is left out or out of range)."""
-        for face in self.faces:
-            if face.index == index:
-                return face
+        """The face numbered ``index`` (a KeyError when it is left out or out of range);
+        ``faces`` are in the order of their numbers."""
+        k = bisect.bisect_left(self.faces, index, key=lambda face: face.index)
+        if k < len(self.faces) and self.faces[k].index == index:
+            return self.faces[k]
         raise KeyError(index)
 
     def reason_left_out(self, index: int) -> LeftOutFace | None:

@@ -79,19 +79,18 @@ def shared_edges(
 
 @kernel_operation("finding its edges")
 def edges_to_left_out(
-    model: CadModel, faces: list[int] | None = None
+    model: CadModel, faces: list[int], left_out: list[int]
 ) -> list[tuple[int, int, int]]:
-    """The edges between one of the model's faces ``faces`` (default: all it renders) and a
-    face it leaves out (``model.left_out``): (edge number, face, left-out face) each, in the
-    numbering of :func:`shared_edges` (their continuity cannot be measured)."""
-    if model.shape is None or not model.left_out:
+    """The edges between one of the faces ``faces`` and one of the faces ``left_out`` (both
+    numbered as the model's): (edge number, face, left-out face) each, in the numbering of
+    :func:`shared_edges`."""
+    if model.shape is None or not left_out:
         return []
-    left_out = {face.index for face in model.left_out}
-    wanted = {face.index for face in model.faces} if faces is None else set(faces)
+    wanted, lost = set(faces), set(left_out)
     out = []
     for e, _, sharing in _edge_faces(model):
         numbers = sorted({f for f, _ in sharing})
-        out.extend((e, i, j) for i in numbers if i in wanted for j in numbers if j in left_out)
+        out.extend((e, i, j) for i in numbers if i in wanted for j in numbers if j in lost)
     return out
 
 

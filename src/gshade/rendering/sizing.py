@@ -112,8 +112,8 @@ def extent_points(scene) -> NDArray:
         if surface.cad is None:
             points.append(grid_derivatives(surface.patches, grid)[:, 0, 0].reshape(-1, 3))
         else:
-            faces = surface.cad.model.faces
-            points.extend(trimmed_points(faces[i]) for i in surface.cad.faces)
+            model = surface.cad.model
+            points.extend(trimmed_points(model.face(i)) for i in surface.cad.faces)
     return np.concatenate(points)
 
 
