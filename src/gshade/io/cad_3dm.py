@@ -340,6 +340,28 @@ class _Grid:
         self.uv = np.stack(np.meshgrid(gu, gv, indexing="ij"), -1).reshape(-1, 2)
         self.xyz = patch(self.uv[:, 0], self.uv[:, 1])
         self.scale = float(np.ptp(self.xyz, axis=0).max()) or 1.0
+        self.seam = np.array([self._seam_width(d) for d in (0, 1)])
+
+    def _seam_width(self, d: int) -> float:
+        """How near (in parameter) an end of closed direction ``d`` a point is on its seam:
+        ``_SEAM`` of the span, or twice the parameter distance that the ends' gap spans (a
+        surface closed within the file's tolerance, not exactly: an edge along its seam
+        pulls back a little inside either end)."""
+        width = _SEAM * self.span[d]
+        if not self.closed[d]:
+            return width
+        other = np.linspace(self.lo[1 - d], self.hi[1 - d], 17)
+        ends = []
+        for at in (self.lo[d], self.hi[d]):
+            u, v = (np.full(17, at), other) if d == 0 else (other, np.full(17, at))
+            ends.append(self.patch.derivatives(u, v, 1))
+        gap = np.linalg.norm(ends[1][0, 0] - ends[0][0, 0], axis=-1)
+        step = (1, 0) if d == 0 else (0, 1)
+        speed = np.minimum(*(np.linalg.norm(e[step], axis=-1) for e in ends))
+        ok = speed > 1e-12 * self.scale
+        if ok.any():
+            width = max(width, 2.0 * float((gap[ok] / speed[ok]).max()))
+        return min(width, 0.25 * self.span[d])
 
     def wrap(self, uv: NDArray[np.float64]) -> NDArray[np.float64]:
         """Parameters brought into the domain: across the seam of a closed direction, else
@@ -453,7 +475,7 @@ def _fix_ambiguous(
 
     Across the seam of a closed direction, per trim (``pieces``: the trims' sample counts,
     in order; default one piece): a trim that runs along the seam (all its points within
-    ``_SEAM`` of the span from it: a seam edge) lies at the end that the loop's sense asks
+    ``grid.seam`` of it: a seam edge) lies at the end that the loop's sense asks
     for (an outer loop runs counterclockwise in (u, v): up a u-seam at the high end, down it
     at the low one; a hole the other way round); any other point near the seam goes to the
     side of the nearest point of its trim away from the seam (a trim never crosses the seam,
@@ -469,7 +491,7 @@ def _fix_ambiguous(
         for a, b in itertools.pairwise(cuts):
             x = uv[a:b, d]
             loose = free[a:b] == d  # at a pole: any x names the point
-            seam = (x - lo <= _SEAM * span[d]) | (hi - x <= _SEAM * span[d])
+            seam = (x - lo <= grid.seam[d]) | (hi - x <= grid.seam[d])
             if not (seam & ~loose).any():
                 continue
             seam |= loose
@@ -487,9 +509,9 @@ def _fix_ambiguous(
             for i in np.flatnonzero(seam & ~loose):
                 j = away[np.argmin(np.abs(away - i))]
                 side_hi = x[j] - lo > hi - x[j]
-                if side_hi and x[i] - lo <= _SEAM * span[d]:
+                if side_hi and x[i] - lo <= grid.seam[d]:
                     x[i] = min(x[i] + span[d], hi)
-                elif not side_hi and hi - x[i] <= _SEAM * span[d]:
+                elif not side_hi and hi - x[i] <= grid.seam[d]:
                     x[i] = max(x[i] - span[d], lo)
     pole = free >= 0
     for k in sh.outward(pole):

@@ -91,6 +91,9 @@ _MIN_SAMPLES, _MAX_SAMPLES = 9, 200
 #: Chord midpoints within this fraction of an edge's size from the curve, at most so many
 #: points an edge.
 _CHORD_TOLERANCE, _MAX_EDGE_POINTS = 1e-4, 4000
+#: A direction whose two ends meet within this fraction of the surface's width across it
+#: is closed for the trims.
+_NEAR_CLOSED = 1e-2
 
 
 @dataclass
@@ -391,22 +394,21 @@ def _degenerated(trim: Trim, builder: Any, tol: float, vertex) -> Any:
 
 
 def closed_directions(face, nurbs, patch: BSplinePatch) -> tuple[bool, bool]:
-    """The closed directions: openNURBS's, or where the face has a seam edge (one edge used
-    twice) across the direction whose ends meet within 1e-3 of the surface's size."""
-    closed = [bool(nurbs.IsClosed(0)), bool(nurbs.IsClosed(1))]
-    used = [int(t.EdgeIndex) for loop in face.Loops for t in loop.Trims if t.EdgeIndex >= 0]
-    if any(closed) or len(set(used)) == len(used):
-        return closed[0], closed[1]
+    """The directions in which the face's trims may run along either end of the domain:
+    openNURBS's closed ones, and those whose two ends lie within ``_NEAR_CLOSED`` of the
+    surface's width across the direction of each other (a seam edge used twice, or two
+    edges on the two ends of a surface closed within the file's tolerance, not exactly:
+    an edge there pulls back to either end)."""
     (u0, u1), (v0, v1) = patch.domain
     s = np.linspace(0.0, 1.0, 17)
-    u, v = u0 + (u1 - u0) * s, v0 + (v1 - v0) * s
-    gaps = (
-        float(np.linalg.norm(patch(np.full(17, u0), v) - patch(np.full(17, u1), v), axis=1).max()),
-        float(np.linalg.norm(patch(u, np.full(17, v0)) - patch(u, np.full(17, v1)), axis=1).max()),
-    )
-    d = int(np.argmin(gaps))
-    scale = float(np.ptp(patch.points.reshape(-1, 3), axis=0).max()) or 1.0
-    closed[d] = gaps[d] <= 1e-3 * scale
+    u, v = np.meshgrid(u0 + (u1 - u0) * s, v0 + (v1 - v0) * s, indexing="ij")
+    grid = patch(u.ravel(), v.ravel()).reshape(17, 17, 3)
+    closed = []
+    for d in (0, 1):
+        rows = np.moveaxis(grid, d, 0)  # rows[k]: the curve at the k-th parameter along d
+        gap = float(np.linalg.norm(rows[-1] - rows[0], axis=-1).max())
+        width = float(np.linalg.norm(rows - rows[:1], axis=-1).max())
+        closed.append(bool(nurbs.IsClosed(d)) or gap <= _NEAR_CLOSED * width)
     return closed[0], closed[1]
 
 
