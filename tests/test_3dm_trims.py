@@ -17,7 +17,7 @@ from gshade.io.cad import read_cad
 from gshade.io.cad_mesh import mesh_faces
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.io import cad_3dm, cad_3dm_shape  # noqa: E402
+from gshade.io import cad_3dm, cad_3dm_seams  # noqa: E402
 
 #: Mesher deflection, relative to the part's size.
 DEFLECTION = 1e-3
@@ -153,13 +153,12 @@ def test_nearly_closed_tube_edges_take_their_ends():
     moves to the high end, as the loop's counterclockwise sense asks."""
     eps, r, h = 5e-3, 1.0, 2.0
     brep = _revolved(r3.LineCurve(_point((r, 0, 0)), _point((r, 0, h))), (0, 0, 0), 2 * np.pi - eps)
-    face = brep.Faces[0]
-    nurbs = face.ToNurbsSurface()
+    nurbs = brep.Faces[0].ToNurbsSurface()
     patch = cad_3dm.nurbs_patch(nurbs)
     (u0, u1), (v0, v1) = patch.domain
     assert np.linalg.norm(patch(u0, v0) - patch(u1, v0)) == pytest.approx(r * eps, rel=1e-3)
     assert not nurbs.IsClosed(0)
-    closed = cad_3dm_shape.closed_directions(face, nurbs, patch)
+    closed = cad_3dm_seams.closed_directions(nurbs, patch)
     assert closed == (True, False)
     grid = cad_3dm._Grid(patch, patch.domain, closed)
     s = np.linspace(0.0, 1.0, 9)
@@ -172,6 +171,6 @@ def test_nearly_closed_tube_edges_take_their_ends():
             np.stack([np.full(9, u0), v1 - (v1 - v0) * s], -1),  # down the low end
         ]
     )
-    cad_3dm._fix_ambiguous(grid, uv, np.full(len(uv), -1), True, [9, 9, 9, 9])
+    cad_3dm_seams.fix_ambiguous(grid, uv, np.full(len(uv), -1), True, [9, 9, 9, 9])
     assert np.all(uv[9:18, 0] == u1) and np.all(uv[27:, 0] == u0)
     assert np.all(uv[1:8, 0] > u0) and np.all(uv[1:8, 0] < u1)  # the others stay

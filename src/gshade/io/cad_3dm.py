@@ -10,13 +10,14 @@ edge curves back into the NURBS form's (u, v) by point inversion: starting point
 whose density follows the control net (a grid uniform in (u, v) misses short knot spans where
 the surface moves fast, and then Newton lands on a nearby sheet, the other wall of a mug), a
 damped Gauss-Newton over all the points of a face at once, points left far from the surface
-tried again from their neighbours' parameters along the loop.  Singular trims at poles are the
+tried again from their neighbours' parameters along the loop.  Where the surface meets itself
+(seams of closed or nearly closed directions, poles) each trim is put on the end that its
+loop's sense asks for (:mod:`gshade.io.cad_3dm_seams`).  Singular trims at poles are the
 segment between their neighbours.  The kernel's shape: :mod:`gshade.io.cad_3dm_shape`.
 """
 
 from __future__ import annotations
 
-import itertools
 import os
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,7 @@ from numpy.typing import NDArray
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
+from . import cad_3dm_seams as seams
 from . import cad_3dm_shape as sh
 from .cad import CadFace, CadModel
 from .files import read_bytes
@@ -51,7 +53,6 @@ _UNITS = dict(
 _GRID, _GRID_MAX, _GRID_PIECES = 48, 200, 8
 _NEWTON_STEPS = 40
 _RETRIES, _RETRY_RATIO, _RETRY_FLOOR = 400, 100.0, 1e-5
-_SEAM = 1e-4  # points this close (relative to the span) to a closed direction's seam are on it
 
 
 def read(
@@ -230,7 +231,7 @@ def _brep_face(
         box = patch.domain
     single = face.DuplicateFace(False)
     trimmed = not (single is not None and bool(single.IsSurface))
-    closed = sh.closed_directions(face, nurbs, patch)
+    closed = seams.closed_directions(nurbs, patch)
     loops, tol, trims = _loops(part, face, _Grid(patch, box, closed))
     return CadFace(
         index=index,
@@ -290,7 +291,7 @@ def _loops(
         np.split(free_all, cuts),
         strict=True,
     ):
-        _fix_ambiguous(grid, uv, free, is_outer, [len(t.t) for t in trims if t.edge >= 0])
+        seams.fix_ambiguous(grid, uv, free, is_outer, [len(t.t) for t in trims if t.edge >= 0])
         sh.split_trims(trims, uv)
         ratio = ratio[free < 0]
         tol = max(tol, float(ratio.max()) if ratio.size else 0.0)
@@ -326,7 +327,8 @@ def _grid_parameters(patch: BSplinePatch, d: int, lo: float, hi: float) -> NDArr
 
 
 class _Grid:
-    """A patch sampled over ``box`` (per knot span), for starting points of the inversion."""
+    """A patch sampled over ``box`` (per knot span), for starting points of the inversion;
+    its domain, closed directions and seams' widths (:func:`.cad_3dm_seams.seam_widths`)."""
 
     def __init__(self, patch: BSplinePatch, box, closed: tuple[bool, bool]):
         self.patch = patch
@@ -340,28 +342,7 @@ class _Grid:
         self.uv = np.stack(np.meshgrid(gu, gv, indexing="ij"), -1).reshape(-1, 2)
         self.xyz = patch(self.uv[:, 0], self.uv[:, 1])
         self.scale = float(np.ptp(self.xyz, axis=0).max()) or 1.0
-        self.seam = np.array([self._seam_width(d) for d in (0, 1)])
-
-    def _seam_width(self, d: int) -> float:
-        """How near (in parameter) an end of closed direction ``d`` a point is on its seam:
-        ``_SEAM`` of the span, or twice the parameter distance that the ends' gap spans (a
-        surface closed within the file's tolerance, not exactly: an edge along its seam
-        pulls back a little inside either end)."""
-        width = _SEAM * self.span[d]
-        if not self.closed[d]:
-            return width
-        other = np.linspace(self.lo[1 - d], self.hi[1 - d], 17)
-        ends = []
-        for at in (self.lo[d], self.hi[d]):
-            u, v = (np.full(17, at), other) if d == 0 else (other, np.full(17, at))
-            ends.append(self.patch.derivatives(u, v, 1))
-        gap = np.linalg.norm(ends[1][0, 0] - ends[0][0, 0], axis=-1)
-        step = (1, 0) if d == 0 else (0, 1)
-        speed = np.minimum(*(np.linalg.norm(e[step], axis=-1) for e in ends))
-        ok = speed > 1e-12 * self.scale
-        if ok.any():
-            width = max(width, 2.0 * float((gap[ok] / speed[ok]).max()))
-        return min(width, 0.25 * self.span[d])
+        self.seam = seams.seam_widths(patch, closed)
 
     def wrap(self, uv: NDArray[np.float64]) -> NDArray[np.float64]:
         """Parameters brought into the domain: across the seam of a closed direction, else
@@ -462,59 +443,3 @@ def _pull_back(
     slow_u = np.linalg.norm(d[1, 0], axis=1) < np.linalg.norm(d[0, 1], axis=1)
     free = np.where(singular, np.where(slow_u, 0, 1), -1)
     return uv, res / np.where(singular, 1.0, speed), free
-
-
-def _fix_ambiguous(
-    grid: _Grid,
-    uv: NDArray[np.float64],
-    free: NDArray[np.intp],
-    outer: bool = True,
-    pieces: list[int] | None = None,
-) -> None:
-    """Choose, in place, among parameters that name the same point.
-
-    Across the seam of a closed direction, per trim (``pieces``: the trims' sample counts,
-    in order; default one piece): a trim that runs along the seam (all its points within
-    ``grid.seam`` of it: a seam edge) lies at the end that the loop's sense asks
-    for (an outer loop runs counterclockwise in (u, v): up a u-seam at the high end, down it
-    at the low one; a hole the other way round); any other point near the seam goes to the
-    side of the nearest point of its trim away from the seam (a trim never crosses the seam,
-    and Newton may stop a hair inside either end).  At a pole (``free`` >= 0: the direction
-    along which the surface does not move) the neighbour's parameter."""
-    m = len(uv)
-    span = grid.hi - grid.lo
-    cuts = np.cumsum([0, *(pieces if pieces is not None else [m])])
-    for d in (0, 1):
-        if not grid.closed[d]:
-            continue
-        e, lo, hi = 1 - d, grid.lo[d], grid.hi[d]
-        for a, b in itertools.pairwise(cuts):
-            x = uv[a:b, d]
-            loose = free[a:b] == d  # at a pole: any x names the point
-            seam = (x - lo <= grid.seam[d]) | (hi - x <= grid.seam[d])
-            if not (seam & ~loose).any():
-                continue
-            seam |= loose
-            if seam.all():
-                step = np.diff(uv[a:b, e])
-                if grid.closed[e]:  # across the other seam (a torus's corner): the short way
-                    step = (step + 0.5 * span[e]) % span[e] - 0.5 * span[e]
-                travel = float(step.sum())
-                if abs(travel) <= 1e-9 * span[e]:
-                    continue
-                high = (travel > 0) if (d == 0) == outer else (travel < 0)
-                x[:] = hi if high else lo
-                continue
-            away = np.flatnonzero(~seam)
-            for i in np.flatnonzero(seam & ~loose):
-                j = away[np.argmin(np.abs(away - i))]
-                side_hi = x[j] - lo > hi - x[j]
-                if side_hi and x[i] - lo <= grid.seam[d]:
-                    x[i] = min(x[i] + span[d], hi)
-                elif not side_hi and hi - x[i] <= grid.seam[d]:
-                    x[i] = max(x[i] - span[d], lo)
-    pole = free >= 0
-    for k in sh.outward(pole):
-        j = (k - 1) % m if not pole[(k - 1) % m] else (k + 1) % m
-        uv[k, free[k]] = uv[j, free[k]]
-        pole[k] = False

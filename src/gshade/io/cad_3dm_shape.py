@@ -71,10 +71,8 @@ __all__ = [
     "BrepPart",
     "Trim",
     "build_shape",
-    "closed_directions",
     "edge_points",
     "found",
-    "outward",
     "split_trims",
     "trimmed_box",
 ]
@@ -91,9 +89,6 @@ _MIN_SAMPLES, _MAX_SAMPLES = 9, 200
 #: Chord midpoints within this fraction of an edge's size from the curve, at most so many
 #: points an edge.
 _CHORD_TOLERANCE, _MAX_EDGE_POINTS = 1e-4, 4000
-#: A direction whose two ends meet within this fraction of the surface's width across it
-#: is closed for the trims.
-_NEAR_CLOSED = 1e-2
 
 
 @dataclass
@@ -393,25 +388,6 @@ def _degenerated(trim: Trim, builder: Any, tol: float, vertex) -> Any:
     return e
 
 
-def closed_directions(face, nurbs, patch: BSplinePatch) -> tuple[bool, bool]:
-    """The directions in which the face's trims may run along either end of the domain:
-    openNURBS's closed ones, and those whose two ends lie within ``_NEAR_CLOSED`` of the
-    surface's width across the direction of each other (a seam edge used twice, or two
-    edges on the two ends of a surface closed within the file's tolerance, not exactly:
-    an edge there pulls back to either end)."""
-    (u0, u1), (v0, v1) = patch.domain
-    s = np.linspace(0.0, 1.0, 17)
-    u, v = np.meshgrid(u0 + (u1 - u0) * s, v0 + (v1 - v0) * s, indexing="ij")
-    grid = patch(u.ravel(), v.ravel()).reshape(17, 17, 3)
-    closed = []
-    for d in (0, 1):
-        rows = np.moveaxis(grid, d, 0)  # rows[k]: the curve at the k-th parameter along d
-        gap = float(np.linalg.norm(rows[-1] - rows[0], axis=-1).max())
-        width = float(np.linalg.norm(rows - rows[:1], axis=-1).max())
-        closed.append(bool(nurbs.IsClosed(d)) or gap <= _NEAR_CLOSED * width)
-    return closed[0], closed[1]
-
-
 def split_trims(trims: list[Trim], uv: NDArray[np.float64]) -> None:
     """Hand each trim its piece of the loop's parameters (in its edge's sense); a singular
     trim the segment from the previous trim's end to the next one's start."""
@@ -473,22 +449,6 @@ def found(model) -> str:
     return "only " + ", ".join(
         f"{n} {k} object{'s' * (n > 1)}{rest}" for (k, rest), n in sorted(kinds.items())
     )
-
-
-def outward(mask: NDArray[np.bool_]) -> list[int]:
-    """Indices of ``mask`` ordered so that each comes next to one already resolved (none
-    when every index is in ``mask``)."""
-    m = len(mask)
-    mask = mask.copy()
-    order: list[int] = []
-    while mask.any() and not mask.all():
-        ready = [i for i in np.flatnonzero(mask) if not (mask[(i - 1) % m] and mask[(i + 1) % m])]
-        if not ready:
-            break
-        for i in ready:
-            mask[i] = False
-        order.extend(int(i) for i in ready)
-    return order
 
 
 def trimmed_box(box: Any, loops: list[NDArray[np.float64]]) -> Any:
