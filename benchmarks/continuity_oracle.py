@@ -181,7 +181,8 @@ def show_disagreement(p: dict) -> str:
         f"gap {_f(o.get('gap'))}/{_f(g['gap'])} (tol {_f(o.get('g0_tolerance'))}), "
         f"curvature jump {_f(o.get('curvature_jump'))}/{_f(g['curvature_jump'])}, "
         f"gradient jump {_f(o.get('curvature_gradient_jump'))}/{_f(g['curvature_gradient_jump'])}; "
-        f"LA G1 angle {_f(o.get('la_g1_angle_deg'))} deg; midpoint ({mid})"
+        f"LA G1 angle {_f(o.get('la_g1_angle_deg'))} deg; inward dot {_f(o.get('inward_dot'))}; "
+        f"midpoint ({mid})"
     )
 
 
@@ -266,6 +267,16 @@ def show(result: dict, worst: int) -> str:
     )
     both = sum(p["o"] is not None and p["g"] is not None for p in pairs)
     lines.append(f"  agreement (own vs gshade): {agree}/{both}")
+    opposite = [
+        p["o"] for p in pairs if p["o"] is not None and p["o"].get("normal_angle_deg", 0) > 170
+    ]
+    if opposite:
+        same = sum((o.get("inward_dot") or 0) > 0 for o in opposite)
+        lines.append(
+            f"  edges with opposite outward normals (> 170 deg): {len(opposite)}; the faces on the "
+            f"same side (folds, cusps, faces in contact) {same}, continuing each other "
+            f"(orientations that disagree) {len(opposite) - same}"
+        )
     if result["worst"]:
         lines.append(f"  worst disagreements (up to {worst}):")
         lines.extend(show_disagreement(p) for p in disagreements(pairs, worst))

@@ -379,6 +379,20 @@ class _Side:
             return None
         return self.sign * pr.MeanCurvature(), pr.GaussianCurvature()
 
+    def inward(self, k: int, pu, pv) -> np.ndarray | None:
+        """The unit 3D direction at sample k orthogonal to the edge, in the face's tangent
+        plane, pointing into the face."""
+        J = np.stack([pu, pv], axis=1)
+        along = J @ self.duv[k]
+        a = self.duv[k]
+        into = J @ (self.left * np.array([-a[1], a[0]]))
+        if not np.linalg.norm(along) > 0:
+            return None
+        along = along / np.linalg.norm(along)
+        into = into - np.dot(into, along) * along
+        size = np.linalg.norm(into)
+        return into / size if size > 0 else None
+
     def gradients(self, k: int, step: float, pu, pv) -> tuple[np.ndarray, np.ndarray] | None:
         """The surface gradients of H and K at sample k (3-vectors), by finite differences
         with 3D steps of ``step``: central (4th order) along the pcurve's tangent, one-sided
@@ -557,7 +571,11 @@ def _measure(edge, f1, f2, samples: int, diagonal: float, tol: dict, precision: 
         float(sum(np.linalg.norm(np.diff(np.array(pts), axis=0), axis=1))) if samples > 1 else 0.0
     )
     step = min(max(1e-3 * length, 1e-6 * diagonal), 1e-4 * diagonal) if diagonal > 0 else 1e-6
+    dots = []
     for k, (a, b) in enumerate(geometry):
+        t1, t2 = s1.inward(k, a["pu"], a["pv"]), s2.inward(k, b["pu"], b["pv"])
+        if t1 is not None and t2 is not None:
+            dots.append(float(np.dot(t1, t2)))
         g1 = s1.gradients(k, step, a["pu"], a["pv"])
         g2 = s2.gradients(k, step, b["pu"], b["pv"])
         if g1 is None or g2 is None:
@@ -577,6 +595,10 @@ def _measure(edge, f1, f2, samples: int, diagonal: float, tol: dict, precision: 
         "edge_tolerance": tolerance,
         "g0_tolerance": g0,
         "undefined_samples": undefined,
+        # the faces' directions into themselves across the edge: -1 where they continue
+        # each other (a smooth junction, or faces whose orientations disagree when the
+        # normals are opposite), +1 where they lie on the same side (a fold or cusp)
+        "inward_dot": float(np.mean(dots)) if dots else None,
         "samples": samples,
         "length": length,
     }

@@ -187,6 +187,7 @@ def test_the_oracle_finds_the_fillets_jump_one_over_r(parts):
         assert (r["class"], r["la_class"]) == ("G1", "G1")
         assert r["normal_angle_deg"] < 1e-9
         assert r["curvature_jump"] == pytest.approx(1.0 / FILLET_RADIUS, rel=1e-9)
+        assert r["inward_dot"] == pytest.approx(-1.0)  # the faces continue each other
     o = _oracle(parts["boss"])
     tangent = [r for r in o["edges"] if r["class"] != "G0"]
     assert len(tangent) == 2  # plane - torus, torus - cylinder
@@ -216,6 +217,7 @@ def test_the_oracle_finds_the_fold(parts):
     assert cusp["class"] == "G0"
     assert cusp["normal_angle_deg"] == pytest.approx(180.0, abs=1e-9)
     assert cusp["la_class"] == "G1" and cusp["la_g1_angle_deg"] < 1e-9
+    assert cusp["inward_dot"] == pytest.approx(1.0)  # both faces on the same side: a cusp
     # the side x = 1 meets the upper face y = x² (slope 2) at 90 + atan(2) degrees
     side = [
         r
