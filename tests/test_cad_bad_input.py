@@ -163,7 +163,7 @@ def test_bad_cad_file_on_the_command_line(tmp_path, name):
     ("make", "words"),
     [
         (bow_tie, "(it had 27: faces split"),
-        (off_its_surface, "face 26: valid now (was: edge 0 lies 1 off the face's surface"),
+        (off_its_surface, "face 26: healed, valid now (was: edge 0 lies 1 off the face's surface"),
     ],
 )
 def test_invalid_faces_are_healed_and_said(tmp_path, make, words):
@@ -177,8 +177,8 @@ def test_invalid_faces_are_healed_and_said(tmp_path, make, words):
     path = write_shape(compound, tmp_path / "part.brep")
     model = read_cad(path)
     assert model.left_out == []
-    assert len(model.healed) == 1 and "\n" not in model.healed[0]
-    assert words in model.healed[0], model.healed
+    assert len(model.notes) == 1 and "\n" not in model.notes[0]
+    assert words in model.notes[0], model.notes
 
 
 def test_a_face_healing_cannot_repair_is_left_out(tmp_path):

@@ -112,9 +112,9 @@ def test_the_healing_repairs_missing_curves_and_says_so(parts):
     area of the surface within 0.5 %."""
     model = read_cad(parts["healed"], isolated=False)
     assert model.left_out == []
-    assert model.healed == [
-        "face 26: valid now (was: edge 0 has no curve on the face's surface)"
-    ], model.healed
+    assert model.notes == [
+        "face 26: healed, valid now (was: edge 0 has no curve on the face's surface)"
+    ], model.notes
     assert [f.index for f in model.faces] == list(range(27))
     mesh = mesh_faces(model, 0.01, faces=[26])
     assert mesh.left_out == [] and len(mesh.triangles) > 0
@@ -156,7 +156,7 @@ def test_a_face_the_mesher_gives_no_triangles_is_left_out(tmp_path):
     face, builder = TopoDS_Face(), BRep_Builder()
     builder.MakeFace(face, Geom_Plane(gp_Pln()), 1e-7)
     model = read_cad(write_shape(with_box(face), tmp_path / "plane.brep"))
-    assert model.healed == ["read unsewn: sewing kept 0 of the 27 faces"]
+    assert model.notes == ["read unsewn: sewing kept 0 of the 27 faces"]
     mesh = mesh_faces(model, 0.05)
     assert [f.line() for f in mesh.left_out] == [
         "face 26 left out: the kernel's mesher gave no triangles "
@@ -234,7 +234,7 @@ def test_healing_a_valid_model_changes_nothing(tmp_path):
     """A valid model is read as it is: no healing, the kernel's faces in their order."""
     path = write_shape(filleted_box(), tmp_path / "box.brep")
     model = read_cad(path, isolated=False)
-    assert model.healed == [] and model.left_out == []
+    assert model.notes == [] and model.left_out == []
     assert len(shape_faces(model.shape)) == 26 == len(model.faces)
 
 

@@ -100,7 +100,7 @@ def _cad_notes(scene) -> tuple[list[str], list[str]]:
     from ..rendering.pipeline import left_out_faces
 
     models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
-    notes = [f"{path}: healed: {line}" for path, model in models.items() for line in model.healed]
+    notes = [f"{path}: {line}" for path, model in models.items() for line in model.notes]
     return notes, [f"{path}: {face.line()}" for path, face in left_out_faces(scene)]
 
 

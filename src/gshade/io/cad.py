@@ -141,12 +141,16 @@ class CadModel:
     ``faces`` are the faces gshade renders, in the file's order, each with its number
     (``CadFace.index``); ``left_out`` the faces it cannot use (still invalid after the
     kernel's healing, or failing to convert or evaluate: :class:`LeftOutFace`), and
-    ``healed`` what the kernel's healing changed, a line each.  ``shape`` is the kernel's
+    ``notes`` what the reader changed or passed over, a line each (the kernel's healing,
+    sewing undone, objects hidden in Rhino).  ``shape`` is the kernel's
     shape, whose faces are all of them, face ``i`` the ``i``-th (STEP, IGES, BREP: as read and
     healed, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
     rebuilt from the file's B-rep), or the :class:`~gshade.io.cad_process.KernelProcess`
-    that holds it (a model read ``isolated``).  ``precision`` is the distance accuracy the file
-    declares (a STEP file's global uncertainty, model units; 0 where none is declared).
+    that holds it (a model read ``isolated``); ``kernel_faces`` the numbers of the shape's
+    faces in its order where it lacks some (a .3dm face the kernel could not build), None
+    where face ``i`` is its ``i``-th (:meth:`kernel_numbers`).  ``precision`` is the distance
+    accuracy the file declares (a STEP file's global uncertainty, model units; 0 where none is
+    declared).
     """
 
     path: Path
@@ -156,7 +160,14 @@ class CadModel:
     shape: object | None = None
     precision: float = 0.0
     left_out: list[LeftOutFace] = field(default_factory=list)
-    healed: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    kernel_faces: tuple[int, ...] | None = None
+
+    def kernel_numbers(self) -> tuple[int, ...]:
+        """The face numbers of the kernel shape's faces, in its order."""
+        if self.kernel_faces is not None:
+            return self.kernel_faces
+        return tuple(range(self.face_count))
 
     @property
     def face_count(self) -> int:

@@ -31,7 +31,7 @@ from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from . import cad_3dm_seams as seams
 from . import cad_3dm_shape as sh
-from .cad import CadFace, CadModel
+from .cad import CadFace, CadModel, LeftOutFace
 from .files import read_bytes
 
 __all__ = ["read"]
@@ -87,38 +87,128 @@ def read(
     if model is None:
         raise GshadeError(f"{path}: openNURBS cannot read the file (damaged or truncated?)")
     faces: list[CadFace] = []
+    left_out: list[LeftOutFace] = []
     parts: list[sh.BrepPart | int] = []
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
+    number = 0  # the next face's number
+    hidden = [0, 0]  # objects and faces Rhino does not draw
+    layers_on = _layers_on(model)
     for obj in model.Objects:
         geom: Any = obj.Geometry if obj is not None else None
-        before = len(faces)
         if isinstance(geom, rhino3dm.Extrusion):
             geom = geom.ToBrep(False)
+        if isinstance(geom, (rhino3dm.Brep, rhino3dm.Surface)) and not _drawn(obj, layers_on):
+            hidden[0] += 1
+            hidden[1] += len(geom.Faces) if isinstance(geom, rhino3dm.Brep) else 1
+            continue
+        before = len(faces)
         if isinstance(geom, rhino3dm.Brep):
             part = sh.BrepPart(geom, {})
             for face in list(geom.Faces):  # type: ignore[call-overload]
                 if face is not None:
-                    cad, trims = _brep_face(path, part, face, len(faces))
-                    part.faces.append((len(faces), trims))
-                    faces.append(cad)
+                    try:
+                        cad, trims = _brep_face(path, part, face, number)
+                        part.faces.append((number, trims))
+                        faces.append(cad)
+                    except Exception as exc:  # a bad face costs that face
+                        left_out.append(LeftOutFace(number, _said(exc, path), _READING))
+                    number += 1
             parts.append(part)
         elif isinstance(geom, rhino3dm.Surface):
             nurbs = geom.ToNurbsSurface()
             if nurbs is not None:
-                parts.append(len(faces))
-                faces.append(_surface_face(path, geom, nurbs, len(faces)))
+                try:
+                    faces.append(_surface_face(path, geom, nurbs, number))
+                    parts.append(number)
+                except Exception as exc:
+                    left_out.append(LeftOutFace(number, _said(exc, path), _READING))
+                number += 1
         if geom is not None and len(faces) > before:
             box = geom.GetBoundingBox()
             if box is not None and box.IsValid:
                 lo = np.minimum(lo, _xyz(box.Min))
                 hi = np.maximum(hi, _xyz(box.Max))
+    notes = []
+    if hidden[0]:
+        notes.append(
+            f"{hidden[0]} objects ({hidden[1]} faces) that Rhino does not draw (hidden, on "
+            "layers that are off, in block definitions or on layout pages) passed over"
+        )
     if not faces:
+        if left_out:
+            raise GshadeError(
+                f"{path}: no usable face ({len(left_out)} left out; {left_out[0].line()})"
+            )
         raise GshadeError(
             f"{path}: expected surfaces (Breps, extrusions, NURBS), found {sh.found(model)}"
+            + (f" ({notes[0]})" if notes else "")
         )
-    shape = sh.build_shape(path, faces, parts)
-    return CadModel(path=path, faces=faces, unit=_unit(model), bounds=(lo, hi), shape=shape)
+    shape, built, unbuilt = sh.build_shape(path, faces, parts)
+    if unbuilt:
+        lost = {f.index for f in unbuilt}
+        faces = [f for f in faces if f.index not in lost]
+        left_out = sorted([*left_out, *unbuilt], key=lambda f: f.index)
+        if not faces:
+            raise GshadeError(
+                f"{path}: no usable face ({len(left_out)} left out; {left_out[0].line()})"
+            )
+    return CadModel(
+        path=path,
+        faces=faces,
+        unit=_unit(model),
+        bounds=(lo, hi),
+        shape=shape,
+        left_out=left_out,
+        notes=notes,
+        kernel_faces=tuple(built),
+    )
+
+
+#: What was tried on a face the reader leaves out.
+_READING = "reading its NURBS surface and recovering its trims"
+
+
+def _said(exc: BaseException, path: Path) -> str:
+    """A reader's error about one face in a few words, without the file's name."""
+    if isinstance(exc, GshadeError):
+        text = str(exc)
+        text = text.removeprefix(f"{path}: ")
+        return text.split(": ", 1)[1] if text.startswith("face ") and ": " in text else text
+    first = (str(exc).strip().splitlines() or [""])[0][:200]
+    return f"the reader failed ({type(exc).__name__}{': ' * bool(first)}{first})"
+
+
+def _drawn(obj: Any, layers_on: list[bool]) -> bool:
+    """Whether Rhino draws the object: visible (not hidden), not part of a block's
+    definition (drawn only through its instances), not on a layout page, on a layer that is
+    on (``layers_on``: :func:`_layers_on`)."""
+    attributes = obj.Attributes
+    index = attributes.LayerIndex
+    return bool(
+        attributes.Visible
+        and attributes.Mode
+        not in (rhino3dm.ObjectMode.Hidden, rhino3dm.ObjectMode.InstanceDefinitionObject)
+        and not attributes.IsInstanceDefinitionObject
+        and attributes.ActiveSpace != rhino3dm.ActiveSpace.PageSpace
+        and (not 0 <= index < len(layers_on) or layers_on[index])
+    )
+
+
+def _layers_on(model: Any) -> list[bool]:
+    """Per layer, whether it and all its parent layers are on."""
+    layers = list(model.Layers)
+    place = {str(layer.Id): k for k, layer in enumerate(layers)}
+    on: list[bool] = []
+    for layer in layers:
+        seen, current, visible = set(), layer, True
+        while current is not None and str(current.Id) not in seen:
+            seen.add(str(current.Id))
+            visible &= bool(current.Visible)
+            parent = place.get(str(current.ParentLayerId))
+            current = layers[parent] if parent is not None else None
+        on.append(visible)
+    return on
 
 
 def _unit(model) -> str:

@@ -65,7 +65,7 @@ from OCP.TopoDS import (
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..runtime.native import captured_output
-from .cad import CadFace
+from .cad import CadFace, LeftOutFace
 
 __all__ = [
     "BrepPart",
@@ -127,7 +127,9 @@ class BrepPart:
     faces: list[tuple[int, list[list[Trim]]]] = field(default_factory=list)
 
 
-def build_shape(path: Path, faces: list[CadFace], parts: list[BrepPart | int]) -> Any:
+def build_shape(
+    path: Path, faces: list[CadFace], parts: list[BrepPart | int]
+) -> tuple[Any, list[int], list[LeftOutFace]]:
     """The model's faces as one compound of shells (a Brep each) and free faces.
 
     Parameters
@@ -135,14 +137,20 @@ def build_shape(path: Path, faces: list[CadFace], parts: list[BrepPart | int]) -
     path : Path
         The file, for messages.
     faces : list of CadFace
-        The model's faces; the shape's faces are these, in this order.
+        The model's faces, in the order of their numbers.
     parts : list
-        In the file's order: a :class:`BrepPart`, or the index of a free surface's face.
+        In the file's order: a :class:`BrepPart`, or the number of a free surface's face.
+
+    Returns
+    -------
+    shape, built, left_out
+        The compound; the numbers of its faces, in its order; the faces the kernel could not
+        build (:class:`gshade.io.cad.LeftOutFace`), left out of it.
 
     Raises
     ------
     GshadeError
-        One line naming the file (and the face) where the kernel fails.
+        One line naming the file where the kernel fails on the whole.
     """
     lo = np.min([f.patch.points.reshape(-1, 3).min(axis=0) for f in faces], axis=0)
     hi = np.max([f.patch.points.reshape(-1, 3).max(axis=0) for f in faces], axis=0)
@@ -150,18 +158,29 @@ def build_shape(path: Path, faces: list[CadFace], parts: list[BrepPart | int]) -
     builder = BRep_Builder()
     compound = TopoDS_Compound()
     builder.MakeCompound(compound)
+    by_number = {face.index: face for face in faces}
     built: list[Any] = []
+    numbers: list[int] = []
+    left_out: list[LeftOutFace] = []
     for part in parts:
         if isinstance(part, int):
-            face = _free_face(path, faces[part], tol)
+            try:
+                face = _free_face(by_number[part], tol)
+            except Exception as exc:
+                left_out.append(LeftOutFace(part, f"the kernel failed ({_why(exc)})", _BUILDING))
+                continue
             builder.Add(compound, face)
             built.append(face)
+            numbers.append(part)
             continue
         shell = TopoDS_Shell()
         builder.MakeShell(shell)
-        for face in _brep_faces(path, part, faces, builder, tol):
+        made, lost = _brep_faces(part, by_number, builder, tol)
+        for number, face in made:
             builder.Add(shell, face)
             built.append(face)
+            numbers.append(number)
+        left_out.extend(lost)
         builder.Add(compound, shell)
     try:
         with captured_output():
@@ -172,9 +191,13 @@ def build_shape(path: Path, faces: list[CadFace], parts: list[BrepPart | int]) -
     from .cad_occt import _faces
 
     order = _faces(compound)
-    if len(order) != len(faces) or not all(a.IsSame(b) for a, b in zip(order, built, strict=True)):
+    if len(order) != len(built) or not all(a.IsSame(b) for a, b in zip(order, built, strict=True)):
         raise GshadeError(f"{path}: the kernel's shape lost the order of the faces")
-    return compound
+    return compound, numbers, left_out
+
+
+#: What was tried on a face the kernel could not build.
+_BUILDING = "building it on the kernel from its surface and trims"
 
 
 def _why(exc: BaseException) -> str:
@@ -212,14 +235,10 @@ def surface(patch: BSplinePatch) -> Any:
     return Geom_BSplineSurface(poles, weights, ku, kv, mu, mv, p, q, False, False)
 
 
-def _free_face(path: Path, face: CadFace, tol: float) -> Any:
+def _free_face(face: CadFace, tol: float) -> Any:
     """An untrimmed face over the patch's whole domain."""
     (u0, u1), (v0, v1) = face.patch.domain
-    try:
-        maker = BRepBuilderAPI_MakeFace(surface(face.patch), u0, u1, v0, v1, tol)
-        out = maker.Face()
-    except Exception as exc:
-        raise GshadeError(f"{path}: face {face.index}: the kernel failed ({_why(exc)})") from None
+    out = BRepBuilderAPI_MakeFace(surface(face.patch), u0, u1, v0, v1, tol).Face()
     return out.Reversed() if face.reversed else out
 
 
@@ -288,9 +307,10 @@ def _pcurve(t: NDArray[np.float64], uv: NDArray[np.float64]) -> Any:
 
 
 def _brep_faces(
-    path: Path, part: BrepPart, faces: list[CadFace], builder: Any, tol: float
-) -> list[Any]:
-    """The Brep's faces, sharing their vertices and edges."""
+    part: BrepPart, faces: dict[int, CadFace], builder: Any, tol: float
+) -> tuple[list[tuple[int, Any]], list[LeftOutFace]]:
+    """The Brep's faces, sharing their vertices and edges, (number, face) each; and those
+    the kernel could not build, left out."""
     brep = part.brep
     match = _CURVE_MATCH / _START_TOLERANCE * tol
     vertices: dict[int, Any] = {}
@@ -321,18 +341,18 @@ def _brep_faces(
         return edges[k]
 
     out = []
+    left_out = []
     for index, loops in part.faces:
-        cad = faces[index]
         try:
-            out.append(_face(cad, loops, builder, tol, edge, vertex))
+            out.append((index, _face(faces[index], loops, builder, tol, edge, vertex)))
         except GshadeError as exc:
-            raise GshadeError(f"{path}: face {index}: {exc}") from None
+            left_out.append(LeftOutFace(index, str(exc), _BUILDING))
         except Exception as exc:
-            raise GshadeError(f"{path}: face {index}: the kernel failed ({_why(exc)})") from None
+            left_out.append(LeftOutFace(index, f"the kernel failed ({_why(exc)})", _BUILDING))
     for k, e in edges.items():
         builder.SameParameter(e, False)
         builder.Range(e, *ranges[k])
-    return out
+    return out, left_out
 
 
 def _face(cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex) -> Any:

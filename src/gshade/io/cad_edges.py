@@ -109,10 +109,11 @@ def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any
 
     face_map = ShapeMap()
     TopExp.MapShapes_s(model.shape, FACE, face_map)
+    numbers = model.kernel_numbers()
     number: dict[int, int] = {}  # the map's index -> the model's face number (first seen)
-    explorer, position = TopExp_Explorer(model.shape, FACE), 0  # the faces' numbers
-    while explorer.More():
-        number.setdefault(face_map.FindIndex(explorer.Current()), position)
+    explorer, position = TopExp_Explorer(model.shape, FACE), 0
+    while explorer.More() and position < len(numbers):
+        number.setdefault(face_map.FindIndex(explorer.Current()), numbers[position])
         explorer.Next()
         position += 1
     edge_faces = EdgeFaces()

@@ -53,7 +53,7 @@ class Healing:
     invalid : dict of int to str
         The faces still invalid, by number, with what is wrong with each.
     changes : list of str
-        What the healing changed, one line each (``face N: valid now (was: ...)``).
+        What the healing changed, one line each (``face N: healed, valid now (was: ...)``).
     """
 
     shape: TopoDS_Shape
@@ -125,7 +125,9 @@ def _changes(before: dict[int, str], after: dict[int, str], count: int, faces: l
             f"faces valid; the model has {len(faces)} faces now (it had {count}: faces split "
             "or removed, numbered anew)"
         ]
-    return [f"face {i}: valid now (was: {why})" for i, why in before.items() if i not in after]
+    return [
+        f"face {i}: healed, valid now (was: {why})" for i, why in before.items() if i not in after
+    ]
 
 
 def why_invalid(face: Any) -> str:

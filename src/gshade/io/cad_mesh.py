@@ -109,16 +109,18 @@ def mesh_faces(
     if not (np.isfinite(angle) and angle > 0):
         raise GshadeError(f"angle: expected a positive number of radians, got {angle!r}")
     shape: Any = model.shape
-    kernel_faces = _faces(shape)
-    if len(kernel_faces) != model.face_count:
+    numbers = model.kernel_numbers()
+    in_shape = _faces(shape)
+    if len(in_shape) != len(numbers):
         raise GshadeError(
-            f"{path}: the kernel's shape has {len(kernel_faces)} faces for {model.face_count}"
+            f"{path}: the kernel's shape has {len(in_shape)} faces for {len(numbers)}"
         )
-    usable = {face.index: face for face in model.faces}
+    kernel_faces = dict(zip(numbers, in_shape, strict=True))
+    usable = {face.index: face for face in model.faces if face.index in kernel_faces}
     asked = list(usable) if faces is None else [int(i) for i in faces]
     for i in asked:
-        if not 0 <= i < len(kernel_faces):
-            raise GshadeError(f"{path}: no face {i} (the model has {len(kernel_faces)})")
+        if not 0 <= i < model.face_count:
+            raise GshadeError(f"{path}: no face {i} (the model has {model.face_count})")
     left_out: dict[int, LeftOutFace | None] = {
         i: model.reason_left_out(i) for i in asked if i not in usable
     }

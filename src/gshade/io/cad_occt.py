@@ -141,7 +141,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         shape=converted,
         precision=precision,
         left_out=[left_out[i] for i in sorted(left_out)],
-        healed=healing.changes,
+        notes=healing.changes,
     )
 
 

@@ -142,11 +142,11 @@ def render(scene, **overrides) -> RenderedImage:
             ]
         )
     models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
-    healed = [(path, line) for path, model in models.items() for line in model.healed]
-    if healed:
-        metadata["healed_faces"] = json.dumps([f"{path.name}: {line}" for path, line in healed])
+    said = [(path, line) for path, model in models.items() for line in model.notes]
+    if said:
+        metadata["cad_notes"] = json.dumps([f"{path.name}: {line}" for path, line in said])
     warnings = [f"{path}: {face.line()}" for path, face in lost]
-    notes = [f"{path}: healed: {line}" for path, line in healed]
+    notes = [f"{path}: {line}" for path, line in said]
     return RenderedImage(channels, metadata, shown, lap.timings, warnings, notes)
 
 
