@@ -1,20 +1,22 @@
 """Continuity at patch junctions, measured (Kiciak, ch. 2–3): ``gshade continuity``.
 
 Every pair of patches sharing a boundary (in either orientation, within the G0 tolerance)
-is sampled along it, and at each sample both patches' exact derivatives give:
+is sampled along it, and at each sample both patches' exact derivatives give the four
+measures of :mod:`gshade.analysis.junction_measures`:
 
 - ``gap``: |p_i - p_j| (G0);
-- ``normal_angle_deg``: the angle between the normals, orientation aside (G1);
-- ``curvature_jump``: the largest jump of the normal curvature over tangent directions
-  (the shape operators compared, like OpenCASCADE's G2 measure) (G2);
+- ``normal_angle_deg``: the angle between the oriented normals, 0 to 180 degrees (G1;
+  patch j oriented like patch i across the junction, :func:`flips_orientation`: a cusp or
+  a fold is 180 degrees, G0);
+- ``curvature_jump``: the largest jump of the normal curvature over tangent directions,
+  exactly: the largest |eigenvalue| of the difference of the shape operators (G2);
 - ``curvature_gradient_jump``: the largest jump of the surface gradients of the mean and
-  Gaussian curvature (G3).
+  Gaussian curvature (G3);
 
-The curvature formulas are :mod:`gshade.geometry.differential`'s (normal curvature) and the
-shape functions' ``mean`` and ``gaussian`` (their exact surface gradients).
+each with its estimated round-off and the sample where it is largest (``max_at``).
 
 A junction's class is the highest of G0, G1, G2, G3 whose measures all lie below their
-tolerances (``none`` if even the gap is larger).
+tolerances, each at least the measure's round-off (``none`` if even the gap is larger).
 """
 
 from __future__ import annotations
@@ -26,11 +28,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError, show
-from ..geometry import Patch, regularised_derivatives, unit_normal
-from ..geometry.differential import IRREGULAR_TOL, _cross, _dot, normal_curvature
+from ..geometry import Patch
 from ..geometry.patch import unit_to_domain
 from ..limits import MAX_CONTINUITY_SAMPLES
-from ..shape import evaluate
+from .junction_measures import (
+    MEASURES,
+    SideGeometry,
+    compare_sides,
+    junction_fields,
+    side_derivatives,
+    side_geometry,
+)
 
 if TYPE_CHECKING:
     from .knot_lines import KnotLine
@@ -91,12 +99,20 @@ class Junction:
     samples: int
     edge: int | None = None
     knot: KnotLine | None = None
+    round_off: dict | None = None
+    max_at: dict | None = None
 
     def as_dict(self) -> dict:
+        """The JSON row: the fields above (``class`` for ``cls``; ``round_off``, each
+        measure's estimated round-off, and ``max_at``, where each measure is largest, when
+        measured: :func:`~gshade.analysis.junction_measures.junction_fields`)."""
         d = asdict(self)
         d["class"] = d.pop("cls")
         d["patches"] = list(self.patches)
         d.pop("knot")
+        for key in ("round_off", "max_at"):
+            if d[key] is None:
+                d.pop(key)
         if self.knot is not None:
             for key in ("sides", "reversed", "edge"):
                 d.pop(key)
@@ -247,71 +263,35 @@ def junction_between(
     return i, side_i, j, side_j, flipped < same
 
 
-def _geometry(patch: Patch, side: str, t: NDArray):
-    return geometry_at(patch, *_side_params(patch, side, t))
+#: The direction each side's loop runs along it, counter-clockwise in the (u, v) domain,
+#: relative to its parameter t: +1 where t runs with the loop (v0: +u, u1: +v), -1 against.
+_LOOP = {"v0": 1, "u1": 1, "v1": -1, "u0": -1}
 
 
-def geometry_at(patch: Patch, u: NDArray, v: NDArray):
-    """Derivatives to order 3 (regularised where the patch is irregular), unit normals, and
-    the mean and Gaussian curvatures (with their surface gradients) at (u, v)."""
-    return geometry_of(regularised_derivatives(patch, u, v, 3).d)
+def flips_orientation(side_i: str, side_j: str, reversed_: bool) -> bool:
+    """Whether patch j's p_u x p_v is turned to orient it like patch i across a junction.
+
+    Two patches are oriented alike when their counter-clockwise boundary loops run along the
+    shared boundary in opposite directions (as the faces of an oriented surface do); the
+    junction's ``reversed_`` says the two sides' parameters run opposite.  So j is turned
+    where loop(i) x loop(j) x (-1 if reversed_) = +1.  The rule follows the patches, not their
+    parametrisation: a patch reparametrised (u -> 1 - u) turns both its normal and its loop,
+    and a smooth surface keeps its angles near 0 while a cusp or fold shows 180 degrees.
+    """
+    return _LOOP[side_i] * _LOOP[side_j] * (-1 if reversed_ else 1) == 1
 
 
-def geometry_of(d: NDArray):
-    """:func:`geometry_at` from the derivatives d (4, 4, ..., 3) themselves."""
-    n = unit_normal(d).n
-    mean = evaluate("mean", d)
-    gauss = evaluate("gaussian", d)
-    return d, n, mean, gauss
+def _side_geometry(patches, sides: list[tuple[int, str]], t: NDArray) -> SideGeometry:
+    """Side geometry (:func:`~gshade.analysis.junction_measures.side_geometry`, p_u x p_v
+    normals) of many (patch, side)s at ``t``: arrays (4, 4, S, n, 3), (S, n, 3), ...
 
-
-def measure(patches, junction, samples: int = 32, directions: int = 8) -> dict:
-    """The four measures along one junction."""
-    i, si, j, sj, rev = junction
-    t = (np.arange(samples) + 0.5) / samples
-    di, ni, hi, ki = _geometry(patches[i], si, t)
-    dj, nj, hj, kj = _geometry(patches[j], sj, t[::-1] if rev else t)
-    gap = float(np.linalg.norm(di[0, 0] - dj[0, 0], axis=-1).max())
-    # atan2 of |cross| and |dot|: accurate for tiny angles (arccos is not)
-    angle = float(
-        np.degrees(
-            np.arctan2(np.linalg.norm(np.cross(ni, nj), axis=-1), np.abs(np.sum(ni * nj, -1)))
-        ).max()
-    )
-    sign = np.sign(np.sum(ni * nj, -1))[:, None]  # curvatures w.r.t. one orientation
-    # tangent frame: along the boundary, and across it in patch i's tangent plane
-    along = di[1, 0] if si in ("v0", "v1") else di[0, 1]
-    along = along / np.linalg.norm(along, axis=-1, keepdims=True)
-    across = np.cross(ni, along)
-    jump = 0.0
-    for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
-        e = np.cos(theta) * along + np.sin(theta) * across
-        k_i = normal_curvature(di, ni, e)
-        k_j = normal_curvature(dj, nj, e) * sign[:, 0]
-        jump = max(jump, float(np.abs(k_i - k_j).max()))
-    grad_h = np.linalg.norm(hi.gradient - sign * hj.gradient, axis=-1)
-    grad_k = np.linalg.norm(ki.gradient - kj.gradient, axis=-1)
-    gradient_jump = float(max(grad_h.max(), grad_k.max()))
-    return {
-        "gap": gap,
-        "normal_angle_deg": angle,
-        "curvature_jump": jump,
-        "curvature_gradient_jump": gradient_jump,
-    }
-
-
-def _side_geometry(patches, sides: list[tuple[int, str]], t: NDArray):
-    """:func:`_geometry` of many (patch, side)s: d (4, 4, S, n, 3), normals, and the mean
-    and Gaussian curvatures' surface gradients (S, n, 3), equal to it point by point.
-
-    Each patch is evaluated once for all its sides.  A side takes the batched path only
-    where :func:`_geometry` would do no more than that: every point regular at the side's
-    own derivative scale (no regularisation, plain normals), and every point clearly valid
-    at the batch's scale in ``evaluate`` (whose threshold comes from the largest first
-    derivative of what it is given).  Other sides are measured by :func:`_geometry` itself.
+    Each patch is evaluated once for all its sides, in its own scaled parametrisation
+    (:func:`~gshade.analysis.junction_measures.side_derivatives`), and all sides' normals and
+    curvatures in one batch.
     """
     count, n = len(sides), len(t)
     d = np.empty((4, 4, count, n, 3))
+    error = np.empty((4, 4, count, n))
     by_patch: dict[int, list[int]] = {}
     for k, (i, _) in enumerate(sides):
         by_patch.setdefault(i, []).append(k)
@@ -319,38 +299,23 @@ def _side_geometry(patches, sides: list[tuple[int, str]], t: NDArray):
         params = [_side_params(patches[i], sides[k][1], t) for k in ks]
         u = np.concatenate([q[0] for q in params])
         v = np.concatenate([q[1] for q in params])
-        d[:, :, ks] = np.asarray(patches[i].derivatives(u, v, 3)).reshape(4, 4, len(ks), n, 3)
-    with np.errstate(all="ignore"):
-        pu, pv = d[1, 0], d[0, 1]
-        N = _cross(pu, pv)
-        W2 = _dot(N, N)
-        length = np.sqrt(W2)
-        scale = np.maximum(np.abs(pu).max(axis=(1, 2)), np.abs(pv).max(axis=(1, 2)))
-        scale = np.where(scale > 0, scale, 1.0)
-        fast = np.isfinite(d).all(axis=(0, 1, 3, 4))
-        fast &= (length > IRREGULAR_TOL * scale[:, None] ** 2).all(axis=1)
-        if fast.any():
-            limit = IRREGULAR_TOL * scale[fast].max() ** 2
-            fast &= (W2 > 1.01 * limit * limit).all(axis=1)
-    normal = N / np.where(fast[:, None], length, 1.0)[..., None]
-    mean, gauss = np.empty((count, n, 3)), np.empty((count, n, 3))
-    if fast.any():
-        mean[fast] = evaluate("mean", d[:, :, fast]).gradient
-        gauss[fast] = evaluate("gaussian", d[:, :, fast]).gradient
-    for k in np.flatnonzero(~fast).tolist():
-        i, side = sides[k]
-        dk, nk, hk, kk = _geometry(patches[i], side, t)
-        d[:, :, k], normal[k], mean[k], gauss[k] = dk, nk, hk.gradient, kk.gradient
-    return d, normal, mean, gauss
+        dk, ek, _ = side_derivatives(patches[i], u, v, 3)
+        d[:, :, ks] = dk.reshape(4, 4, len(ks), n, 3)
+        error[:, :, ks] = ek.reshape(4, 4, len(ks), n)
+    return side_geometry(d, error)
 
 
-def _pick(a: NDArray, b: NDArray) -> NDArray:
-    """Python's max(a, b) element-wise: b only where it is larger (a NaN b is passed over)."""
-    return np.where(b > a, b, a)
+def measure(patches, junction, samples: int = 32) -> dict:
+    """The measures of one junction (:func:`measure_all` of it alone)."""
+    return measure_all(patches, [junction], samples)[0]
 
 
-def measure_all(patches, junctions, samples: int = 32, directions: int = 8) -> list[dict]:
-    """:func:`measure` of every junction, batched (equal to it up to round-off)."""
+def measure_all(patches, junctions, samples: int = 32) -> list[dict]:
+    """The four measures of every junction (i, side_i, j, side_j, reversed), batched, each
+    a dict of the measures, ``round_off`` and ``max_at``
+    (:func:`~gshade.analysis.junction_measures.junction_fields`; ``t`` along side i, as
+    sampled: (k + 1/2) / samples, ``uv`` patch i's).  Patch j is oriented like patch i
+    across the junction (:func:`flips_orientation`)."""
     out: list[dict] = []
     chunk = max(1, 2**15 // samples)  # junctions at a time: bounded temporaries
     t = (np.arange(samples) + 0.5) / samples
@@ -360,77 +325,43 @@ def measure_all(patches, junctions, samples: int = 32, directions: int = 8) -> l
         for i, si, j, sj, _ in part:
             index.setdefault((i, si), len(index))
             index.setdefault((j, sj), len(index))
-        d, n, h, k = _side_geometry(patches, list(index), t)
+        g = _side_geometry(patches, list(index), t)
         a = np.array([index[(i, si)] for i, si, *_ in part])
         b = np.array([index[(j, sj)] for _, _, j, sj, _ in part])
         rev = np.array([r for *_, r in part], dtype=bool)
         flip = np.where(rev[:, None], np.arange(samples)[::-1], np.arange(samples))
-        di, ni, hi, ki = d[:, :, a], n[a], h[a], k[a]
+        turn = np.array([-1.0 if flips_orientation(si, sj, r) else 1.0 for _, si, _, sj, r in part])
         bb = b[:, None]
-        dj, nj, hj, kj = d[:, :, bb, flip], n[bb, flip], h[bb, flip], k[bb, flip]
-        across_v = np.array([si in ("v0", "v1") for _, si, *_ in part])[:, None, None]
-        along = np.where(across_v, di[1, 0], di[0, 1])
-        gap, angle, jump, gradient_jump = compare_sides(
-            (di, ni, hi, ki), (dj, nj, hj, kj), along, directions
+        side_i = SideGeometry(
+            g.d[:, :, a], g.n[a], g.mean_gradient[a], g.gauss_gradient[a], g.round_off[a]
         )
+        side_j = SideGeometry(
+            g.d[:, :, bb, flip],
+            g.n[bb, flip] * turn[:, None, None],
+            g.mean_gradient[bb, flip] * turn[:, None, None],
+            g.gauss_gradient[bb, flip],
+            g.round_off[bb, flip],
+        )
+        across_v = np.array([si in ("v0", "v1") for _, si, *_ in part])[:, None, None]
+        along = np.where(across_v, side_i.d[1, 0], side_i.d[0, 1])
+        cmp = compare_sides(side_i, side_j, along)
+        uv = np.stack([np.stack(_side_params(patches[i], si, t), axis=-1) for i, si, *_ in part])
         for m in range(len(part)):
-            out.append(
-                {
-                    "gap": float(gap[m]),
-                    "normal_angle_deg": float(angle[m]),
-                    "curvature_jump": float(jump[m]),
-                    "curvature_gradient_jump": float(gradient_jump[m]),
-                }
-            )
+            measures, round_off, where = junction_fields(cmp, m, t, side_i.d[0, 0], uv)
+            out.append({**measures, "round_off": round_off, "max_at": where})
     return out
 
 
-def compare_sides(
-    side_i: tuple, side_j: tuple, along: NDArray, directions: int = 8
-) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """The four measures of many junctions from both sides' geometry at paired points.
-
-    ``side_i`` and ``side_j`` are (d, n, mean gradient, Gaussian gradient) as
-    :func:`_side_geometry` gives them, shapes (4, 4, J, S, 3), (J, S, 3), (J, S, 3),
-    (J, S, 3), point s of junction m on side i paired with point s on side j; ``along``
-    (J, S, 3) is a tangent of the junction on side i.  Returns each measure's largest value
-    over each junction's points, (J,) each: gap, normal angle (degrees, orientation aside),
-    normal-curvature jump over ``directions`` tangent directions, curvature-gradient jump.
-    """
-    di, ni, hi, ki = side_i
-    dj, nj, hj, kj = side_j
-    gap = np.linalg.norm(di[0, 0] - dj[0, 0], axis=-1).max(axis=-1)
-    # atan2 of |cross| and |dot|: accurate for tiny angles (arccos is not)
-    angle = np.degrees(
-        np.arctan2(np.linalg.norm(np.cross(ni, nj), axis=-1), np.abs(np.sum(ni * nj, -1)))
-    ).max(axis=-1)
-    sign = np.sign(np.sum(ni * nj, -1))[..., None]  # curvatures w.r.t. one orientation
-    length = np.linalg.norm(along, axis=-1, keepdims=True)
-    if not (length > 0).all():  # no tangent (a degenerate sample): any tangent-plane frame
-        along = np.where(length > 0, along, di[1, 0] + di[0, 1])
-        length = np.linalg.norm(along, axis=-1, keepdims=True)
-    along = along / length
-    across = np.cross(ni, along)  # in side i's tangent plane
-    jump = np.zeros(gap.shape)
-    for theta in np.linspace(0.0, np.pi, directions, endpoint=False):
-        e = np.cos(theta) * along + np.sin(theta) * across
-        k_i = normal_curvature(di, ni, e)
-        k_j = normal_curvature(dj, nj, e) * sign[..., 0]
-        jump = _pick(jump, np.abs(k_i - k_j).max(axis=-1))
-    grad_h = np.linalg.norm(hi - sign * hj, axis=-1).max(axis=-1)
-    grad_k = np.linalg.norm(ki - kj, axis=-1).max(axis=-1)
-    return gap, angle, jump, _pick(grad_h, grad_k)
-
-
-def classify(m: dict, tol: Tolerances) -> str:
-    if not m["gap"] <= tol.g0:
-        return "none"
-    if not m["normal_angle_deg"] <= tol.g1:
-        return "G0"
-    if not m["curvature_jump"] <= tol.g2:
-        return "G1"
-    if not m["curvature_gradient_jump"] <= tol.g3:
-        return "G2"
+def classify(m: dict, tol: Tolerances, round_off: dict | None = None) -> str:
+    """The highest class whose measures all lie within their tolerances: each the larger of
+    the given one and the measure's estimated round-off (``round_off``, by measure name;
+    :mod:`gshade.analysis.junction_measures`), so that evaluation noise decides no class."""
+    noise = round_off or {}
+    for name, limit, below in zip(
+        MEASURES, (tol.g0, tol.g1, tol.g2, tol.g3), CLASSES[:4], strict=True
+    ):
+        if not m[name] <= max(limit, noise.get(name, 0.0)):
+            return below
     return "G3"
 
 
@@ -483,7 +414,8 @@ def continuity_report(
         junctions = [junction_between(patches, *pair, g0) for pair in pairs]
     for junction, m in zip(junctions, measure_all(patches, junctions, samples), strict=True):
         i, si, j, sj, rev = junction
-        out.append(Junction((i, j), (si, sj), rev, classify(m, tol), samples=samples, **m))
+        cls = classify(m, tol, m["round_off"])
+        out.append(Junction((i, j), (si, sj), rev, cls, samples=samples, **m))
     if pairs is None:  # and the B-spline patches' interior knot lines
         from .knot_lines import patch_knot_lines
 

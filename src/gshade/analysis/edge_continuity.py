@@ -21,15 +21,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry import regularised_derivatives
-from .continuity import (
-    Junction,
-    Tolerances,
-    classify,
+from .continuity import Junction, Tolerances, classify, continuity_report, validate_samples
+from .junction_measures import (
+    SideGeometry,
     compare_sides,
-    continuity_report,
-    geometry_of,
-    validate_samples,
+    derivative_scales,
+    junction_fields,
+    side_derivatives,
+    side_geometry,
 )
 from .knot_lines import cad_knot_lines
 
@@ -51,7 +50,6 @@ def edge_report(
     *,
     samples: int = 32,
     tolerances: Tolerances | None = None,
-    directions: int = 8,
 ) -> tuple[list[Junction], list]:
     """Every B-rep edge between two of the model's faces (of ``faces``, default all),
     measured and classified.
@@ -71,9 +69,19 @@ def edge_report(
     Returns
     -------
     junctions : list of Junction
-        One per edge and pair of faces, ``edge`` its number, ``patches`` the face numbers.
+        One per edge and pair of faces, ``edge`` its number, ``patches`` the face numbers;
+        ``max_at``'s ``t`` is the fraction along the edge as sampled, (k + 1/2) / samples
+        (the kernel's edge parameter t0 + t (t1 - t0)), ``uv`` the first face's patch's.
     edges : list of gshade.io.cad_edges.CadEdge
         The sampled edges, in the same order.
+
+    Notes
+    -----
+    Normals are the faces' outward normals (p_u x p_v turned on a reversed face,
+    :attr:`gshade.io.cad.CadFace.reversed`), so the angle runs from 0 to 180 degrees and a
+    fold is G0.  Each face is evaluated where its pcurve says, also a little outside its
+    patch's domain, the end pieces continued as the kernel does
+    (:func:`gshade.analysis.junction_measures.side_derivatives`).
     """
     from ..io.cad_edges import shared_edges
 
@@ -85,28 +93,23 @@ def edge_report(
         return [], []
     # edges at a time: bounded temporaries (~768 bytes per edge and sample), as for patches
     chunk = max(1, _CHUNK_POINTS // samples)
-    parts = [
-        _measure_edges(model, edges[a : a + chunk], samples, directions)
-        for a in range(0, len(edges), chunk)
-    ]
-    gap, angle, jump, gradient = (np.concatenate(m) for m in zip(*parts, strict=True))
+    scales: dict[int, tuple[float, float]] = {}  # each face's derivative scales, once
+    rows = []
+    for a in range(0, len(edges), chunk):
+        rows.extend(_measure_edges(model, edges[a : a + chunk], samples, scales))
     out = []
-    for m, edge in enumerate(edges):
-        measures: dict = {  # floats (a plain dict: Junction has non-float fields too)
-            "gap": float(gap[m]),
-            "normal_angle_deg": float(angle[m]),
-            "curvature_jump": float(jump[m]),
-            "curvature_gradient_jump": float(gradient[m]),
-        }
+    for (measures, round_off, where), edge in zip(rows, edges, strict=True):
         own = replace(tol, g0=max(tol.g0, 2.0 * max(edge.tolerance, model.precision)))
         out.append(
             Junction(
                 edge.faces,
                 None,
                 False,
-                classify(measures, own),
+                classify(measures, own, round_off),
                 samples=samples,
                 edge=edge.index,
+                round_off=round_off,
+                max_at=where,
                 **measures,
             )
         )
@@ -118,23 +121,32 @@ _CHUNK_POINTS = 2**15
 
 
 def _measure_edges(
-    model, edges: list, samples: int, directions: int
-) -> tuple[NDArray[np.float64], ...]:
-    """Gap, normal angle, curvature jump and curvature-gradient jump of each edge."""
-    geometry = _face_geometry(model, edges, samples)
+    model, edges: list, samples: int, scales: dict[int, tuple[float, float]]
+) -> list[tuple[dict, dict, dict]]:
+    """Each edge's measures, round-off and ``max_at``
+    (:func:`~gshade.analysis.junction_measures.junction_fields`); ``scales`` holds each
+    face's derivative scales (filled in as faces come)."""
+    geometry = _face_geometry(model, edges, samples, scales)
     count = len(edges)
     d = np.empty((2, 4, 4, count, samples, 3))
-    n, h, k = (np.empty((2, count, samples, 3)) for _ in range(3))
+    n, h, k, r = (np.empty((2, count, samples, w)) for w in (3, 3, 3, 4))
+    along = np.empty((count, samples, 3))
     for side in (0, 1):
         for m, edge in enumerate(edges):
-            dg, ng, hg, kg = geometry[(edge.faces[side], m)]
-            d[side, :, :, m], n[side, m], h[side, m], k[side, m] = dg, ng, hg, kg
-    # the edge's tangent on face i: p_u du/dt + p_v dv/dt, du/dt from the pcurve samples
-    duv = np.stack([_tangent(e.uv[0]) for e in edges])
-    along = d[0, 1, 0] * duv[..., :1] + d[0, 0, 1] * duv[..., 1:]
-    return tuple(
-        compare_sides((d[0], n[0], h[0], k[0]), (d[1], n[1], h[1], k[1]), along, directions)
+            g, (su, sv) = geometry[(edge.faces[side], m)]
+            d[side, :, :, m], n[side, m], h[side, m], k[side, m], r[side, m] = g
+            if side == 0:
+                # the edge's tangent on face i: p_u du/dt + p_v dv/dt (scaled p_u: times s_u)
+                duv = _tangent(edge.uv[0])
+                along[m] = g.d[1, 0] * (su * duv[:, :1]) + g.d[0, 1] * (sv * duv[:, 1:])
+    cmp = compare_sides(
+        SideGeometry(d[0], n[0], h[0], k[0], r[0]),
+        SideGeometry(d[1], n[1], h[1], k[1], r[1]),
+        along,
     )
+    t = (np.arange(samples) + 0.5) / samples
+    uv = np.stack([e.uv[0] for e in edges])
+    return [junction_fields(cmp, m, t, d[0, 0, 0], uv) for m in range(count)]
 
 
 def _tangent(uv: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -144,29 +156,41 @@ def _tangent(uv: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.gradient(uv, axis=0)
 
 
-def _face_geometry(model, edges: list, samples: int) -> dict:
-    """(face, edge) -> the face's geometry at the edge's points on it: each face's
-    derivatives evaluated once, at the points of all its edges, and the normals and
-    curvatures of all faces in one batch."""
+def _face_geometry(
+    model, edges: list, samples: int, scales: dict[int, tuple[float, float]]
+) -> dict:
+    """(face, edge) -> the face's geometry at the edge's points on it
+    (:class:`~gshade.analysis.junction_measures.SideGeometry`, outward normals) and its
+    derivative scales: each face's derivatives evaluated once, at the points of all its
+    edges, each in its own scaled parametrisation, then the normals and curvatures of all
+    faces in one batch."""
     points: dict[int, list[tuple[int, NDArray[np.float64]]]] = {}
     for m, edge in enumerate(edges):
         for side in (0, 1):
             points.setdefault(edge.faces[side], []).append((m, edge.uv[side]))
-    derivatives = []
+    derivatives, errors, turns = [], [], []
     for f, items in points.items():
-        patch = model.face(f).patch
-        (u0, u1), (v0, v1) = patch.domain
+        face = model.face(f)
+        if f not in scales:
+            scales[f] = derivative_scales(face.patch)
         uv = np.concatenate([q for _, q in items])
-        u = np.clip(uv[:, 0], u0, u1)  # pcurves may stray past the domain by a tolerance
-        v = np.clip(uv[:, 1], v0, v1)
-        derivatives.append(regularised_derivatives(patch, u, v, 3).d)
-    d, nrm, mean, gauss = geometry_of(np.concatenate(derivatives, axis=2))
+        # the pcurve's own (u, v), also a little past the domain: the end pieces continued
+        dk, ek, scales[f] = side_derivatives(face.patch, uv[:, 0], uv[:, 1], 3, scales[f])
+        derivatives.append(dk)
+        errors.append(ek)
+        turns.append(np.full(len(uv), -1.0 if face.reversed else 1.0))
+    g = side_geometry(
+        np.concatenate(derivatives, axis=2), np.concatenate(errors, axis=2), np.concatenate(turns)
+    )
     out = {}
     start = 0
     for f, items in points.items():
         for m, _ in items:
             s = slice(start, start + samples)
-            out[(f, m)] = (d[:, :, s], nrm[s], mean.gradient[s], gauss.gradient[s])
+            part = SideGeometry(
+                g.d[:, :, s], g.n[s], g.mean_gradient[s], g.gauss_gradient[s], g.round_off[s]
+            )
+            out[(f, m)] = (part, scales[f])
             start += samples
     return out
 

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry import regularised_derivatives
 from ..geometry.bspline import BSplinePatch
-from .continuity import Junction, Tolerances, classify, compare_sides, geometry_of
+from .continuity import Junction, Tolerances, classify
+from .junction_measures import compare_sides, junction_fields, side_derivatives, side_geometry
 
 __all__ = [
     "KNOT_LINE_KINDS",
@@ -129,52 +129,53 @@ def knot_line_measures(
     patch: BSplinePatch,
     lines: list[tuple[str, float]],
     along: list[NDArray],
-    directions: int = 8,
 ) -> list[dict]:
     """The four junction measures of each knot line (direction, u*) at its parameters
-    ``along`` it (the other parameter, the same count S for every line).
+    ``along`` it (the other parameter, the same count S for every line), with their
+    round-off and where each is largest.
 
-    Both pieces' derivatives to order 3 (:func:`one_sided_pieces`, regularised where
-    irregular) at (u*, t_s), or (t_s, v*), give, as for patch boundaries
-    (:func:`gshade.analysis.continuity.compare_sides`; Kiciak, ch. 2–3): the gap
-    |p(u*-) - p(u*+)|, the normal angle, the largest jump of the normal curvature
-    k(e) = II(e, e) / I(e, e) over ``directions`` tangent directions e, and the jump of
-    the surface gradients of the mean and Gaussian curvatures.
+    Both pieces' derivatives to order 3 (:func:`one_sided_pieces`, each in its own scaled
+    parametrisation and regularised where irregular:
+    :func:`gshade.analysis.junction_measures.side_derivatives`) at (u*, t_s), or (t_s, v*),
+    give, as for patch boundaries (:func:`gshade.analysis.junction_measures.compare_sides`;
+    Kiciak, ch. 2–3): the gap |p(u*-) - p(u*+)|, the normal angle (both pieces oriented by
+    the patch's p_u x p_v), the exact largest jump of the normal curvature (the shape
+    operators' difference) and the jump of the surface gradients of the mean and Gaussian
+    curvatures.  ``max_at``: ``t`` the fraction of the patch's other parameter range,
+    ``uv`` the patch's parameters.
     """
     if not lines:
         return []
     count, samples = len(lines), len(along[0])
-    sides: list[list[NDArray]] = [[], []]  # per side, each line's derivatives (4, 4, S, 3)
+    sides: list[list[tuple[NDArray, NDArray]]] = [[], []]  # per side, each line's d, error
+    uvs = []
     for (direction, knot), t in zip(lines, along, strict=True):
         fixed = np.full_like(t, knot)
         uv = (fixed, t) if direction == "u" else (t, fixed)
+        uvs.append(np.stack(uv, axis=-1))
         for side, piece in zip(sides, one_sided_pieces(patch, direction, knot), strict=True):
-            side.append(regularised_derivatives(piece, *uv, 3).d)
-    stacked = []
-    for side in sides:  # normals and curvatures of all lines' points at once
-        d, n, h, k = geometry_of(np.concatenate(side, axis=2))
-        shape = (count, samples, 3)
-        stacked.append(
-            (
-                d.reshape(4, 4, *shape),
-                n.reshape(shape),
-                h.gradient.reshape(shape),
-                k.gradient.reshape(shape),
-            )
+            d, error, _ = side_derivatives(piece, *uv, 3)
+            side.append((d, error))
+    shape = (count, samples)
+    geometry = [
+        side_geometry(
+            np.concatenate([d for d, _ in side], axis=2).reshape(4, 4, *shape, 3),
+            np.concatenate([e for _, e in side], axis=2).reshape(4, 4, *shape),
         )
-    d_left = stacked[0][0]
+        for side in sides
+    ]
+    d_left = geometry[0].d
     runs_along_v = np.array([direction == "u" for direction, _ in lines])[:, None, None]
     tangent = np.where(runs_along_v, d_left[0, 1], d_left[1, 0])  # along the line
-    gap, angle, jump, gradient = compare_sides(stacked[0], stacked[1], tangent, directions)
-    return [
-        {
-            "gap": float(gap[m]),
-            "normal_angle_deg": float(angle[m]),
-            "curvature_jump": float(jump[m]),
-            "curvature_gradient_jump": float(gradient[m]),
-        }
-        for m in range(len(lines))
-    ]
+    cmp = compare_sides(geometry[0], geometry[1], tangent)
+    uv = np.stack(uvs)
+    out = []
+    for m, (direction, _) in enumerate(lines):
+        lo, hi = patch.domain[1 if direction == "u" else 0]
+        t = (uv[m, :, 1 if direction == "u" else 0] - lo) / (hi - lo)
+        measures, round_off, where = junction_fields(cmp, m, t, d_left[0, 0], uv)
+        out.append({**measures, "round_off": round_off, "max_at": where})
+    return out
 
 
 #: Knot lines x samples measured at a time: bounds the derivative arrays (as for patches).
@@ -204,7 +205,7 @@ def _measured(
                     (number, number),
                     None,
                     False,
-                    classify(measure, tol),
+                    classify(measure, tol, measure["round_off"]),
                     samples=samples,
                     knot=line,
                     **measure,

@@ -212,3 +212,21 @@ class BSplinePatch(TensorProductPatch):
                 row.append(BezierPatch(P, w, domain=((ub[a], ub[a + 1]), (vb[b], vb[b + 1]))))
             out.append(row)
         return out
+
+    def derivatives_beyond(self, u: ArrayLike, v: ArrayLike, order: int = 0) -> NDArray:
+        """``derivatives`` at points (u, v) (1-D arrays of one length) inside the domain or
+        beyond it, where the end pieces are continued: past an end of the domain the
+        polynomial (rational) piece of the end span is evaluated as it is, the way the
+        kernel's ``Geom_BSplineSurface`` extrapolates.  Shape (order + 1, order + 1, N, 3).
+
+        Inside the domain this equals ``derivatives(u, v, order)``; parameters are not
+        checked against the domain (the caller bounds them, e.g. a CAD edge's pcurve
+        straying past its face's box by a tolerance).
+        """
+        u = np.asarray(u, dtype=np.float64).ravel()
+        v = np.asarray(v, dtype=np.float64).ravel()
+        if u.shape != v.shape or not (np.isfinite(u).all() and np.isfinite(v).all()):
+            raise GshadeError(
+                f"u, v: expected finite 1-D arrays of one length, got {u.shape}, {v.shape}"
+            )
+        return np.moveaxis(self._derivatives_points(u, v, int(order)), 2, -1)
