@@ -253,7 +253,7 @@ def unmeasured_edges(scene) -> list[dict]:
     left-out face's line (:meth:`gshade.io.cad.LeftOutFace.line`)."""
     from ..io.cad_edges import edges_to_left_out
 
-    out = []
+    out: list[dict] = []
     for surface in scene.surfaces:
         cad = surface.cad
         if cad is None or not cad.left_out:

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from .continuity import Junction
 from .edge_continuity import EdgeLine
 
-__all__ = ["CLASS_COLOURS", "draw_junctions", "junction_metadata"]
+__all__ = ["CLASS_COLOURS", "DECIDING", "deciding_place", "draw_junctions", "junction_metadata"]
 
 #: Linear RGB of each class, as in the legend: G0 red ... G3 blue; "none" magenta.
 CLASS_COLOURS = {
@@ -226,9 +226,34 @@ def _drawn(j: Junction) -> dict:
     for name in MEASURES:
         x = float(getattr(j, name))
         measures[name] = x if np.isfinite(x) else str(x)
+    measures.update(deciding_place(j))
     if j.knot is not None:
         where = j.knot.as_dict(j.patches[0])
         return {"patches": list(j.patches), **where, "class": j.cls, **measures}
     if j.sides is None:
         return {"edge": j.edge, "patches": list(j.patches), "class": j.cls, **measures}
     return {"patches": list(j.patches), "sides": list(j.sides), "class": j.cls, **measures}
+
+
+#: The measure that keeps each class from the next: where it is largest is where to look.
+DECIDING = {
+    "none": "gap",
+    "G0": "normal_angle_deg",
+    "G1": "curvature_jump",
+    "G2": "curvature_gradient_jump",
+    "G3": "curvature_gradient_jump",
+}
+
+
+def deciding_place(j: Junction) -> dict:
+    """Where the measure that decides the junction's class (:data:`DECIDING`) is largest,
+    as flat header fields: ``at_measure`` (its name), ``at_t`` (the fraction along the
+    junction), ``at_x``, ``at_y``, ``at_z`` (the point); {} when not measured."""
+    if not j.max_at:
+        return {}
+    name = DECIDING[j.cls]
+    place = j.max_at[name]
+    x, y, z = place["point"]
+    if not np.isfinite([place["t"], x, y, z]).all():
+        return {}
+    return {"at_measure": name, "at_t": place["t"], "at_x": x, "at_y": y, "at_z": z}

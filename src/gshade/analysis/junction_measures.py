@@ -237,6 +237,7 @@ def _curvature_gradients(d: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray
     flat = np.moveaxis(buf, 2, -1)
     mean = evaluate("mean", flat)
     gauss = evaluate("gaussian", flat)
+    assert mean.gradient is not None and gauss.gradient is not None  # asked for by default
     return (
         mean.gradient[:-1].reshape(*shape, 3),
         gauss.gradient[:-1].reshape(*shape, 3),

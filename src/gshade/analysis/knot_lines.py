@@ -151,10 +151,10 @@ def knot_line_measures(
     uvs = []
     for (direction, knot), t in zip(lines, along, strict=True):
         fixed = np.full_like(t, knot)
-        uv = (fixed, t) if direction == "u" else (t, fixed)
-        uvs.append(np.stack(uv, axis=-1))
+        at = (fixed, t) if direction == "u" else (t, fixed)
+        uvs.append(np.stack(at, axis=-1))
         for side, piece in zip(sides, one_sided_pieces(patch, direction, knot), strict=True):
-            d, error, _ = side_derivatives(piece, *uv, 3)
+            d, error, _ = side_derivatives(piece, *at, 3)
             side.append((d, error))
     shape = (count, samples)
     geometry = [

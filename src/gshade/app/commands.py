@@ -238,7 +238,7 @@ def continuity(args: argparse.Namespace) -> int:
         return 0
     print(
         f"{'patches':>10}  {'sides':>7}  class  {'gap':>9}  {'angle(deg)':>10}  "
-        f"{'curv.jump':>9}  {'grad.jump':>9}"
+        f"{'curv.jump':>9}  {'grad.jump':>9}  where (t; x y z of the deciding measure's largest)"
     )
     for j in report:
         if j.knot is not None:  # a B-spline's interior knot line, e.g. u=0.5
@@ -248,7 +248,7 @@ def continuity(args: argparse.Namespace) -> int:
         say(
             f"{j.patches[0]:>4} {j.patches[1]:>4}  {where}  {j.cls:>5}  "
             f"{j.gap:9.2e}  {j.normal_angle_deg:10.3e}  {j.curvature_jump:9.2e}  "
-            f"{j.curvature_gradient_jump:9.2e}"
+            f"{j.curvature_gradient_jump:9.2e}{_largest_at(j)}"
         )
     for edge in unmeasured:  # beside a face left out
         i, j = edge["faces"]
@@ -258,6 +258,16 @@ def continuity(args: argparse.Namespace) -> int:
     lost = f"; {len(unmeasured)} edges not measured" if unmeasured else ""
     say(f"{len(report)} junctions" + (f": {summary}" if summary else "") + lost)
     return 0
+
+
+def _largest_at(j) -> str:
+    """The table's last column: where the measure deciding the class is largest."""
+    from ..analysis.junction_lines import deciding_place
+
+    at = deciding_place(j)
+    if not at:
+        return ""
+    return f"  t={at['at_t']:.4f}; {at['at_x']:.6g} {at['at_y']:.6g} {at['at_z']:.6g}"
 
 
 # --------------------------------------------------------------------------- references

@@ -384,8 +384,14 @@
       row("class", jn["class"]);
       row(patchLabel === "face" ? "faces" : "patches", jn.patches.join(" – ") + (jn.sides ? " (" + jn.sides.join(" – ") + ")" : ""));
       if (jn.edge !== undefined) row("edge", String(jn.edge));
+      const place = ["at_measure", "at_t", "at_x", "at_y", "at_z"];
       for (const [key, value] of Object.entries(jn)) {
-        if (!["class", "patches", "sides", "edge"].includes(key)) row(key.replace(/_/g, " "), typeof value === "number" ? formatShort(value) : String(value));
+        if (!["class", "patches", "sides", "edge", ...place].includes(key)) row(key.replace(/_/g, " "), typeof value === "number" ? formatShort(value) : String(value));
+      }
+      // where the measure deciding the class is largest (gshade continuity's max_at)
+      if (typeof jn.at_x === "number" && typeof jn.at_y === "number" && typeof jn.at_z === "number") {
+        const t = typeof jn.at_t === "number" ? ", t = " + formatShort(jn.at_t) : "";
+        row("largest " + String(jn.at_measure || "measure").replace(/_/g, " ") + " at", "(" + [jn.at_x, jn.at_y, jn.at_z].map(formatShort).join(", ") + ")" + t);
       }
       row("distance", formatShort(near.distance) + " px");
       junctionInfo.append(dl);
