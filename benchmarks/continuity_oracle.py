@@ -231,21 +231,32 @@ def compare_file(path: Path, samples: int, timeout: float, worst: int) -> dict:
     return result
 
 
-def measure_lines(pairs: list[dict]) -> list[str]:
-    """How far the paired rows' measures differ: angles, gaps, curvature jumps on tangent
-    edges (where both classes are G1 or better)."""
+def measure_lines(pairs: list[dict], tol: dict) -> list[str]:
+    """How far the paired rows' measures differ: angles (apart, those where the oracle's
+    angle is above 90 degrees), gaps, curvature jumps on tangent edges (both classes G1 or
+    better, one jump at least above the G2 tolerance ``tol["g2"]``), relative."""
     both = [(p["o"], p["g"]) for p in pairs if p["o"] is not None and p["g"] is not None]
     both = [(o, g) for o, g in both if o.get("class") is not None]
     if not both:
         return []
-    da = [abs(o["normal_angle_deg"] - g["normal_angle_deg"]) for o, g in both]
-    off = [i for i, d in enumerate(da) if d > 1e-6]
-    obtuse = sum(both[i][0]["normal_angle_deg"] > 90 for i in off)
-    gaps = max(abs(o["gap"] - g["gap"]) for o, g in both)
-    tangent = [
-        (o, g)
+    acute = [
+        abs(o["normal_angle_deg"] - g["normal_angle_deg"])
         for o, g in both
-        if RANK[o["class"]] >= RANK["G1"] and RANK.get(g["class"], 0) >= RANK["G1"]
+        if o["normal_angle_deg"] <= 90
+    ]
+    obtuse = [
+        abs(o["normal_angle_deg"] - g["normal_angle_deg"])
+        for o, g in both
+        if o["normal_angle_deg"] > 90
+    ]
+    gaps = [abs(o["gap"] - g["gap"]) for o, g in both]
+    out = [
+        f"  measures: angles up to 90 deg differ by more than 1e-6 deg on "
+        f"{sum(d > 1e-6 for d in acute)} of {len(acute)} edges "
+        f"(at most {max(acute, default=0):.3g}), "
+        f"above 90 deg on {sum(d > 1e-6 for d in obtuse)} of {len(obtuse)} (at most "
+        f"{max(obtuse, default=0):.3g}); gaps by more than 1e-9 x diagonal on "
+        f"{sum(d > 1e-9 * tol['g0'] / 1e-7 for d in gaps)} (at most {max(gaps):.3g})"
     ]
     rel = [
         (
@@ -253,20 +264,17 @@ def measure_lines(pairs: list[dict]) -> list[str]:
             / max(o["curvature_jump"], g["curvature_jump"]),
             o["edge"],
         )
-        for o, g in tangent
-        if max(o["curvature_jump"], g["curvature_jump"]) > 0
-    ]
-    out = [
-        f"  measures: angles differ by more than 1e-6 deg on {len(off)} of {len(both)} edges "
-        f"({obtuse} with the oracle's angle above 90 deg), at most {max(da):.3g} deg; gaps by "
-        f"at most {gaps:.3g}"
+        for o, g in both
+        if RANK[o["class"]] >= RANK["G1"]
+        and RANK.get(g["class"], 0) >= RANK["G1"]
+        and max(o["curvature_jump"], g["curvature_jump"]) > tol["g2"]
     ]
     if rel:
         worst = max(rel)
-        big = [e for r, e in rel if r > 1e-6]
         out.append(
-            f"  curvature jumps on {len(rel)} tangent edges: relative difference above 1e-6 on "
-            f"{len(big)}, at most {worst[0]:.3g} (edge {worst[1]})"
+            f"  curvature jumps on {len(rel)} tangent edges (above the G2 tolerance): relative "
+            f"difference above 1e-6 on {sum(r > 1e-6 for r, _ in rel)}, at most "
+            f"{worst[0]:.3g} (edge {worst[1]})"
         )
     return out
 
@@ -307,7 +315,7 @@ def show(result: dict, worst: int) -> str:
     )
     both = sum(p["o"] is not None and p["g"] is not None for p in pairs)
     lines.append(f"  agreement (own vs gshade): {agree}/{both}")
-    lines.extend(measure_lines(pairs))
+    lines.extend(measure_lines(pairs, oracle.tolerances_for(result["diagonal"])))
     opposite = [
         p["o"] for p in pairs if p["o"] is not None and p["o"].get("normal_angle_deg", 0) > 170
     ]
