@@ -224,8 +224,10 @@ def _face_mesh(face: Any, cad: Any) -> tuple:
     uv = cad.to_patch(uv)
     patch = cad.patch
     (u0, u1), (v0, v1) = patch.domain
+    # at the node's own (u, v), past the domain too (a trim straying by a tolerance): the
+    # end pieces continued, as the kernel evaluates (and the edge measures); points and speeds
+    d = np.asarray(patch.derivatives_beyond(uv[:, 0], uv[:, 1], 1))
     uv = np.stack([np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1)], -1)
-    d = np.asarray(patch.derivatives(uv[:, 0], uv[:, 1], 1))  # once: points and speeds
     exact = d[0, 0]
     nodes, exact, uv, triangles, boundary = _split_poles(d, nodes, exact, uv, triangles, boundary)
     gaps = np.linalg.norm(exact - nodes, axis=1)[~boundary]
