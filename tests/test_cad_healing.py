@@ -159,8 +159,8 @@ def test_a_face_the_mesher_gives_no_triangles_is_left_out(tmp_path):
     assert model.notes == ["read unsewn: sewing kept 0 of the 27 faces"]
     mesh = mesh_faces(model, 0.05)
     assert [f.line() for f in mesh.left_out] == [
-        "face 26 left out: the kernel's mesher gave no triangles "
-        "(tried: meshing it with the kernel's mesher)"
+        "face 26 left out: the kernel's mesher gave no triangles (tried: meshing it with the "
+        "kernel's mesher, with the model and alone at 0.25 to 64 times the deflection)"
     ]
     assert set(mesh.face) == set(range(26))
 
@@ -334,3 +334,32 @@ def test_continuity_lists_the_edges_of_a_left_out_face_as_not_measured(tmp_path)
     text = gshade("continuity", path)
     assert text.stdout.splitlines()[-1] == "8 junctions: 8 G0; 3 edges not measured"
     assert sum("not measured (face 0 left out" in line for line in text.stdout.splitlines()) == 3
+
+
+def test_a_face_the_mesher_leaves_empty_is_meshed_alone_at_another_deflection(
+    tmp_path, monkeypatch
+):
+    """A face the mesher gives no triangles with the model (made so here: its first count
+    reads 0, as on the cone faces of a 750-face Fusion part at fine deflections) is meshed
+    alone at twice the deflection; a note says so, and its mesh covers it (the area of the
+    box's face it is, 10 x 20)."""
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+
+    from gshade.io import cad_mesh
+
+    box = write_shape(BRepPrimAPI_MakeBox(10, 20, 30).Shape(), tmp_path / "b.brep")
+    model = read_cad(box, isolated=False)  # meshed here, where the patch applies
+    real, seen = cad_mesh._triangles, []
+
+    def empty_at_first(face):
+        seen.append(face)
+        return 0 if len(seen) == 1 else real(face)
+
+    monkeypatch.setattr(cad_mesh, "_triangles", empty_at_first)
+    mesh = mesh_faces(model, 0.5, faces=[4])  # z = 0
+    assert mesh.notes == [
+        "face 4: meshed alone at 2 times the deflection (the mesher gave it no triangles at "
+        "the deflection asked for)"
+    ]
+    assert mesh.left_out == []
+    assert triangle_area(mesh.positions, mesh.triangles) == pytest.approx(200.0, rel=1e-12)

@@ -181,4 +181,24 @@ def test_a_full_turn_written_a_sliver_too_long_is_read(tmp_path):
     rng = np.random.default_rng(1)
     _agrees_with_the_kernel(cad, _faces(model.shape)[0], rng, 25)
     with pytest.raises(Exception, match="expected a0 < a1"):
-        arc(-np.pi, np.pi + 1e-6)  # more than a sliver: still refused
+        arc(-np.pi, np.pi + 1e-2)  # more than a tolerance: still refused
+
+
+@pytest.mark.parametrize(
+    ("a0", "a1"),
+    [(-np.pi, np.pi + 6.7e-11), (-np.pi - 5.1e-5, np.pi + 6e-6)],  # as Fusion 360 writes them
+)
+def test_a_full_turn_overshooting_by_a_tolerance_is_an_exact_arc(a0, a1):
+    """A periodic face's box may pass a full turn by the file's tolerance: the arc is built
+    (on the unit circle, the parameter the angle at its knots) and covers its start twice
+    over that sliver; a turn and a quarter is refused."""
+    from gshade.errors import GshadeError
+
+    curve = arc(a0, a1)
+    t = np.linspace(a0, a1, 101)
+    points = np.asarray(curve(t))
+    assert np.abs(np.linalg.norm(points, axis=-1) - 1) == pytest.approx(0, abs=1e-12)
+    knots = np.unique(curve.knots)
+    assert np.allclose(np.asarray(curve(knots)), np.stack([np.cos(knots), np.sin(knots)], -1))
+    with pytest.raises(GshadeError, match="a0 < a1 <= a0 \\+ 2 pi"):
+        arc(-np.pi, np.pi + 0.5 * np.pi)

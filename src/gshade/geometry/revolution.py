@@ -31,9 +31,11 @@ def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
     return BSplineCurve(np.asarray(centre, float) + radius * c, 2, knots, _CIRCLE_WEIGHTS)
 
 
-#: How far (relative) an arc may exceed a full turn: far below any CAD file's tolerance
-#: (6e-9 rad), far above the round-off of a range written as -pi to pi.
-TURN_OVERSHOOT = 1e-9
+#: How far (relative) an arc may exceed a full turn (6.3e-4 rad): the parameter box of a
+#: periodic CAD face, which its trimming curves bound, passes a full turn by up to the
+#: file's tolerance (Fusion 360: -pi to pi + 6.7e-11 rad, -pi - 5.1e-5 to pi + 6e-6 rad on
+#: a cylinder of a 800-face part); far below a turn's last quarter.
+TURN_OVERSHOOT = 1e-4
 
 
 def _arc_segments(a0: float, a1: float) -> tuple[int, float]:
@@ -49,9 +51,9 @@ def arc(a0: float, a1: float) -> BSplineCurve:
     Tiller, section 7.5), the knots (double inside) at the segments' end angles, so that
     the parameter equals the angle at every knot; between knots see :func:`arc_parameters`.
 
-    A full turn may overshoot 2 pi by :data:`TURN_OVERSHOOT` of it, as CAD systems write
-    periodic faces' ranges (Fusion 360: -pi to pi + 6.7e-11); the arc then covers its start
-    twice over that sliver.
+    A full turn may overshoot 2 pi by :data:`TURN_OVERSHOOT` of it, as CAD faces' parameter
+    boxes do (Fusion 360: -pi to pi + 6.7e-11); the arc then covers its start twice over
+    that sliver.
     """
     if not (
         np.isfinite(a0) and np.isfinite(a1) and a0 < a1 <= a0 + 2 * np.pi * (1 + TURN_OVERSHOOT)

@@ -55,6 +55,8 @@ class FaceMesh:
     left_out : list of LeftOutFace
         The faces asked for that have no triangles here (the mesher gave none, or failed on
         them, or the reader left them out), in order.
+    notes : list of str
+        How faces that the mesher left empty at first were meshed, a line each.
     """
 
     positions: NDArray[np.float64]
@@ -64,6 +66,7 @@ class FaceMesh:
     boundary: NDArray[np.bool_]
     node_gap: float
     left_out: list[LeftOutFace] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
 
 @kernel_operation("meshing it")
@@ -133,6 +136,15 @@ def mesh_faces(
                 _mesh(kernel_faces, [i], deflection, angle)
             except Exception as exc:
                 left_out[i] = LeftOutFace(i, f"the kernel's mesher failed ({_why(exc)})", MESHING)
+    notes = []
+    for i in chosen:  # a face the mesher left empty: alone, at other deflections
+        if i not in left_out and not _triangles(kernel_faces[i]):
+            factor = _remeshed(kernel_faces[i], deflection, angle)
+            if factor is not None:
+                notes.append(
+                    f"face {i}: meshed alone at {factor:g} times the deflection (the mesher "
+                    "gave it no triangles at the deflection asked for)"
+                )
     parts = []
     count = 0
     for i in chosen:
@@ -158,6 +170,7 @@ def mesh_faces(
             np.empty(0, bool),
             0.0,
             said,
+            notes,
         )
     return FaceMesh(
         positions=np.concatenate([p[0] for p, _, _ in parts]),
@@ -167,14 +180,45 @@ def mesh_faces(
         boundary=np.concatenate([p[3] for p, _, _ in parts]),
         node_gap=max(p[4] for p, _, _ in parts),
         left_out=said,
+        notes=notes,
     )
 
 
+#: The deflections, as factors of the one asked for, at which a face the mesher left
+#: without triangles is meshed again, alone, in this order.
+REMESH_FACTORS = (2.0, 4.0, 0.5, 8.0, 16.0, 0.25, 32.0, 64.0)
 #: What was tried on a face left without triangles, as the warnings say it.
-MESHING = "meshing it with the kernel's mesher"
+MESHING = (
+    "meshing it with the kernel's mesher, with the model and alone at "
+    f"{min(REMESH_FACTORS):g} to {max(REMESH_FACTORS):g} times the deflection"
+)
 
 
-def _mesh(kernel_faces: list, chosen: list[int], deflection: float, angle: float) -> None:
+def _triangles(face: Any) -> int:
+    """The number of triangles of the face's stored mesh (0 without one)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+
+    triangulation = BRep_Tool.Triangulation_s(face, TopLoc_Location())
+    return 0 if triangulation is None else int(triangulation.NbTriangles())
+
+
+def _remeshed(face: Any, deflection: float, angle: float) -> float | None:
+    """Mesh the face alone at each of :data:`REMESH_FACTORS` times the deflection until the
+    mesher gives it triangles: the factor that did, or None.  (Its boundary nodes are then
+    its own, not its neighbours': a crack of the order of the deflection may open there,
+    where the face would otherwise be missing.)"""
+    for factor in REMESH_FACTORS:
+        try:
+            _mesh({0: face}, [0], factor * deflection, angle)
+        except Exception:
+            continue
+        if _triangles(face):
+            return factor
+    return None
+
+
+def _mesh(kernel_faces: dict, chosen: list[int], deflection: float, angle: float) -> None:
     """Mesh the faces ``chosen`` of ``kernel_faces`` with the kernel's mesher (its meshes
     stored on the faces); faces among them share their edges' nodes."""
     from OCP.BRep import BRep_Builder

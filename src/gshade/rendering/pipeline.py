@@ -88,7 +88,7 @@ def render(scene, **overrides) -> RenderedImage:
     if settings.junctions:  # measured first: overlapping surfaces fail before rendering
         junctions, edges = _measure_junctions(scene, where)
         lap("junctions")
-    mesh, atlas, unmeshed = _mesh_and_atlas(scene, settings, framing, resolution, where)
+    mesh, atlas, (unmeshed, meshed) = _mesh_and_atlas(scene, settings, framing, resolution, where)
     lap("tessellate")
 
     functions, mapped = shape_functions(scene.shape)
@@ -142,7 +142,7 @@ def render(scene, **overrides) -> RenderedImage:
             ]
         )
     models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
-    said = [(path, line) for path, model in models.items() for line in model.notes]
+    said = [(path, line) for path, model in models.items() for line in model.notes] + meshed
     if said:
         metadata["cad_notes"] = json.dumps([f"{path.name}: {line}" for path, line in said])
     warnings = [f"{path}: {face.line()}" for path, face in lost]
@@ -254,8 +254,8 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
     patches = scene.patches
     tile = tile_size(scene, framing)
     if any(s.cad is not None for s in scene.surfaces):
-        mixed, unmeshed = _mixed_mesh(scene, settings, framing, resolution, where, tile)
-        return mixed, Atlas.for_patches(len(patches), tile), unmeshed
+        mixed, said = _mixed_mesh(scene, settings, framing, resolution, where, tile)
+        return mixed, Atlas.for_patches(len(patches), tile), said
     validate_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
     mesh: TriangleMesh = tessellate(patches, resolution)
     if len(mesh.faces) == 0:
@@ -263,13 +263,14 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
             f"{where}: [render] tessellation: {resolution} vertices per patch side leave no "
             "triangle (the patches collapse at that resolution); expected a larger value"
         )
-    return mesh, Atlas.for_patches(len(patches), tile), []
+    return mesh, Atlas.for_patches(len(patches), tile), ([], [])
 
 
 def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int):
     """The mesh of a scene with ``cad`` surfaces: their trimmed faces from the kernel's mesher
-    within the chord tolerance, the other surfaces' patches on the common grid; and the
-    faces the mesher left without triangles, (model path, LeftOutFace) each."""
+    within the chord tolerance, the other surfaces' patches on the common grid; and what the
+    mesher said: the faces it left without triangles, (model path, LeftOutFace) each, and
+    its notes, (model path, line) each."""
     patches = scene.patches
     grid: list[int] = []
     cad = []  # (surface, its patches' global indices)
@@ -288,12 +289,14 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
             (tessellate([patches[i] for i in grid], resolution), np.array(grid, dtype=np.int32))
         )
     deflection = chord_tolerance(scene, settings, framing)
-    unmeshed = []
+    unmeshed: list = []
+    meshed: list = []
     for surface, index in cad:
         try:
-            faces, lost = tessellate_faces(surface.cad, surface.patches, deflection)
+            faces, lost, said = tessellate_faces(surface.cad, surface.patches, deflection)
             meshes.append((faces, index))
             unmeshed.extend((surface.cad.model.path, face) for face in lost)
+            meshed.extend((surface.cad.model.path, line) for line in said)
         except GshadeError as exc:
             from ..io.cad import in_scene
 
@@ -302,7 +305,7 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
     validate_memory(where, settings, len(mesh.positions), len(patches) * tile**2)
     if len(mesh.faces) == 0:
         raise GshadeError(f"{where}: the tessellation left no triangle")
-    return mesh, unmeshed
+    return mesh, (unmeshed, meshed)
 
 
 def left_out_faces(scene, unmeshed=()) -> list:

@@ -152,7 +152,7 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
     )
 
 
-def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, list]:
+def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, list, list[str]]:
     """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.model.CadFaces`) as a
     triangle mesh from the kernel's mesher (:func:`gshade.io.cad_mesh.mesh_faces`), within
     ``deflection`` (model units) of the faces, but no finer than :data:`MIN_FACE_DEFLECTION`
@@ -162,8 +162,9 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
     faces in ``cad.swapped``): the vertices' params are the kernel's (u, v) normalised to the
     face's box ((v, u) on a swapped face), their normals the exact unit normals of the patch
     there, and their patch index the face's place in ``cad.faces``.  Also returned: the
-    faces the mesher left without triangles (:class:`gshade.io.cad.LeftOutFace`); on a
-    ``strict`` surface they are a GshadeError instead.
+    faces the mesher left without triangles (:class:`gshade.io.cad.LeftOutFace`; on a
+    ``strict`` surface they are a GshadeError instead) and the mesher's notes (faces meshed
+    at another deflection).
     """
     from ..io.cad_mesh import mesh_faces
 
@@ -196,9 +197,8 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
     if len(F):
         area = np.linalg.norm(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]), axis=1)
         F = F[area > 1e-14 * scale * scale]
-    return TriangleMesh(P, normals, params, index, np.ascontiguousarray(F, np.int32), 0), list(
-        m.left_out
-    )
+    mesh = TriangleMesh(P, normals, params, index, np.ascontiguousarray(F, np.int32), 0)
+    return mesh, list(m.left_out), list(m.notes)
 
 
 def join_meshes(
