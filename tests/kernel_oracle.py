@@ -45,6 +45,18 @@ Two classes per edge:
     signed mean curvatures.  Its G1 angle is folded into [0, 90] degrees (a fold reads as
     tangent) and its G2 test is relative (Percent of the curvature), not absolute.
 
+``inward_dot`` tells apart what opposite normals mean: the mean over the samples of the dot
+product of the two faces' directions into themselves (in each tangent plane, orthogonal to
+the edge): about -1 where the faces continue each other (a smooth junction; with opposite
+normals, faces whose orientations disagree), about +1 where both lie on the same side of the
+edge (a fold or cusp, or two bodies' faces in contact after sewing), 0 at a right angle.
+
+Known limits: the measures are taken at the pcurve's points as the kernel evaluates the face
+(``BRepAdaptor_Surface`` picks the knot span inside the face's parameter box at a knot on its
+boundary; a pcurve a tolerance beyond a knot, or beyond the surface's domain, is evaluated
+there, extrapolated); the gradient jump's finite differences see a C0 or C1 knot within three
+steps of the edge as a large gradient.
+
 The diagonal is the model's tight bounding box (``BRepBndLib.AddOptimal``, no triangulation).
 Each row also carries the edge's midpoint (on its 3D curve), so edges can be paired with
 another program's rows by location when the numbering differs.
