@@ -65,7 +65,6 @@ from OCP.TopoDS import (
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..runtime.native import captured_output
-from . import cad_3dm_pcurves as pc
 from .cad import CadFace, LeftOutFace
 
 __all__ = [
@@ -84,8 +83,6 @@ _START_TOLERANCE = 1e-7
 #: openNURBS's NURBS form of an edge is used when it matches the edge's samples within this
 #: fraction of the model's size.
 _CURVE_MATCH = 1e-9
-#: An edge's tolerance over the largest |S(c(t)) - C(t)| measured on its fitted pcurves.
-_MARGIN = 1.5
 #: Edge samples per span and degree, and their bounds, for the recovered trimming loops.
 _SAMPLES_PER_SPAN = 4
 _MIN_SAMPLES, _MAX_SAMPLES = 9, 200
@@ -187,7 +184,7 @@ def build_shape(
         builder.Add(compound, shell)
     try:
         with captured_output():
-            BRepLib.SameParameter_s(compound, tol, False)
+            BRepLib.SameParameter_s(compound, tol, True)
             BRepLib.UpdateTolerances_s(compound, False)
     except Exception as exc:
         raise GshadeError(f"{path}: the kernel could not fit the trims ({_why(exc)})") from None
@@ -319,10 +316,6 @@ def _brep_faces(
     vertices: dict[int, Any] = {}
     edges: dict[int, Any] = {}
     ranges: dict[int, tuple[float, float]] = {}
-    curves: dict[int, Any] = {}
-    apart: dict[int, float] = {}  # the edge's measured |S(c(t)) - C(t)|; absent: unfitted
-    unfitted: set[int] = set()
-    size = tol / _START_TOLERANCE
 
     def vertex(k: int) -> Any:
         if k not in vertices:
@@ -344,49 +337,25 @@ def _brep_faces(
             builder.Add(e, vertex(end).Oriented(TopAbs_REVERSED))
             builder.Range(e, float(t[0]), float(t[-1]))
             edges[k] = e
-            try:
-                curves[k] = pc.EdgeCurve(curve)
-            except Exception:  # no batch evaluation: the samples' cubic for its pcurves
-                curves[k] = None
             ranges[k] = (float(t[0]), float(t[-1]))
         return edges[k]
-
-    def pcurve(cad: CadFace, trim: Trim) -> Any:
-        curve = curves.get(trim.edge)
-        if curve is not None and len(trim.t) >= 2:
-            try:
-                out, _, off = pc.fit(cad.patch, curve, trim.t, trim.uv, size)
-                apart[trim.edge] = max(apart.get(trim.edge, 0.0), off)
-                return out
-            except Exception:  # a pcurve the fit cannot make: the samples' cubic
-                pass
-        unfitted.add(trim.edge)
-        return _pcurve(trim.t, trim.uv)
 
     out = []
     left_out = []
     for index, loops in part.faces:
         try:
-            face = _face(faces[index], loops, builder, tol, edge, vertex, pcurve)
-            out.append((index, face))
+            out.append((index, _face(faces[index], loops, builder, tol, edge, vertex)))
         except GshadeError as exc:
             left_out.append(LeftOutFace(index, str(exc), _BUILDING))
         except Exception as exc:
             left_out.append(LeftOutFace(index, f"the kernel failed ({_why(exc)})", _BUILDING))
     for k, e in edges.items():
+        builder.SameParameter(e, False)
         builder.Range(e, *ranges[k])
-        if k in unfitted or k not in apart:  # the kernel fits these
-            builder.SameParameter(e, False)
-        else:  # the pcurves trace the edge: its tolerance is their measured distance
-            builder.UpdateEdge(e, max(tol, _MARGIN * apart[k]))
-            builder.SameParameter(e, True)
-            builder.SameRange(e, True)
     return out, left_out
 
 
-def _face(
-    cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex, pcurve
-) -> Any:
+def _face(cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex) -> Any:
     """One face on its exact surface, bounded by wires of the shared edges."""
     face = TopoDS_Face()
     builder.MakeFace(face, surface(cad.patch), TopLoc_Location(), tol)
@@ -412,9 +381,11 @@ def _face(
                 if len(uses) == 2 and uses[0].reversed != uses[1].reversed:
                     if trim is uses[0]:  # a seam: both pcurves at once, the forward one first
                         fwd, rev = (uses[1], uses[0]) if uses[0].reversed else uses
-                        builder.UpdateEdge(e, pcurve(cad, fwd), pcurve(cad, rev), face, tol)
+                        builder.UpdateEdge(
+                            e, _pcurve(fwd.t, fwd.uv), _pcurve(rev.t, rev.uv), face, tol
+                        )
                 elif trim is uses[0]:
-                    builder.UpdateEdge(e, pcurve(cad, trim), face, tol)
+                    builder.UpdateEdge(e, _pcurve(trim.t, trim.uv), face, tol)
             builder.Add(wire, e.Oriented(TopAbs_REVERSED if trim.reversed else TopAbs_FORWARD))
         builder.Add(face, wire)
     return face.Reversed() if cad.reversed else face
@@ -437,30 +408,15 @@ def _degenerated(trim: Trim, builder: Any, tol: float, vertex) -> Any:
     return e
 
 
-def split_trims(
-    trims: list[Trim], uv: NDArray[np.float64], free: NDArray[np.intp] | None = None
-) -> None:
+def split_trims(trims: list[Trim], uv: NDArray[np.float64]) -> None:
     """Hand each trim its piece of the loop's parameters (in its edge's sense); a singular
-    trim the segment from the previous trim's end to the next one's start.
-
-    ``free`` (per point of the loop; -1 off the poles) names, at a pole, the direction along
-    which the surface does not move: there a trim's point takes that parameter from its
-    nearest point off the pole in the same trim (the trim's own limit at the pole, not the
-    next trim's), so that the trim's pcurve runs on without a jump and the singular trim
-    spans the gap between the trims' ends."""
+    trim the segment from the previous trim's end to the next one's start."""
     at = 0
     for trim in trims:
         if trim.edge >= 0:
-            piece = uv[at : at + len(trim.t)].copy()
-            if free is not None:
-                loose = free[at : at + len(trim.t)]
-                away = np.flatnonzero(loose < 0)
-                if away.size:
-                    for k in np.flatnonzero(loose >= 0):
-                        j = away[np.argmin(np.abs(away - k))]
-                        piece[k, loose[k]] = piece[j, loose[k]]
+            piece = uv[at : at + len(trim.t)]
             at += len(trim.t)
-            trim.uv = piece[::-1].copy() if trim.reversed else piece
+            trim.uv = piece[::-1].copy() if trim.reversed else piece.copy()
     m = len(trims)
     for i, trim in enumerate(trims):
         if trim.edge < 0:
