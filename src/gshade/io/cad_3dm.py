@@ -100,7 +100,7 @@ def read(
             geom = geom.ToBrep(False)
         if isinstance(geom, (rhino3dm.Brep, rhino3dm.Surface)) and not _drawn(obj, layers_on):
             hidden[0] += 1
-            hidden[1] += len(geom.Faces) if isinstance(geom, rhino3dm.Brep) else 1
+            hidden[1] += len(geom.Faces) if isinstance(geom, rhino3dm.Brep) else 1  # type: ignore[arg-type]
             continue
         before = len(faces)
         if isinstance(geom, rhino3dm.Brep):
@@ -190,7 +190,7 @@ def _drawn(obj: Any, layers_on: list[bool]) -> bool:
         and attributes.Mode
         not in (rhino3dm.ObjectMode.Hidden, rhino3dm.ObjectMode.InstanceDefinitionObject)
         and not attributes.IsInstanceDefinitionObject
-        and attributes.ActiveSpace != rhino3dm.ActiveSpace.PageSpace
+        and attributes.ActiveSpace != rhino3dm.ActiveSpace.PageSpace  # type: ignore[attr-defined]
         and (not 0 <= index < len(layers_on) or layers_on[index])
     )
 

@@ -87,7 +87,7 @@ def edges_to_left_out(
     if model.shape is None or not left_out:
         return []
     wanted, lost = set(faces), set(left_out)
-    out = []
+    out: list[tuple[int, int, int]] = []
     for e, _, sharing in _edge_faces(model):
         numbers = sorted({f for f, _ in sharing})
         out.extend((e, i, j) for i in numbers if i in wanted for j in numbers if j in lost)
