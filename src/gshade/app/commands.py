@@ -97,10 +97,9 @@ def _tell(notes: list[str], warnings: list[str]) -> None:
 
 def _cad_notes(scene) -> tuple[list[str], list[str]]:
     """The notes and warnings of a scene's CAD models once read (:func:`_tell`)."""
-    from ..rendering.pipeline import left_out_faces
+    from ..rendering.pipeline import cad_notes, left_out_faces
 
-    models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
-    notes = [f"{path}: {line}" for path, model in models.items() for line in model.notes]
+    notes = [f"{path}: {line}" for path, line in cad_notes(scene)]
     return notes, [f"{path}: {face.line()}" for path, face in left_out_faces(scene)]
 
 

@@ -31,8 +31,10 @@ __all__ = [
     "arc_map",
     "faces_bounds",
     "in_scene",
+    "no_usable_face",
     "read_cad",
     "reader_module",
+    "strict_refusal",
     "trimmed_points",
     "usable",
 ]
@@ -131,6 +133,18 @@ class LeftOutFace:
     def line(self) -> str:
         """The one line said about the face: ``face N left out: WHY (tried: TRIED)``."""
         return f"face {self.index} left out: {self.why} (tried: {self.tried})"
+
+
+def no_usable_face(path: str | os.PathLike, left_out: list[LeftOutFace]) -> GshadeError:
+    """The error of a model whose faces are all left out (``left_out``, in order)."""
+    return GshadeError(f"{path}: no usable face ({len(left_out)} left out; {left_out[0].line()})")
+
+
+def strict_refusal(path: str | os.PathLike, left_out: list[LeftOutFace]) -> GshadeError:
+    """The error of a strict ``cad`` surface that leaves faces out (``left_out``, in
+    order): the first one named, the others counted."""
+    more = f", and {len(left_out) - 1} more faces" if len(left_out) > 1 else ""
+    return GshadeError(f"{path}: {left_out[0].line()}{more} (strict: every face must be rendered)")
 
 
 @dataclass

@@ -31,7 +31,7 @@ from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from . import cad_3dm_seams as seams
 from . import cad_3dm_shape as sh
-from .cad import CadFace, CadModel, LeftOutFace
+from .cad import CadFace, CadModel, LeftOutFace, no_usable_face
 from .files import read_bytes
 
 __all__ = ["read"]
@@ -137,9 +137,7 @@ def read(
         )
     if not faces:
         if left_out:
-            raise GshadeError(
-                f"{path}: no usable face ({len(left_out)} left out; {left_out[0].line()})"
-            )
+            raise no_usable_face(path, left_out)
         raise GshadeError(
             f"{path}: expected surfaces (Breps, extrusions, NURBS), found {sh.found(model)}"
             + (f" ({notes[0]})" if notes else "")
@@ -150,9 +148,7 @@ def read(
         faces = [f for f in faces if f.index not in lost]
         left_out = sorted([*left_out, *unbuilt], key=lambda f: f.index)
         if not faces:
-            raise GshadeError(
-                f"{path}: no usable face ({len(left_out)} left out; {left_out[0].line()})"
-            )
+            raise no_usable_face(path, left_out)
     return CadModel(
         path=path,
         faces=faces,

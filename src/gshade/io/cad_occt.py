@@ -39,7 +39,7 @@ from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
-from .cad import CadFace, CadModel, LeftOutFace, arc_map, faces_bounds, usable
+from .cad import CadFace, CadModel, LeftOutFace, arc_map, faces_bounds, no_usable_face, usable
 from .cad_healing import HEALING, heal, shape_faces
 from .cad_quadrics import analytic_patch, builds
 from .files import read_bytes
@@ -130,8 +130,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
                 index, f"the kernel failed ({_why(exc)})", "reading its surface and trims"
             )
     if not out:
-        first = left_out[min(left_out)]
-        raise GshadeError(f"{path}: no usable face ({len(left_out)} left out; {first.line()})")
+        raise no_usable_face(path, [left_out[i] for i in sorted(left_out)])
     precision = step_uncertainty(path) if ext in (".step", ".stp") else 0.0
     return CadModel(
         path=path,

@@ -141,8 +141,7 @@ def render(scene, **overrides) -> RenderedImage:
                 for path, f in lost
             ]
         )
-    models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
-    said = [(path, line) for path, model in models.items() for line in model.notes] + meshed
+    said = cad_notes(scene, meshed)
     if said:
         metadata["cad_notes"] = json.dumps([f"{path.name}: {line}" for path, line in said])
     warnings = [f"{path}: {face.line()}" for path, face in lost]
@@ -306,6 +305,14 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
     if len(mesh.faces) == 0:
         raise GshadeError(f"{where}: the tessellation left no triangle")
     return mesh, (unmeshed, meshed)
+
+
+def cad_notes(scene, meshed=()) -> list:
+    """What the readers of the scene's CAD models noted (``CadModel.notes``: the healing,
+    sewing undone, objects passed over) and ``meshed``, the mesher's notes: (model path,
+    line) each, a model's once."""
+    models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
+    return [(path, line) for path, model in models.items() for line in model.notes] + list(meshed)
 
 
 def left_out_faces(scene, unmeshed=()) -> list:

@@ -173,10 +173,9 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
     floor = MIN_FACE_DEFLECTION * diagonal if np.isfinite(diagonal) else 0.0
     m = mesh_faces(cad.model, max(deflection, floor, 2 * KERNEL_CONFUSION), faces=cad.faces)
     if m.left_out and cad.strict:
-        more = f", and {len(m.left_out) - 1} more faces" if len(m.left_out) > 1 else ""
-        raise GshadeError(
-            f"{cad.model.path}: {m.left_out[0].line()}{more} (strict: every face must be rendered)"
-        )
+        from ..io.cad import strict_refusal
+
+        raise strict_refusal(cad.model.path, m.left_out)
     place = {face: k for k, face in enumerate(cad.faces)}
     index = np.array([place[int(f)] for f in m.face], dtype=np.int32)
     params = np.empty_like(m.uv)

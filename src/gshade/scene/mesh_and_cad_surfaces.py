@@ -172,7 +172,7 @@ def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, floa
 )
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     from ..geometry.regularity import degenerate_patch
-    from ..io.cad import LeftOutFace, in_scene, read_cad
+    from ..io.cad import LeftOutFace, in_scene, read_cad, strict_refusal
 
     name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()
@@ -212,6 +212,7 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
         raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
     patches: list[Patch] = []
     swapped = []
+    rendered = []
     for i in chosen:
         face = usable[i]
         try:
@@ -227,19 +228,11 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
             patch = _swapped(patch)
         patches.append(patch)
         swapped.append(bool(face.reversed))
-    rendered = [i for i in chosen if all(f.index != i for f in left_out)]
+        rendered.append(i)
+    left_out.sort(key=lambda f: f.index)
     where = f"{t.file}: {t.prefix}".rstrip(": ")
     if left_out and strict:
-        raise in_scene(
-            GshadeError(
-                f"{data_file}: {left_out[0].line()}"
-                + (f", and {len(left_out) - 1} more faces" if len(left_out) > 1 else "")
-                + " (strict: every face must be rendered)"
-            ),
-            where,
-            t.file,
-            data_file,
-        )
+        raise in_scene(strict_refusal(data_file, left_out), where, t.file, data_file)
     if not rendered:
         raise in_scene(
             GshadeError(f"{data_file}: no usable face among those chosen ({left_out[0].line()})"),
@@ -247,5 +240,4 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
             t.file,
             data_file,
         )
-    left_out.sort(key=lambda f: f.index)
     return patches, CadFaces(model, tuple(rendered), tuple(swapped), tuple(left_out), strict)
