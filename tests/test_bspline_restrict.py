@@ -255,3 +255,55 @@ def test_bad_boxes_are_one_line_errors_naming_box(box, words):
         patch.restricted(box)
     message = str(info.value)
     assert message.startswith("box: ") and "\n" not in message
+
+
+@settings(max_examples=120, deadline=None)
+@given(
+    data=st.data(),
+    p=st.integers(1, 4),
+    q=st.integers(1, 3),
+    rational=st.booleans(),
+    seed=st.integers(0, 2**32 - 1),
+    past=st.tuples(*[st.floats(0.0, 0.05)] * 4),
+)
+def test_a_box_past_the_domain_continues_the_end_pieces(data, p, q, rational, seed, past):
+    """``restricted(box, beyond=True)`` over a box reaching past the domain is the surface
+    :meth:`derivatives_beyond` evaluates there (the end spans' pieces continued, as the
+    kernel extrapolates), and no knot is added (a knot line would be a false junction)."""
+    rng = np.random.default_rng(seed)
+    patch = random_patch(data, rng, p, q, rational, extra=4)
+    (ul, uh), (vl, vh) = patch.domain
+    wu, wv = uh - ul, vh - vl
+    # past each end by up to 5 % of its span (with weights 0.5 .. 2 the continued rational
+    # pieces' weights stay positive there)
+    su, sv = (
+        np.diff(np.unique(k[(k >= lo) & (k <= hi)]))
+        for k, (lo, hi) in zip(patch.knots, patch.domain, strict=True)
+    )
+    box = (
+        (ul - past[0] * su[0], uh + past[1] * su[-1]),
+        (vl - past[2] * sv[0], vh + past[3] * sv[-1]),
+    )
+    out = patch.restricted(box, beyond=True)
+    assert out.domain == box
+    for mine, theirs, (lo, hi) in zip(out.knots, patch.knots, patch.domain, strict=True):
+        inner = np.unique(theirs[(theirs > lo) & (theirs < hi)])
+        np.testing.assert_array_equal(np.unique(mine[(mine > lo) & (mine < hi)]), inner)
+    u = np.concatenate([rng.uniform(*box[0], 30), [box[0][0], box[0][1]]])
+    v = np.concatenate([rng.uniform(*box[1], 30), [box[1][1], box[1][0]]])
+    want = patch.derivatives_beyond(u, v, 2)
+    got = out.derivatives(u, v, 2)
+    size = np.abs(want[0, 0]).max()
+    for i in range(3):
+        for j in range(3 - i):
+            scale = size / (wu**i * wv**j)
+            err = np.abs(got[i, j] - want[i, j]).max() / scale
+            assert err < 1e-9, f"d{i}{j}: {err:.3g}"
+
+
+def test_a_box_past_the_domain_is_refused_unless_asked():
+    patch = circular_cylinder()
+    with pytest.raises(GshadeError, match="inside the domain"):
+        patch.restricted(((-0.01, 1.0), (0.0, 1.0)))
+    out = patch.restricted(((-0.01, 1.0), (0.0, 1.0)), beyond=True)
+    assert out.domain == ((-0.01, 1.0), (0.0, 1.0))

@@ -49,8 +49,50 @@ def _restrict(
     return np.concatenate([a * ends, U[r + 1 : s], b * ends]), P[r - p : s].copy()
 
 
-def _box(box: Any, dom: tuple) -> tuple[tuple[float, float], tuple[float, float]]:
-    """``box`` as ((u0, u1), (v0, v1)) of floats, checked to be non-empty and inside ``dom``."""
+def _continue_start(knots: NDArray, degree: int, net: NDArray, a: float) -> tuple[NDArray, NDArray]:
+    """The clamped spline (knots starting with p + 1 copies of U_0 > a) over [a, ...]: its
+    first span's polynomial continued down to a, no knot added.
+
+    The control points P_i = f(t_{i+1}, ..., t_{i+p}) are the blossom f of the polynomial of
+    any span in their support (Ramshaw 1989; Kiciak, A.3).  Only P_0 .. P_{p-1} name one of
+    the start knots, so only they change: P_i = f_1(a^(p - i), U_{p+1}, ..., U_{p+i}), with f_1
+    the first span's blossom, evaluated by de Casteljau steps at those parameters on the
+    span's Bezier points.
+    """
+    U, p = knots, degree
+    a0, k1 = float(U[p]), float(U[p + 1])
+    _, bezier = _restrict(U, p, net, a0, k1)  # the first span's Bezier points over [a0, k1]
+    out = net.copy()
+    for i in range(p):
+        pts = bezier
+        for x in [a] * (p - i) + list(U[p + 1 : p + 1 + i]):
+            tau = (float(x) - a0) / (k1 - a0)
+            pts = (1.0 - tau) * pts[:-1] + tau * pts[1:]
+        out[i] = pts[0]
+    U = U.copy()
+    U[: p + 1] = a
+    return U, out
+
+
+def _over(knots: NDArray, degree: int, net: NDArray, a: float, b: float) -> tuple[NDArray, NDArray]:
+    """Knots and control points (axis 0 of ``net``) of the spline over [a, b], which may reach
+    past the domain [U_p, U_{n+1}]: there the end spans' polynomials are continued."""
+    p = degree
+    lo, hi = float(knots[p]), float(knots[-p - 1])
+    U, P = _restrict(knots, p, net, max(a, lo), min(b, hi))
+    if a < lo:
+        U, P = _continue_start(U, p, P, a)
+    if b > hi:  # the same at the end, on the reversed spline
+        U, P = _continue_start(-U[::-1], p, P[::-1], -b)
+        U, P = -U[::-1], P[::-1]
+    return U, np.ascontiguousarray(P)
+
+
+def _box(
+    box: Any, dom: tuple, beyond: bool = False
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``box`` as ((u0, u1), (v0, v1)) of finite floats, checked to be non-empty and (unless
+    ``beyond``) inside ``dom``."""
     ends: list[float] = []
     try:
         (a0, a1), (b0, b1) = box
@@ -68,7 +110,7 @@ def _box(box: Any, dom: tuple) -> tuple[tuple[float, float], tuple[float, float]
             raise GshadeError(
                 f"box: expected {name}0 < {name}1, got the empty {name} range [{a!r}, {b!r}]"
             )
-        if not (lo <= a and b <= hi):
+        if not beyond and not (lo <= a and b <= hi):
             raise GshadeError(
                 f"box: expected a {name} range inside the domain's [{lo!r}, {hi!r}], "
                 f"got [{a!r}, {b!r}]"
@@ -160,13 +202,18 @@ class BSplinePatch(TensorProductPatch):
         P, w = _split(h, self.rational)
         return BSplinePatch(P, self.degree, (U, V), w)
 
-    def restricted(self, box: Sequence[Sequence[float]]) -> BSplinePatch:
+    def restricted(self, box: Sequence[Sequence[float]], beyond: bool = False) -> BSplinePatch:
         """The same surface over the sub-box ``box`` of the domain, as a patch of its own.
 
         Parameters
         ----------
         box : ((u0, u1), (v0, v1))
             Inside the domain, with u0 < u1 and v0 < v1 (e.g. a CAD face's parameter box).
+        beyond : bool, optional
+            Let ``box`` reach past the domain: there the end spans' polynomial (rational)
+            pieces are continued, as :meth:`derivatives_beyond` evaluates them and the CAD
+            kernel extrapolates (e.g. a CAD face whose trims stray past its surface's domain
+            by the file's tolerance).  Default False: such a box is an error.
 
         Returns
         -------
@@ -187,13 +234,26 @@ class BSplinePatch(TensorProductPatch):
         beyond them set to the box end (a clamped knot vector over the box).  Insertion acts on
         the homogeneous points (w P, w) of a rational patch, then the weights are divided out;
         it works on all rows of the net at once.  This is exact up to round-off, for clamped
-        and unclamped (e.g. once periodic) knot vectors alike (Kiciak, A.3).
+        and unclamped (e.g. once periodic) knot vectors alike (Kiciak, A.3).  Past the
+        domain, the end's first p control points are the blossom of the end span's
+        polynomial at the new end knots (Ramshaw 1989): no knot is added.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from gshade.geometry.bspline import BSplinePatch
+        >>> net = np.random.default_rng(0).normal(size=(4, 3, 3))
+        >>> patch = BSplinePatch(net, (2, 2), ([0, 0, 0, .5, 1, 1, 1], [0, 0, 0, 1, 1, 1]))
+        >>> wider = patch.restricted(((-0.1, 1.0), (0.0, 1.2)), beyond=True)
+        >>> u, v = np.array([-0.05, 0.3]), np.array([1.1, 0.4])
+        >>> bool(np.allclose(wider(u, v), patch.derivatives_beyond(u, v)[0, 0]))
+        True
         """
-        (u0, u1), (v0, v1) = _box(box, self.domain)
+        (u0, u1), (v0, v1) = _box(box, self.domain, beyond)
         p, q = self.degree
         U, V = self.knots
-        U, h = _restrict(U, p, self._net, u0, u1)
-        V, h = _restrict(V, q, np.swapaxes(h, 0, 1), v0, v1)
+        U, h = _over(U, p, self._net, u0, u1)
+        V, h = _over(V, q, np.swapaxes(h, 0, 1), v0, v1)
         P, w = _split(np.swapaxes(h, 0, 1), self.rational)
         return BSplinePatch(P, self.degree, (U, V), w)  # its domain: U_p = u0, ... exactly
 

@@ -150,6 +150,22 @@ def _clipped(box: Any, dom: Any) -> tuple[tuple[float, float], tuple[float, floa
     return (max(u0, a0), min(u1, a1)), (max(v0, b0), min(v1, b1))
 
 
+def over_box(face: Any) -> Any:
+    """A CAD face's surface as a patch over the face's parameter box.
+
+    Where the box (its trims) reaches past the surface's domain, by a file's tolerance, the
+    end pieces are continued (:meth:`gshade.geometry.BSplinePatch.restricted` with
+    ``beyond``), as the kernel, the edge sampler and the mesh's vertices evaluate the face
+    there: a sliver past the domain is shaded from the surface it is on.  Should the
+    continued pieces not be a surface (a rational piece whose weights cross zero), the box is
+    clipped to the domain instead.
+    """
+    try:
+        return face.patch.restricted(face.box, beyond=True)
+    except GshadeError:
+        return face.patch.restricted(_clipped(face.box, face.patch.domain))
+
+
 @surface_type(
     "cad",
     "the trimmed faces of a CAD model (STEP, IGES, BREP, Rhino 3dm), exact, meshed by the kernel",
@@ -216,7 +232,7 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     for i in chosen:
         face = usable[i]
         try:
-            patch = face.patch.restricted(_clipped(face.box, face.patch.domain))
+            patch = over_box(face)
         except GshadeError as exc:
             left_out.append(LeftOutFace(i, str(exc), "restricting its surface to its box"))
             continue
