@@ -9,18 +9,29 @@ import numpy as np
 import pytest
 
 from gshade.geometry import BezierPatch
-from gshade.rendering.atlas import GEOMETRY, SHAPE, Atlas, Packing
+from gshade.rendering.atlas import BLOCK, GEOMETRY, SHAPE, Atlas, Packing
 from gshade.rendering.textures import ShapeTextures, shape_textures
 from gshade.shape import get_shape_function
 
 TILE, PATCHES = 6, 5  # 3 x 2 tiles of 6 x 6 texels; the last tile of the grid is unused
+COLS = 3
 
 
 def texel_parameters(atlas):
-    """Patch index, s and t of every texel (H, W) by the documented layout."""
+    """Patch index, s and t of every texel (H, W) by the documented layout: texel (r, c) is
+    patch k's where row0_k <= r < row0_k + T_k and col0_k <= c < col0_k + T_k, at
+    s = (c - col0_k) / (T_k - 1), t = (r - row0_k) / (T_k - 1); k = PATCHES in the gaps."""
     rows, cols = np.mgrid[0 : atlas.height, 0 : atlas.width]
-    k = (rows // TILE) * atlas.cols + cols // TILE
-    return k, (cols % TILE) / (TILE - 1), (rows % TILE) / (TILE - 1)
+    k = np.full(rows.shape, PATCHES)
+    s = np.zeros(rows.shape)
+    t = np.zeros(rows.shape)
+    for i, (r0, c0, T) in enumerate(zip(atlas.row0, atlas.col0, atlas.sizes, strict=True)):
+        mine = (rows >= r0) & (rows < r0 + T) & (cols >= c0) & (cols < c0 + T)
+        assert (k[mine] == PATCHES).all()  # no two tiles overlap
+        k[mine] = i
+        s[mine] = (cols[mine] - c0) / (T - 1)
+        t[mine] = (rows[mine] - r0) / (T - 1)
+    return k, s, t
 
 
 def f_of(k, s, t):
@@ -62,19 +73,37 @@ def sample_points(rng, n=400):
     return k, st
 
 
-@pytest.fixture
-def atlas():
-    atlas = Atlas.for_patches(PATCHES, TILE)
-    assert (atlas.cols, atlas.rows, atlas.width, atlas.height) == (3, 2, 18, 12)
+#: Tiles of several sizes (multiples of the block), packed into shelves.
+SIZES = (16, 8, 24, 8, 40)
+
+
+@pytest.fixture(params=["one size", "several sizes"])
+def atlas(request):
+    if request.param == "one size":
+        atlas = Atlas.for_patches(PATCHES, TILE)
+        # the documented layout: tile k at column (k mod 3) T and row (k div 3) T
+        assert (atlas.width, atlas.height) == (18, 12)
+        k = np.arange(PATCHES)
+        np.testing.assert_array_equal(atlas.col0, (k % COLS) * TILE)
+        np.testing.assert_array_equal(atlas.row0, (k // COLS) * TILE)
+    else:
+        atlas = Atlas.for_tiles(SIZES)
+        np.testing.assert_array_equal(atlas.sizes, SIZES)
+        assert not (atlas.row0 % BLOCK).any() and not (atlas.col0 % BLOCK).any()
+        assert (atlas.row0 + atlas.sizes <= atlas.height).all()
+        assert (atlas.col0 + atlas.sizes <= atlas.width).all()
+        # packed: the atlas at most twice the tiles' texels
+        assert atlas.width * atlas.height <= 2 * sum(T * T for T in SIZES)
     return atlas
 
 
 def test_texcoords_and_locate_follow_the_layout(atlas):
     k, st = sample_points(np.random.default_rng(1))
     xy = atlas.texcoords(k, st)
-    # the documented addressing: the texel centre of s = i / (T - 1) in tile column k mod cols
-    expected_x = ((k % 3) * TILE + 0.5 + st[:, 0] * (TILE - 1)) / 18
-    expected_y = ((k // 3) * TILE + 0.5 + st[:, 1] * (TILE - 1)) / 12
+    # the documented addressing: the texel centre of s = i / (T - 1) in patch k's tile
+    T = atlas.sizes[k]
+    expected_x = (atlas.col0[k] + 0.5 + st[:, 0] * (T - 1)) / atlas.width
+    expected_y = (atlas.row0[k] + 0.5 + st[:, 1] * (T - 1)) / atlas.height
     np.testing.assert_allclose(xy, np.stack([expected_x, expected_y], -1), rtol=0, atol=1e-15)
     patch, back = atlas.locate(xy)
     np.testing.assert_array_equal(patch, k)
@@ -137,7 +166,7 @@ def test_the_integrators_lookup_gives_back_the_values(atlas, integrator):
     k, st = sample_points(np.random.default_rng(3))
     s, t = st[:, 0], st[:, 1]
     si, hit = surface_interactions(atlas.texcoords(k, st))
-    f, (f_s, f_t), defined = shape._shape_value(si, hit, shape.values)
+    f, (f_s, f_t), defined, _ = shape._shape_value(si, hit, shape.values)
     # float32 atlas coordinates: s and t within ~2e-7 / (T - 1) of the asked ones
     np.testing.assert_allclose(np.array(f), f_of(k, s, t), atol=2e-4)
     np.testing.assert_allclose(np.array(f_s), 3.0 + 1.5 * t, atol=2e-5)

@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 from gshade.app.cli import main
 from gshade.display.colour import coverage_formula, settled_on_edges
 from gshade.io.image import read_exr
+from gshade.rendering.atlas import Atlas
 from gshade.rendering.style import EDGE_MARGIN, PERIOD_NUDGE, constant_values, period_off_edges
 from gshade.scene.load import CAD_LIGHT
 
@@ -68,11 +69,20 @@ def test_constant_values_are_those_of_whole_tiles():
     f[:, :8] = 0.25  # tile 0: a plane
     f[:, 8:] = np.linspace(0.0, 1.0, 8)[None, :]  # tile 1: constant along columns only
     valid = np.ones(f.shape, bool)
-    assert constant_values(f, valid, 8).tolist() == [0.25]
+    tiles = Atlas.for_patches(2, 8).all_tile_slices()
+    assert constant_values(f, valid, tiles).tolist() == [0.25]
     f[0, 0] = 7.0  # a texel outside the trim of tile 0
-    assert constant_values(f, valid, 8).size == 0
+    assert constant_values(f, valid, tiles).size == 0
     valid[0, 0] = False
-    assert constant_values(f, valid, 8).tolist() == [0.25]
+    assert constant_values(f, valid, tiles).tolist() == [0.25]
+    # tiles of two sizes: a constant 8 x 8 tile beside a varying 16 x 16 one
+    atlas = Atlas.for_tiles([8, 16])
+    g = np.zeros((atlas.height, atlas.width), np.float32)
+    rows, cols = atlas.tile_slices(1)
+    g[rows, cols] = np.linspace(0.0, 1.0, 16)[None, :]
+    g[atlas.tile_slices(0)] = -3.0
+    both = np.ones(g.shape, bool)
+    assert constant_values(g, both, atlas.all_tile_slices()).tolist() == [-3.0]
 
 
 @settings(max_examples=200, deadline=None)

@@ -396,7 +396,7 @@ def test_a_camera_inside_the_surfaces_keeps_a_small_image_small(tmp_path):
     image = render(load_scene(_write(tmp_path, text + SMALL)), width=160, height=120)
     settings = json.loads(image.metadata["settings"])
     assert 32 * settings["tessellation"] ** 2 <= 16 * 160 * 120
-    assert 32 * settings["texture_tile"] ** 2 <= 16 * 160 * 120
+    assert settings["texture_texels"] <= 16 * 160 * 120
 
 
 def test_an_override_on_a_surface_whose_type_is_not_a_name(tmp_path):

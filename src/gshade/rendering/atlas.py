@@ -1,18 +1,23 @@
-"""The texture atlas: one T x T tile of texels per patch, its addressing and its lookups.
+"""The texture atlas: a tile of texels per patch, its addressing and its lookups.
 
 Written once, for numpy arrays (the textures, the exact channels) and Dr.Jit arrays (the
 integrator), through :class:`gshade.runtime.backend.ArrayOps`.
 
-Layout.  Patch k's tile starts at texel column c0 = (k mod cols) T and row r0 = (k div cols) T
-of an atlas of W = cols T by H = rows T texels.  Texel (row r, column c) has its centre at
-atlas coordinates ((c + 0.5) / W, (r + 0.5) / H), and the texel centres of a tile sit on the
-grid s_i = i / (T - 1) of the patch's normalised parameters: s maps to the continuous texel
-column X = c0 + s (T - 1), t to the row Y = r0 + t (T - 1).
+Layout.  Patch k's tile is T_k x T_k texels, its first texel at column c0_k and row r0_k of
+an atlas of W x H texels.  Texel (row r, column c) has its centre at atlas coordinates
+((c + 0.5) / W, (r + 0.5) / H), and the texel centres of a tile sit on the grid
+s_i = i / (T_k - 1) of the patch's normalised parameters: s maps to the continuous texel
+column X = c0_k + s (T_k - 1), t to the row Y = r0_k + t (T_k - 1).  Tiles start on
+multiples of a block of B texels and each covers whole blocks, so that a *block map* (one
+patch number per B x B block) tells the tile a point lies in: the block of texel coordinate
+X is floor((X + 0.5) / B).  All tiles of one size (``Atlas.for_patches``: B = T, the tiles
+in rows of ceil(sqrt(n))) or each its own (``Atlas.for_tiles``: sizes in multiples of B,
+packed into shelves, largest first), so that a small face costs few texels.
 
 Lookups.  A point's cell is the square of four texel centres around it inside its own tile
 (never reading a neighbouring patch's texels); within it, a value with its s, t and st
 derivatives is interpolated bicubically (Hermite: exact for bicubic polynomials, error
-O(h^4)), a slope bilinearly.
+O(h^4), h = 1 / (T_k - 1)), a slope bilinearly.
 
 Packed textures.  The integrator fetches all a texel's channels at once: :data:`GEOMETRY`
 and :data:`SHAPE` name the channels of its two kinds of packed texture.
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -30,11 +36,13 @@ from numpy.typing import NDArray
 from ..runtime.backend import NUMPY, ArrayOps
 
 __all__ = [
+    "BLOCK",
     "GEOMETRY",
     "SHAPE",
     "Atlas",
     "Cell",
     "Packing",
+    "Tiles",
     "atlas_coordinate",
     "bilinear",
     "cell_centre",
@@ -42,7 +50,7 @@ __all__ = [
     "locate_cell",
     "texel_coordinate",
     "tile_bounds",
-    "tile_index",
+    "tile_of",
 ]
 
 
@@ -58,12 +66,7 @@ def texel_coordinate(x, size: int):
     return x * size - 0.5
 
 
-def tile_index(X, tile: int, ops: ArrayOps):
-    """The tile (column or row of tiles) that texel coordinate X lies in: floor((X + 0.5) / T)."""
-    return ops.floor((X + 0.5) / tile)
-
-
-def tile_bounds(start, tile: int, size: int) -> tuple[Any, Any]:
+def tile_bounds(start, tile, size: int) -> tuple[Any, Any]:
     """Atlas coordinates of a tile's first and last texel centres (s = 0 and s = 1)."""
     return atlas_coordinate(start, 0.0, tile, size), atlas_coordinate(start, 1.0, tile, size)
 
@@ -74,9 +77,25 @@ def cell_centre(i, size: int):
     return (i + 1.0) / size
 
 
+class Tiles(NamedTuple):
+    """Where the tiles are, as arrays of one library (numpy, or Dr.Jit for the
+    integrator): the block size ``block`` (B), the blocks per atlas row ``blocks_wide`` and
+    column ``blocks_high``, the patch of each block (row-major, ``patch_of_block``) and per
+    patch its tile's first column ``c0``, first row ``r0`` and size ``size`` (T)."""
+
+    block: int
+    blocks_wide: int
+    blocks_high: int
+    patch_of_block: Any
+    c0: Any
+    r0: Any
+    size: Any
+
+
 class Cell(NamedTuple):
     """The cell around a point: its first texel (column i, row j), the point's position
-    (a, b) in [0, 1]^2 within it, and the first texel (c0, r0) of its tile."""
+    (a, b) in [0, 1]^2 within it, the first texel (c0, r0) of its tile and the tile's size
+    (T)."""
 
     i: Any
     j: Any
@@ -84,21 +103,31 @@ class Cell(NamedTuple):
     b: Any
     c0: Any
     r0: Any
+    tile: Any
 
 
-def locate_cell(x, y, width: int, height: int, tile: int, ops: ArrayOps) -> Cell:
+def tile_of(X, Y, tiles: Tiles, ops: ArrayOps):
+    """The patch whose tile holds texel coordinates (X, Y): the patch of the block
+    (floor((X + 0.5) / B), floor((Y + 0.5) / B)), clipped into the atlas."""
+    B = tiles.block
+    bx = ops.clip(ops.floor((X + 0.5) / B), 0.0, tiles.blocks_wide - 1.0)
+    by = ops.clip(ops.floor((Y + 0.5) / B), 0.0, tiles.blocks_high - 1.0)
+    return ops.gather(tiles.patch_of_block, by * tiles.blocks_wide + bx)
+
+
+def locate_cell(x, y, width: int, height: int, tiles: Tiles, ops: ArrayOps) -> Cell:
     """The cell of atlas coordinates (x, y) in an atlas of ``width`` x ``height`` texels:
-    i = clip(floor(X), c0, c0 + T - 2), a = clip(X - i, 0, 1) with X the texel coordinate and
-    c0 its tile's first column (rows likewise)."""
+    i = clip(floor(X), c0, c0 + T - 2), a = clip(X - i, 0, 1) with X the texel coordinate
+    and c0, T its tile's first column and size (rows likewise)."""
     X = texel_coordinate(x, width)
     Y = texel_coordinate(y, height)
-    c0 = tile_index(X, tile, ops) * tile
-    r0 = tile_index(Y, tile, ops) * tile
-    i = ops.clip(ops.floor(X), c0, c0 + tile - 2)
-    j = ops.clip(ops.floor(Y), r0, r0 + tile - 2)
+    k = tile_of(X, Y, tiles, ops)
+    c0, r0, T = (ops.gather(a, k) for a in (tiles.c0, tiles.r0, tiles.size))
+    i = ops.clip(ops.floor(X), c0, c0 + T - 2)
+    j = ops.clip(ops.floor(Y), r0, r0 + T - 2)
     a = ops.clip(X - i, 0.0, 1.0)
     b = ops.clip(Y - j, 0.0, 1.0)
-    return Cell(i, j, a, b, c0, r0)
+    return Cell(i, j, a, b, c0, r0, T)
 
 
 #: the corners of a cell, in the order its texels are fetched: (i, j), (i+1, j), (i, j+1),
@@ -106,10 +135,11 @@ def locate_cell(x, y, width: int, height: int, tile: int, ops: ArrayOps) -> Cell
 CORNERS = ((0, 0), (1, 0), (0, 1), (1, 1))
 
 
-def hermite(corners: Sequence, a, b, spacing: float, channels: Sequence[int]):
+def hermite(corners: Sequence, a, b, spacing, channels: Sequence[int]):
     """Bicubic Hermite interpolation at (a, b) of a cell from the value, d/ds, d/dt and
     d2/dsdt at its corners (``channels`` of each corner texel, in that order), with
-    ``spacing`` = 1 / (T - 1) the texel spacing in the normalised parameters:
+    ``spacing`` = 1 / (T - 1) the texel spacing in the normalised parameters (a number, or
+    one per point):
     sum over the corners of H0 H0' value + H1 H0' d/ds + H0 H1' d/dt + H1 H1' d2/dsdt, with
     the cubic Hermite bases H0(a) = 1 - a^2 (3 - 2a) (or a^2 (3 - 2a)) and H1(a) =
     a (1 - a)^2 h (or -a^2 (1 - a) h)."""
@@ -205,67 +235,133 @@ GEOMETRY = Packing((("p", 3), ("p_s", 3), ("p_t", 3), ("p_st", 3)))
 SHAPE = Packing((("f", 1), ("f_s", 1), ("f_t", 1), ("f_st", 1), ("valid", 1)))
 
 
-@dataclass(frozen=True)
-class Atlas:
-    """Layout of T x T tiles, one per patch, in a grid of ``cols`` x ``rows`` tiles."""
+#: Texels per block of an atlas of tiles of several sizes (``Atlas.for_tiles``): the sizes
+#: are multiples of it, and so are the tiles' first rows and columns.
+BLOCK = 8
 
-    tile: int
-    cols: int
-    rows: int
+
+@dataclass(frozen=True, eq=False)
+class Atlas:
+    """Where each patch's tile lies: ``sizes[k]`` texels a side (T_k), its first texel at
+    row ``row0[k]`` and column ``col0[k]`` of a ``width`` x ``height`` atlas, all multiples
+    of ``block`` (B), which ``sizes`` are too, or B = T for tiles of one size."""
+
+    sizes: NDArray[np.int64]
+    row0: NDArray[np.int64]
+    col0: NDArray[np.int64]
+    width: int
+    height: int
+    block: int
+    patch_of_block: NDArray[np.int64] = dataclass_field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        bw, bh = self.width // self.block, self.height // self.block
+        blocks = np.zeros((bh, bw), dtype=np.int64)  # a gap's blocks: patch 0 (never read)
+        for k, (r0, c0, T) in enumerate(zip(self.row0, self.col0, self.sizes, strict=True)):
+            n = -(-int(T) // self.block)
+            blocks[
+                r0 // self.block : r0 // self.block + n, c0 // self.block : c0 // self.block + n
+            ] = k
+        object.__setattr__(self, "patch_of_block", blocks.ravel())
 
     @classmethod
     def for_patches(cls, n_patches: int, tile: int) -> Atlas:
-        """The squarest layout for ``n_patches`` tiles of ``tile`` x ``tile`` texels."""
+        """Tiles of ``tile`` x ``tile`` texels, in rows of ceil(sqrt(n)): patch k's at
+        column (k mod cols) T and row (k div cols) T."""
+        T = int(tile)
         cols = int(np.ceil(np.sqrt(n_patches)))
-        return cls(int(tile), cols, int(np.ceil(n_patches / cols)))
+        k = np.arange(n_patches)
+        rows = int(np.ceil(n_patches / cols))
+        return cls(np.full(n_patches, T), (k // cols) * T, (k % cols) * T, cols * T, rows * T, T)
+
+    @classmethod
+    def for_tiles(cls, sizes: Sequence[int] | NDArray) -> Atlas:
+        """Tiles of the given sizes, packed into shelves: the largest first, left to right in
+        rows about sqrt(sum T_k^2) texels wide, each shelf as high as its first tile.  Sizes
+        all alike (any, >= 2) give :meth:`for_patches`' layout; else each is a multiple of
+        :data:`BLOCK`."""
+        T = np.asarray(sizes, dtype=np.int64)
+        if T.size and (T == T[0]).all() and T[0] >= 2:  # one size: the square layout
+            return cls.for_patches(T.size, int(T[0]))
+        if T.size == 0 or (T % BLOCK).any() or (T < BLOCK).any():
+            raise ValueError(f"Atlas.for_tiles: sizes must be multiples of {BLOCK}, got {T}")
+        width = max(int(T.max()), BLOCK * int(np.ceil(np.sqrt(float((T**2).sum())) / BLOCK)))
+        row0, col0 = np.zeros_like(T), np.zeros_like(T)
+        x = y = shelf = 0
+        for k in np.argsort(-T, kind="stable"):
+            if x + T[k] > width:  # the next shelf
+                x, y, shelf = 0, y + shelf, 0
+            row0[k], col0[k] = y, x
+            x += int(T[k])
+            shelf = max(shelf, int(T[k]))
+        return cls(T, row0, col0, width, y + shelf, BLOCK)
 
     @property
-    def width(self) -> int:
-        return self.cols * self.tile
+    def tile(self) -> int:
+        """The largest tile's size."""
+        return int(self.sizes.max())
 
     @property
-    def height(self) -> int:
-        return self.rows * self.tile
+    def texels(self) -> int:
+        """The texels the tiles hold (the atlas's gaps aside)."""
+        return int((self.sizes**2).sum())
 
-    @property
-    def spacing(self) -> float:
-        """The texel spacing in the normalised parameters: h = 1 / (T - 1)."""
-        return 1.0 / (self.tile - 1)
+    def spacing(self, patch: NDArray | int) -> Any:
+        """The texel spacing in the normalised parameters of the tiles of ``patch``:
+        h = 1 / (T - 1)."""
+        return 1.0 / (self.sizes[patch] - 1)
 
-    @property
-    def scale(self) -> tuple[float, float]:
-        """d(s, t) / d(atlas x, y): converts atlas-coordinate derivatives to parameter ones."""
-        return self.width / (self.tile - 1), self.height / (self.tile - 1)
+    def scale(self, patch: NDArray | int) -> tuple[Any, Any]:
+        """d(s, t) / d(atlas x, y) on the tiles of ``patch``: converts atlas-coordinate
+        derivatives to parameter ones."""
+        T = self.sizes[patch] - 1
+        return self.width / T, self.height / T
+
+    def tiles(self, ops: ArrayOps = NUMPY, array: Any = None) -> Tiles:
+        """The layout as :class:`Tiles` of arrays made by ``array`` (default numpy's)."""
+        make = np.asarray if array is None else array
+        return Tiles(
+            self.block,
+            self.width // self.block,
+            self.height // self.block,
+            make(self.patch_of_block.astype(np.float64)),
+            *(make(a.astype(np.float64)) for a in (self.col0, self.row0, self.sizes)),
+        )
 
     def tile_start(self, patch: NDArray | int) -> tuple[Any, Any]:
         """First texel row r0 and column c0 of the tiles of patches ``patch``."""
-        return (patch // self.cols) * self.tile, (patch % self.cols) * self.tile
+        return self.row0[patch], self.col0[patch]
 
     def tile_slices(self, patch: int) -> tuple[slice, slice]:
         """The rows and columns of patch ``patch``'s tile in an atlas image."""
-        r0, c0 = self.tile_start(patch)
-        return slice(r0, r0 + self.tile), slice(c0, c0 + self.tile)
+        r0, c0, T = int(self.row0[patch]), int(self.col0[patch]), int(self.sizes[patch])
+        return slice(r0, r0 + T), slice(c0, c0 + T)
+
+    def all_tile_slices(self) -> list[tuple[slice, slice]]:
+        """:meth:`tile_slices` of every patch, in order."""
+        return [self.tile_slices(k) for k in range(len(self.sizes))]
 
     def texcoords(self, patch: NDArray, st: NDArray) -> NDArray[np.float64]:
         """Atlas coordinates of normalised parameters ``st`` (N, 2) on patches ``patch`` (N,)."""
         r0, c0 = self.tile_start(patch)
-        x = atlas_coordinate(c0, st[:, 0], self.tile, self.width)
-        y = atlas_coordinate(r0, st[:, 1], self.tile, self.height)
+        T = self.sizes[patch]
+        x = atlas_coordinate(c0, st[:, 0], T, self.width)
+        y = atlas_coordinate(r0, st[:, 1], T, self.height)
         return np.stack([x, y], -1)
 
     def locate(self, xy: NDArray) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """Patch index and normalised parameters of atlas coordinates ``xy`` (..., 2)."""
-        cx = texel_coordinate(xy[..., 0], self.width)
-        ry = texel_coordinate(xy[..., 1], self.height)
-        col = np.clip(tile_index(cx, self.tile, NUMPY), 0, self.cols - 1).astype(np.int64)
-        row = np.clip(tile_index(ry, self.tile, NUMPY), 0, self.rows - 1).astype(np.int64)
-        s = np.clip((cx - col * self.tile) / (self.tile - 1), 0.0, 1.0)
-        t = np.clip((ry - row * self.tile) / (self.tile - 1), 0.0, 1.0)
-        return row * self.cols + col, np.stack([s, t], -1)
+        X = texel_coordinate(xy[..., 0], self.width)
+        Y = texel_coordinate(xy[..., 1], self.height)
+        k = tile_of(X, Y, self.tiles(), NUMPY).astype(np.int64)
+        T = self.sizes[k] - 1
+        s = np.clip((X - self.col0[k]) / T, 0.0, 1.0)
+        t = np.clip((Y - self.row0[k]) / T, 0.0, 1.0)
+        return k, np.stack([s, t], -1)
 
     def cell(self, xy: NDArray) -> Cell:
         """The cells of atlas coordinates ``xy`` (N, 2) (numpy)."""
-        return locate_cell(xy[:, 0], xy[:, 1], self.width, self.height, self.tile, NUMPY)
+        return locate_cell(xy[:, 0], xy[:, 1], self.width, self.height, self.tiles(), NUMPY)
 
     def corners(self, image: NDArray, cell: Cell) -> list[NDArray]:
         """The four corner texels of the cells (in :data:`CORNERS` order) of an
@@ -285,4 +381,4 @@ class Atlas:
             channels = packing.hermite_channels(name, component)
         except KeyError:
             return bilinear(corners, cell.a, cell.b, packing.channel(name, component))
-        return hermite(corners, cell.a, cell.b, self.spacing, channels)
+        return hermite(corners, cell.a, cell.b, 1.0 / (cell.tile - 1), channels)

@@ -89,7 +89,7 @@ class IntegratorSettings:
     duty: float = 0.5
     phase: float = 0.0
     value_range: tuple[float, float] = (0.0, 1.0)
-    atlas: Atlas = field(default_factory=lambda: Atlas(2, 1, 1))
+    atlas: Atlas = field(default_factory=lambda: Atlas.for_patches(1, 2))
     key_light: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
 
@@ -169,9 +169,10 @@ def _define(mi):
         def configure(self, settings, geometry, values, lut):
             self.geometry = geometry  # p, p_s, p_t, p_st: 12 channels, fetched at once
             atlas = settings.atlas
-            self.atlas_w, self.atlas_h, self.tile = atlas.width, atlas.height, atlas.tile
-            self.spacing = atlas.spacing
-            self.ks, self.kt = (opaque(k) for k in atlas.scale)
+            self.atlas_w, self.atlas_h = atlas.width, atlas.height
+            # where the tiles are: per block its patch, per patch its tile (Dr.Jit arrays;
+            # Python lists in the scalar variants)
+            self.tiles = atlas.tiles(ops, (lambda a: a.tolist()) if scalar else Float)
             self.display = DISPLAY_CODES[settings.display]
             self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
             self.values = values[0]  # f, f_s, f_t, f_st, valid
@@ -193,7 +194,7 @@ def _define(mi):
         def _cell(self, si, texture, hit):
             """The cell around si.uv inside its tile: the four corner texels (all channels)
             and the cell (:func:`gshade.rendering.atlas.locate_cell`)."""
-            cell = locate_cell(si.uv.x, si.uv.y, self.atlas_w, self.atlas_h, self.tile, ops)
+            cell = locate_cell(si.uv.x, si.uv.y, self.atlas_w, self.atlas_h, self.tiles, ops)
             centre = mi.Point2f(
                 cell_centre(cell.i, self.atlas_w), cell_centre(cell.j, self.atlas_h)
             )
@@ -204,15 +205,18 @@ def _define(mi):
             ray: one Newton step (:func:`gshade.rendering.newton.newton_step`) from the mesh
             hit, with p from bicubic Hermite interpolation, p_s and p_t bilinear."""
             corners, cell = self._cell(si, self.geometry, hit)
-            a, b = cell.a, cell.b
-            p = mi.Vector3f(*(hermite(corners, a, b, self.spacing, ch) for ch in _P))
+            a, b, T = cell.a, cell.b, cell.tile
+            p = mi.Vector3f(*(hermite(corners, a, b, 1.0 / (T - 1.0), ch) for ch in _P))
             ps = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_S))
             pt = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_T))
             ds, dt, _, solvable = newton_step(ps, pt, ray.d, si.p - p, ops, TINY, with_t=False)
             ok = hit & solvable
-            # stay inside this patch's tile (between its first and last texel centres)
-            x = ops.clip(si.uv.x + ds / self.ks, *tile_bounds(cell.c0, self.tile, self.atlas_w))
-            y = ops.clip(si.uv.y + dt / self.kt, *tile_bounds(cell.r0, self.tile, self.atlas_h))
+            # stay inside this patch's tile (between its first and last texel centres); d(s,
+            # t) / d(atlas x, y) = (W, H) / (T - 1)
+            x = si.uv.x + ds * (T - 1.0) / self.atlas_w
+            y = si.uv.y + dt * (T - 1.0) / self.atlas_h
+            x = ops.clip(x, *tile_bounds(cell.c0, T, self.atlas_w))
+            y = ops.clip(y, *tile_bounds(cell.r0, T, self.atlas_h))
             si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
 
         def _lookup(self, g):
@@ -223,12 +227,13 @@ def _define(mi):
 
         def _shape_value(self, si, hit, texture):
             """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
-            defined (bilinear validity > 1/2), from one fetch of the cell's texels."""
+            defined (bilinear validity > 1/2), from one fetch of the cell's texels; and the
+            size of the tile it was read from."""
             corners, cell = self._cell(si, texture, hit)
-            a, b = cell.a, cell.b
-            f = hermite(corners, a, b, self.spacing, _F)
+            a, b, T = cell.a, cell.b, cell.tile
+            f = hermite(corners, a, b, 1.0 / (T - 1.0), _F)
             slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
-            return f, slopes, bilinear(corners, a, b, _VALID) > 0.5
+            return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, T
 
         def _light(self, scene, sampler, si, ray, hit):
             """The diffuse shading factor (see the module's docstring) and whether the key
@@ -254,10 +259,12 @@ def _define(mi):
             hit = active & si.is_valid()
             si.compute_uv_partials(ray)
             self._onto_surface(si, ray, hit)
-            f, (f_s, f_t), defined = self._shape_value(si, hit, self.values)
-            # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates
-            fx = f_s * si.duv_dx.x * self.ks + f_t * si.duv_dx.y * self.kt
-            fy = f_s * si.duv_dy.x * self.ks + f_t * si.duv_dy.y * self.kt
+            f, (f_s, f_t), defined, T = self._shape_value(si, hit, self.values)
+            # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates:
+            # d(s, t) / d(atlas x, y) = (W, H) / (T - 1)
+            ks, kt = self.atlas_w / (T - 1.0), self.atlas_h / (T - 1.0)
+            fx = f_s * si.duv_dx.x * ks + f_t * si.duv_dx.y * kt
+            fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
             if self.display == COLORMAP:
                 colour = self._lookup(f)
             else:
@@ -268,7 +275,7 @@ def _define(mi):
                 cov = Float(coverage_formula(s, a, b, self.duty, ops))
                 colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
                 if self.display == BOTH:
-                    g, _, colour_defined = self._shape_value(si, hit, self.colour_values)
+                    g, _, colour_defined, _ = self._shape_value(si, hit, self.colour_values)
                     colour = self._lookup(g) * (1.0 - 0.65 * cov)
                     defined = defined & colour_defined
             colour = dr.select(defined, colour, Color3f(UNDEFINED))

@@ -45,7 +45,7 @@ from .channels import PICTURE, exact_channels, refuse_non_finite
 from .integrator import SHAPE_FILM
 from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
 from .rendered_image import RenderedImage
-from .sizing import chord_tolerance, frame, mesh_resolution, tile_size, validate_memory
+from .sizing import chord_tolerance, frame, mesh_resolution, tile_sizes, validate_memory
 from .style import display_style, legend, shape_functions, trimmed_region
 from .supersampling import discontinuous_pixels, silhouette_pixels
 from .tessellate import TriangleMesh, join_meshes, tessellate, tessellate_faces
@@ -251,21 +251,21 @@ def _measure_junctions(scene, where: str):
 def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
     """The tessellation and the atlas layout, within the memory limit."""
     patches = scene.patches
-    tile = tile_size(scene, framing)
+    atlas = Atlas.for_tiles(tile_sizes(scene, framing))
     if any(s.cad is not None for s in scene.surfaces):
-        mixed, said = _mixed_mesh(scene, settings, framing, resolution, where, tile)
-        return mixed, Atlas.for_patches(len(patches), tile), said
-    validate_memory(where, settings, len(patches) * resolution**2, len(patches) * tile**2)
+        mixed, said = _mixed_mesh(scene, settings, framing, resolution, where, atlas.texels)
+        return mixed, atlas, said
+    validate_memory(where, settings, len(patches) * resolution**2, atlas.texels)
     mesh: TriangleMesh = tessellate(patches, resolution)
     if len(mesh.faces) == 0:
         raise GshadeError(
             f"{where}: [render] tessellation: {resolution} vertices per patch side leave no "
             "triangle (the patches collapse at that resolution); expected a larger value"
         )
-    return mesh, Atlas.for_patches(len(patches), tile), ([], [])
+    return mesh, atlas, ([], [])
 
 
-def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int):
+def _mixed_mesh(scene, settings, framing, resolution: int, where: str, texels: int):
     """The mesh of a scene with ``cad`` surfaces: their trimmed faces from the kernel's mesher
     within the chord tolerance, the other surfaces' patches on the common grid; and what the
     mesher said: the faces it left without triangles, (model path, LeftOutFace) each, and
@@ -281,7 +281,7 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
         else:
             cad.append((surface, np.array(indices, dtype=np.int32)))
         start += len(surface.patches)
-    validate_memory(where, settings, len(grid) * resolution**2, len(patches) * tile**2)
+    validate_memory(where, settings, len(grid) * resolution**2, texels)
     meshes = []
     if grid:
         meshes.append(
@@ -301,7 +301,7 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, tile: int
 
             raise in_scene(exc, surface.source, scene.path, surface.cad.model.path) from None
     mesh = join_meshes(meshes, resolution)
-    validate_memory(where, settings, len(mesh.positions), len(patches) * tile**2)
+    validate_memory(where, settings, len(mesh.positions), texels)
     if len(mesh.faces) == 0:
         raise GshadeError(f"{where}: the tessellation left no triangle")
     return mesh, (unmeshed, meshed)
@@ -346,6 +346,7 @@ def _metadata(
                 },
                 "tessellation": resolution,
                 "texture_tile": atlas.tile,
+                "texture_texels": atlas.texels,
             },
             sort_keys=True,
         ),

@@ -3,7 +3,7 @@ checks that the surfaces' scale and the render's memory are within reach.
 
 The mesh follows the chord-error tolerance: the smaller of ``chord_tolerance`` times the
 bounding-box diagonal and half a pixel at the nearest point.  The tiles give about one texel
-every :data:`PIXELS_PER_TEXEL` pixels of the largest patch's projected size.  Both stay within
+every :data:`PIXELS_PER_TEXEL` pixels of each patch's projected size.  Both stay within
 a budget of samples that grows with the image (a camera close to or inside the surfaces asks
 for more than a small image can show).
 """
@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from ..errors import GshadeError
 from ..geometry.patch_groups import grid_derivatives
 from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_budget, render_memory
+from .atlas import BLOCK
 from .camera import View, frame_view
 from .tessellate import max_chord_resolution
 
@@ -33,7 +34,7 @@ __all__ = [
     "extent_points",
     "frame",
     "mesh_resolution",
-    "tile_size",
+    "tile_sizes",
     "validate_memory",
 ]
 
@@ -49,6 +50,10 @@ NEAREST_FRACTION = 1e-2
 #: texel spacing, so this is a trade with the textures' memory (a texel every 3 pixels took
 #: 1.8x the texels; benchmarks/RESULTS.md, "Measurements behind code choices").
 PIXELS_PER_TEXEL = 4
+#: Texels per pixel that tiles may take beyond each patch's own need: while all tiles of the
+#: largest patch's size fit, every patch gets one (small patches then resolve their shape
+#: function finely, as before 0.8); else the smaller tiles are raised alike until they fit.
+TEXELS_PER_PIXEL = 2
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
 #: The most mesh vertices of an automatic tessellation.
@@ -149,24 +154,52 @@ def mesh_resolution(scene, settings, framing: Framing) -> int:
     return min(resolution, max(2, int(np.sqrt(budget / len(patches)))))
 
 
-def tile_size(scene, framing: Framing) -> int:
-    """Texels per tile side: ``texture_resolution`` if set, else about one texel every
-    :data:`PIXELS_PER_TEXEL` pixels of the largest patch's projected size, within the atlas
-    budget."""
+def tile_sizes(scene, framing: Framing) -> NDArray[np.int64]:
+    """Texels per tile side, per patch: ``texture_resolution`` for all if set, else from the
+    patches' projected sizes: about one texel every :data:`PIXELS_PER_TEXEL` pixels of each
+    patch's own size, raised alike (all tiles below a common size T* brought up to it) for
+    as long as the atlas stays within :data:`TEXELS_PER_PIXEL` (:func:`_fill`) — so a few
+    patches all get the largest one's tile, as before 0.8, and hundreds of small faces
+    cost what their pixels cost —, in multiples of :data:`gshade.rendering.atlas.BLOCK`,
+    within the atlas budget."""
+    n = len(scene.patches)
     if scene.render.texture_resolution:
-        return int(np.clip(scene.render.texture_resolution, 2, MAX_TILE))
+        return np.full(n, int(np.clip(scene.render.texture_resolution, 2, MAX_TILE)))
     view, lo, hi = framing.view, framing.lo, framing.hi
-    patches = scene.patches
-    size = 0.0
+    sizes = []
     for pts in _patch_extents(scene):
         extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
         depth = float((pts.mean(axis=0) - view.origin) @ view.forward)
         depth = max(depth, NEAREST_FRACTION * float(np.linalg.norm(hi - lo)))
-        size = max(size, extent / view.pixel_size(depth))
-    tile = int(np.clip(np.ceil(size / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE))
+        sizes.append(extent / view.pixel_size(depth))
+    own = np.clip(np.ceil(np.asarray(sizes) / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE)
     pixels = scene.render.width * scene.render.height
-    cap = int(np.sqrt(_budget(pixels, MAX_ATLAS_TEXELS) / len(patches)))
-    return max(2, min(tile, cap))
+    budget = _budget(pixels, MAX_ATLAS_TEXELS)
+    largest = max(2, min(int(own.max()), int(np.sqrt(budget / n))))
+    spend = TEXELS_PER_PIXEL * pixels
+    if n * largest**2 <= spend:  # every patch the largest one's tile
+        return np.full(n, largest)
+    tiles = _fill(own, spend)
+    total = float((tiles**2).sum())
+    if total > budget:  # all alike, none below MIN_TILE
+        tiles = BLOCK * np.floor(tiles * np.sqrt(budget / total) / BLOCK)
+        tiles = np.maximum(tiles, BLOCK * np.ceil(MIN_TILE / BLOCK))
+    return tiles.astype(np.int64)
+
+
+def _fill(own: NDArray, texels: int) -> NDArray:
+    """The tiles max(own_k, T*) (in multiples of BLOCK) with the largest common size T* (at
+    most the largest tile) whose atlas holds at most ``texels`` texels (none raised if even
+    the tiles ``own`` exceed it)."""
+    own = BLOCK * np.ceil(own / BLOCK)
+    lo, hi = 0, int(own.max()) // BLOCK  # T* = BLOCK * m, m in [lo, hi]
+    while lo < hi:  # the largest m within the texels
+        m = (lo + hi + 1) // 2
+        if float((np.maximum(own, BLOCK * m) ** 2).sum()) <= texels:
+            lo = m
+        else:
+            hi = m - 1
+    return np.maximum(own, BLOCK * lo)
 
 
 def _validate_scale(where: str, lo: NDArray, hi: NDArray) -> float:

@@ -10,6 +10,7 @@ colour-mapped function (symmetric about 0 for signed functions), see
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,8 +83,9 @@ def trimmed_region(atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> 
         region[rows, cols] = True
     on = trimmed[patch]
     r0, c0 = atlas.tile_start(patch[on])
-    x = c0 + params[on, 0] * (atlas.tile - 1)
-    y = r0 + params[on, 1] * (atlas.tile - 1)
+    T = atlas.sizes[patch[on]]
+    x = c0 + params[on, 0] * (T - 1)
+    y = r0 + params[on, 1] * (T - 1)
     for row in (np.floor(y), np.ceil(y)):
         for col in (np.floor(x), np.ceil(x)):
             region[row.astype(np.int64), col.astype(np.int64)] = True
@@ -111,7 +113,7 @@ def display_style(
     f_lo, f_hi = auto_range(tex.values[0][..., 0], valid[0], percentiles=span, weights=area)
     period = shape.period
     if period is None:
-        flat = constant_values(tex.values[0][..., 0], valid[0], tex.atlas.tile)
+        flat = constant_values(tex.values[0][..., 0], valid[0], tex.atlas.all_tile_slices())
         period = period_off_edges((f_hi - f_lo) / shape.stripes, flat, shape.phase, shape.duty)
     lut = colormap = None
     if shape.display != "stripes":
@@ -130,35 +132,34 @@ EDGE_MARGIN = 0.1
 PERIOD_NUDGE = 0.2
 
 
-def constant_values(values: NDArray, valid: NDArray, tile: int) -> NDArray[np.float64]:
+def constant_values(
+    values: NDArray, valid: NDArray, tiles: Sequence[tuple[slice, slice]]
+) -> NDArray[np.float64]:
     """The values of the tiles (patches, faces) on which f is constant: one value per atlas
-    tile of ``tile`` x ``tile`` texels whose valid texels (at least 4) all hold it (a plane
-    under isophotes, a sphere under curvature ...; a cylinder's isophotes, constant only
-    along its axis, are not).
+    tile (``tiles``: its rows and columns, :meth:`gshade.rendering.atlas.Atlas.tile_slices`)
+    whose valid texels (at least 4) all hold it (a plane under isophotes, a sphere under
+    curvature ...; a cylinder's isophotes, constant only along its axis, are not).
 
     Examples
     --------
     >>> f = np.zeros((4, 8), np.float32)
     >>> f[:, :4] = 0.7  # the first 4 x 4 tile: constant
     >>> f[:, 4:] = np.linspace(0, 1, 4)  # the second: f varies across it
-    >>> constant_values(f, np.ones((4, 8), bool), 4).round(6).tolist()
+    >>> tiles = [(slice(0, 4), slice(0, 4)), (slice(0, 4), slice(4, 8))]
+    >>> constant_values(f, np.ones((4, 8), bool), tiles).round(6).tolist()
     [0.7]
     """
     v = np.asarray(values, dtype=np.float32)
     ok = np.asarray(valid, dtype=bool)
-    rows, cols = v.shape[0] // tile, v.shape[1] // tile
-    if rows * cols == 0:
-        return np.empty(0)
-
-    def tiles(a: NDArray) -> NDArray:
-        a = a[: rows * tile, : cols * tile]
-        return a.reshape(rows, tile, cols, tile).transpose(0, 2, 1, 3).reshape(-1, tile * tile)
-
-    v, ok = tiles(v), tiles(ok)
-    lo = np.where(ok, v, np.inf).min(axis=1)
-    hi = np.where(ok, v, -np.inf).max(axis=1)
-    flat = (ok.sum(axis=1) >= 4) & (lo == hi)
-    return np.unique(lo[flat]).astype(np.float64)
+    flat = []
+    for tile in tiles:
+        here = ok[tile]
+        if np.count_nonzero(here) < 4:
+            continue
+        f = v[tile][here]
+        if f.min() == f.max():
+            flat.append(float(f[0]))
+    return np.unique(np.asarray(flat, dtype=np.float64))
 
 
 def period_off_edges(
@@ -198,11 +199,15 @@ def period_off_edges(
 
 
 def _area_element(tex: ShapeTextures) -> NDArray | None:
-    """|p_s x p_t| at each texel: the surface area a texel stands for (None if all 0).
+    """|p_s x p_t| h^2 at each texel (h = 1 / (T - 1) its tile's spacing): the surface area
+    a texel stands for (None if all 0).
 
-    CAD faces differ in size by orders of magnitude while every tile has as many texels, so
-    their ranges are taken by area: a sliver face's extreme curvature does not set them."""
+    CAD faces differ in size by orders of magnitude, and their tiles much less, so their
+    ranges are taken by area: a sliver face's extreme curvature does not set them."""
     area = np.linalg.norm(np.cross(tex.tangent_s, tex.tangent_t), axis=-1)
+    atlas = tex.atlas
+    for k, tile in enumerate(atlas.all_tile_slices()):
+        area[tile] *= float(atlas.spacing(k)) ** 2
     return area if (area > 0).any() else None
 
 

@@ -82,12 +82,22 @@ def _chunk_derivatives(patches, chunk, grid, order):
         rd = regularised_derivatives(members[0], *patch_grid(members[0], grid), order)
         return rd.d[:, :, None], rd.regular[None], spans
     d = np.moveaxis(grid_derivatives(members, grid, order), 0, 2)
-    regular = ~irregular_mask(d)
-    # the chunk-wide test only finds candidates: each patch is judged on its own scale
+    # each patch judged on its own scale (as regularised_derivatives judges it)
+    regular = np.stack([~irregular_mask(d[:, :, c]) for c in range(len(members))])
     for c in np.flatnonzero(~regular.all(axis=(1, 2))):
         rd = regularised_derivatives(members[c], *patch_grid(members[c], grid), order)
         d[:, :, c], regular[c] = rd.d, rd.regular
     return d, regular, spans
+
+
+def _chunks(atlas: Atlas) -> list[tuple[list[int], int]]:
+    """The patches in chunks of one tile size T, of about :data:`CHUNK_TEXELS` texels."""
+    out = []
+    for T in np.unique(atlas.sizes):
+        same = np.flatnonzero(atlas.sizes == T).tolist()
+        per_chunk = max(1, CHUNK_TEXELS // int(T * T))
+        out += [(same[i : i + per_chunk], int(T)) for i in range(0, len(same), per_chunk)]
+    return out
 
 
 def shape_textures(
@@ -102,7 +112,6 @@ def shape_textures(
     differences of f instead: the exact ones may be unbounded there (a curvature near an
     extraordinary vertex) and would make the Hermite interpolant overshoot.
     """
-    T = atlas.tile
     H, W = atlas.height, atlas.width
     # the images are views into the packed textures the integrator reads, written in place
     # (one copy of the atlas fewer: packing them is then no copy, see Packing.pack)
@@ -116,12 +125,10 @@ def shape_textures(
         surface[..., GEOMETRY.channel(q) : GEOMETRY.channel(q) + 3]
         for q in ("p", "p_s", "p_t", "p_st")
     ]
-    grid = np.linspace(0.0, 1.0, T)
-    h = 1.0 / (T - 1)
     order = max(2, max(fn.order for fn, _ in functions) + 1)
-    per_chunk = max(1, CHUNK_TEXELS // (T * T))
-    for first in range(0, len(patches), per_chunk):
-        chunk = range(first, min(first + per_chunk, len(patches)))
+    for chunk, T in _chunks(atlas):
+        grid = np.linspace(0.0, 1.0, T)
+        h = 1.0 / (T - 1)
         d, regular, spans = _chunk_derivatives(patches, chunk, grid, order)
         su = spans[:, 0, None, None, None]
         sv = spans[:, 1, None, None, None]

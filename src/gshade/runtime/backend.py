@@ -55,6 +55,23 @@ def _row_scale(t, v):
     return t[:, None] * v
 
 
+def _take(table, index):
+    """numpy's table[index] at float indices."""
+    return np.asarray(table)[np.asarray(index).astype(np.int64)]
+
+
+def _drjit_gather(table, index):
+    """Dr.Jit's gather of ``table`` (an array of the variant) at float indices."""
+    import drjit as dr
+
+    return dr.gather(type(table), table, dr.uint32_array_t(type(index))(index))
+
+
+def _scalar_gather(table, index):
+    """A scalar variant's gather: the table (a sequence) at one whole float index."""
+    return table[int(index)]
+
+
 def _times(t, v):
     return t * v
 
@@ -65,7 +82,8 @@ class ArrayOps:
     The first seven are positional (name, sqrt, acos, atan2, abs, isfinite, select); the rest
     default to the library's own when ``name`` is "numpy" or "drjit".  ``select(mask, a, b)``
     is a where ``mask`` holds and b elsewhere; ``scale(t, v)`` multiplies the 3-vectors v by
-    the numbers t.
+    the numbers t; ``gather(table, index)`` is the table's entries at the (whole, float)
+    indices.
     """
 
     __slots__ = (
@@ -75,6 +93,7 @@ class ArrayOps:
         "cross",
         "dot",
         "floor",
+        "gather",
         "isfinite",
         "logical_not",
         "maximum",
@@ -102,8 +121,9 @@ class ArrayOps:
         dot: Op | None = None,
         cross: Op | None = None,
         scale: Op | None = None,
+        gather: Op | None = None,
     ) -> None:
-        missing = None in (floor, logical_not, dot, cross, scale)
+        missing = None in (floor, logical_not, dot, cross, scale, gather)
         library = _library_defaults(name) if missing else {}
         self.name = name
         self.sqrt, self.acos, self.atan2, self.abs = sqrt, acos, atan2, abs
@@ -113,6 +133,7 @@ class ArrayOps:
         self.dot: Op = library["dot"] if dot is None else dot
         self.cross: Op = library["cross"] if cross is None else cross
         self.scale: Op = library["scale"] if scale is None else scale
+        self.gather: Op = library["gather"] if gather is None else gather
         self.minimum: Op = (lambda a, b: select(a < b, a, b)) if minimum is None else minimum
         self.maximum: Op = (lambda a, b: select(a > b, a, b)) if maximum is None else maximum
 
@@ -133,6 +154,7 @@ def _library_defaults(name: str) -> dict[str, Op]:
             "dot": _row_dot,
             "cross": np.cross,
             "scale": _row_scale,
+            "gather": _take,
         }
     if name == "drjit":
         import drjit as dr
@@ -143,6 +165,7 @@ def _library_defaults(name: str) -> dict[str, Op]:
             "dot": dr.dot,
             "cross": dr.cross,
             "scale": _times,
+            "gather": _drjit_gather,
         }
     raise ValueError(f"ArrayOps: no default operations for {name!r}; give them all")
 
@@ -183,4 +206,5 @@ def drjit_ops(scalar: bool = False, fused: bool = True) -> ArrayOps:
         logical_not=(lambda m: not m) if scalar else (lambda m: ~m),
         dot=dr.dot if fused else dot3,
         cross=dr.cross if fused else cross3,
+        gather=_scalar_gather if scalar else _drjit_gather,
     )
