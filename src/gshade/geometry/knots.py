@@ -15,6 +15,7 @@ from ..errors import GshadeError, ParameterDomainError
 
 __all__ = [
     "basis_functions",
+    "basis_functions_in_spans",
     "basis_matrix",
     "domain",
     "find_spans",
@@ -131,10 +132,20 @@ def basis_functions(
         ``ders[j, :, r]`` is the j-th derivative of N_{k-p+r}.  Derivative orders above p
         are zero.  (Piegl & Tiller, algorithm A2.3.)
     """
-    p = degree
     t = np.asarray(t, dtype=np.float64).ravel()
+    spans = find_spans(knots, degree, t)
+    return spans, basis_functions_in_spans(knots, degree, t, spans, order)
+
+
+def basis_functions_in_spans(
+    knots: NDArray, degree: int, t: NDArray, spans: NDArray, order: int = 0
+) -> NDArray[np.float64]:
+    """:func:`basis_functions`' ``ders`` for parameters ``t`` in given knot ``spans``
+    (indices into ``knots``: the span [U_k, U_{k+1}) of each t).  ``knots`` may be several
+    knot vectors end to end, each point's span an index into its own (many splines' bases
+    at once)."""
+    p = degree
     N = t.shape[0]
-    spans = find_spans(knots, p, t)
     left = np.empty((N, p + 1))
     right = np.empty((N, p + 1))
     ndu = np.empty((N, p + 1, p + 1))
@@ -154,7 +165,7 @@ def basis_functions(
     ders = np.zeros((order + 1, N, p + 1))
     ders[0] = ndu[:, :, p]
     if order == 0:
-        return spans, ders
+        return ders
     a = np.empty((2, N, p + 1))
     for r in range(p + 1):
         s1, s2 = 0, 1
@@ -179,7 +190,7 @@ def basis_functions(
     for k in range(1, min(order, p) + 1):
         ders[k] *= factor
         factor *= p - k
-    return spans, ders
+    return ders
 
 
 def basis_matrix(knots: NDArray, degree: int, t: NDArray, order: int = 0) -> NDArray:

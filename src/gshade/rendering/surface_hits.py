@@ -9,7 +9,9 @@ silhouette pixel whose centre ray misses the patch) keep their start values.
 
 The same step runs two ways: polynomial Bézier patches of one degree all at once in one
 Dr.Jit float64 kernel (their control points gathered per point, the Bernstein bases in closed
-form), every other patch by numpy through its own ``derivatives``.  They agree to round-off
+form), every other patch by numpy: B-spline patches of one degree all at once
+(:func:`gshade.geometry.spline_batches.batch_derivatives`), the rest through their own
+``derivatives``.  They agree to round-off
 (tested); the kernel saves the per-patch work (benchmarks/bench_render.py measures it).
 """
 
@@ -23,6 +25,7 @@ from numpy.typing import NDArray
 
 from ..geometry import BezierPatch, Patch
 from ..geometry.patch_groups import bezier_groups, domain_spans
+from ..geometry.spline_batches import batch_derivatives
 from ..runtime.backend import NUMPY, drjit_ops
 from ..shape.kernels import backend
 from .newton import newton_step, ray_residual
@@ -35,26 +38,26 @@ SETTLED = 1e-7
 TINY = 1e-300
 
 
-def _newton_numpy(patch: Patch, u, v, origin, direction, steps: int = 1):
-    """``steps`` float64 Newton steps on one patch; (u, v, derivatives (2, 2, N, 3),
-    settled)."""
-    (u0, u1), (v0, v1) = patch.domain
-    d = patch.derivatives(u, v, 1)
+def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1):
+    """``steps`` float64 Newton steps on points of patches evaluated by ``derivatives(u, v)``
+    (derivatives of order <= 1, (2, 2, N, 3)), each point's parameters kept within
+    [lo, hi] (N, 2); returns (u, v, derivatives (2, 2, N, 3), settled)."""
+    d = derivatives(u, v)
     scale = np.linalg.norm(d[0, 0] - origin, axis=1)
     uu, vv = u, v
     for step in range(steps):
         if step:
-            d = patch.derivatives(uu, vv, 1)
+            d = derivatives(uu, vv)
         t, r = ray_residual(d[0, 0], origin, direction, NUMPY)
         du, dv, dt, _ = newton_step(d[1, 0], d[0, 1], direction, r, NUMPY, TINY)
-        uu = np.clip(uu + du, u0, u1)
-        vv = np.clip(vv + dv, v0, v1)
+        uu = np.clip(uu + du, lo[:, 0], hi[:, 0])
+        vv = np.clip(vv + dv, lo[:, 1], hi[:, 1])
         t = t + dt
-    d = patch.derivatives(uu, vv, 1)
+    d = derivatives(uu, vv)
     residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
     settled = residual <= SETTLED * np.maximum(scale, 1e-300)
     if not settled.all():  # those keep their start values: evaluate them there
-        d[:, :, ~settled] = patch.derivatives(u[~settled], v[~settled], 1)
+        d[:, :, ~settled] = derivatives(u, v)[:, :, ~settled]
     return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
 
 
@@ -178,14 +181,18 @@ def surface_hits(
                 direction[sel],
             )
             u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
-    if others:
-        rest = np.flatnonzero(np.isin(index, others))
-        rest = rest[np.argsort(index[rest], kind="stable")]
-        for sel in np.split(rest, np.flatnonzero(np.diff(index[rest])) + 1):
-            if sel.size:
-                patch = patches[int(index[sel[0]])]
-                result = _newton_numpy(
-                    patch, u_out[sel], v_out[sel], origin[sel], direction[sel], steps
-                )
-                u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
+    if others:  # every other patch's points at once (B-splines batched by degree)
+        sel = np.flatnonzero(np.isin(index, others))
+        if sel.size:
+            on = index[sel]
+            domains = np.array([p.domain for p in patches], dtype=np.float64)[on]
+            lo, hi = domains[:, :, 0], domains[:, :, 1]
+
+            def derivatives(uu, vv):
+                return batch_derivatives(patches, on, uu, vv, 1)
+
+            result = _newton_numpy(
+                derivatives, lo, hi, u_out[sel], v_out[sel], origin[sel], direction[sel], steps
+            )
+            u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
     return u_out, v_out, d, settled
