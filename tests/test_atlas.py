@@ -19,17 +19,17 @@ COLS = 3
 
 def texel_parameters(atlas):
     """Patch index, s and t of every texel (H, W) by the documented layout: texel (r, c) is
-    patch k's where row0_k <= r < row0_k + T_k and col0_k <= c < col0_k + T_k, at
-    s = (c - col0_k) / (T_k - 1), t = (r - row0_k) / (T_k - 1); k = PATCHES in the gaps."""
+    patch k's where row0_k <= r < row0_k + T_k and col0_k <= c < col0_k + S_k, at
+    s = (c - col0_k) / (S_k - 1), t = (r - row0_k) / (T_k - 1); k = PATCHES in the gaps."""
     rows, cols = np.mgrid[0 : atlas.height, 0 : atlas.width]
     k = np.full(rows.shape, PATCHES)
     s = np.zeros(rows.shape)
     t = np.zeros(rows.shape)
-    for i, (r0, c0, T) in enumerate(zip(atlas.row0, atlas.col0, atlas.sizes, strict=True)):
-        mine = (rows >= r0) & (rows < r0 + T) & (cols >= c0) & (cols < c0 + T)
+    for i, (r0, c0, (S, T)) in enumerate(zip(atlas.row0, atlas.col0, atlas.sizes, strict=True)):
+        mine = (rows >= r0) & (rows < r0 + T) & (cols >= c0) & (cols < c0 + S)
         assert (k[mine] == PATCHES).all()  # no two tiles overlap
         k[mine] = i
-        s[mine] = (cols[mine] - c0) / (T - 1)
+        s[mine] = (cols[mine] - c0) / (S - 1)
         t[mine] = (rows[mine] - r0) / (T - 1)
     return k, s, t
 
@@ -73,8 +73,8 @@ def sample_points(rng, n=400):
     return k, st
 
 
-#: Tiles of several sizes (multiples of the block), packed into shelves.
-SIZES = (16, 8, 24, 8, 40)
+#: Tiles of several sizes, (columns, rows) in multiples of the block, packed into shelves.
+SIZES = ((16, 8), (8, 8), (24, 16), (8, 40), (40, 24))
 
 
 @pytest.fixture(params=["one size", "several sizes"])
@@ -90,10 +90,10 @@ def atlas(request):
         atlas = Atlas.for_tiles(SIZES)
         np.testing.assert_array_equal(atlas.sizes, SIZES)
         assert not (atlas.row0 % BLOCK).any() and not (atlas.col0 % BLOCK).any()
-        assert (atlas.row0 + atlas.sizes <= atlas.height).all()
-        assert (atlas.col0 + atlas.sizes <= atlas.width).all()
+        assert (atlas.row0 + atlas.sizes[:, 1] <= atlas.height).all()
+        assert (atlas.col0 + atlas.sizes[:, 0] <= atlas.width).all()
         # packed: the atlas at most twice the tiles' texels
-        assert atlas.width * atlas.height <= 2 * sum(T * T for T in SIZES)
+        assert atlas.width * atlas.height <= 2 * sum(S * T for S, T in SIZES)
     return atlas
 
 
@@ -101,8 +101,8 @@ def test_texcoords_and_locate_follow_the_layout(atlas):
     k, st = sample_points(np.random.default_rng(1))
     xy = atlas.texcoords(k, st)
     # the documented addressing: the texel centre of s = i / (T - 1) in patch k's tile
-    T = atlas.sizes[k]
-    expected_x = (atlas.col0[k] + 0.5 + st[:, 0] * (T - 1)) / atlas.width
+    S, T = atlas.sizes[k, 0], atlas.sizes[k, 1]
+    expected_x = (atlas.col0[k] + 0.5 + st[:, 0] * (S - 1)) / atlas.width
     expected_y = (atlas.row0[k] + 0.5 + st[:, 1] * (T - 1)) / atlas.height
     np.testing.assert_allclose(xy, np.stack([expected_x, expected_y], -1), rtol=0, atol=1e-15)
     patch, back = atlas.locate(xy)

@@ -41,3 +41,27 @@ def test_a_batch_is_each_patch_evaluated_alone(data, seed, count, order):
         want = patch.derivatives(uv[at, 0], uv[at, 1], order)
         scale = np.abs(want).max(axis=(2, 3), keepdims=True) + 1.0
         np.testing.assert_allclose(got[:, :, at] / scale, want / scale, rtol=0, atol=1e-10)
+
+
+def test_small_grids_of_many_splines_at_once():
+    """grid_derivatives on a grid smaller than ALONE_FROM points evaluates the B-splines
+    all at once: the same numbers as each patch's own grid evaluation."""
+    from gshade.geometry import BSplinePatch
+    from gshade.geometry.patch_groups import grid_derivatives, patch_grid
+    from gshade.geometry.spline_batches import ALONE_FROM
+
+    rng = np.random.default_rng(8)
+    U = [0, 0, 0, 0.3, 1, 1, 1]
+    patches = [
+        BSplinePatch(rng.normal(size=(4, 3, 3)), (2, 2), (U, [0, 0, 0, 1, 1, 1])),
+        BSplinePatch(
+            rng.normal(size=(4, 2, 3)), (2, 1), (U, [0, 0, 2, 2]), rng.uniform(0.5, 2, (4, 2))
+        ),
+        BezierPatch(rng.normal(size=(3, 3, 3))),
+    ]
+    s, t = np.linspace(0, 1, 5), np.linspace(0, 1, 7)
+    assert s.size * t.size < ALONE_FROM
+    got = grid_derivatives(patches, s, 2, t)
+    for k, patch in enumerate(patches):
+        want = patch.derivatives(*patch_grid(patch, s, t), 2)
+        np.testing.assert_allclose(got[k], want, rtol=1e-12, atol=1e-12)

@@ -71,16 +71,48 @@ def test_a_few_patches_all_keep_the_largest_tile(tmp_path):
     assert settings["texture_texels"] == 4 * settings["texture_tile"] ** 2
 
 
-@pytest.mark.parametrize("sizes", [[8, 8, 8], [64, 8, 16, 8, 8, 24], [512, 8]])
+@pytest.mark.parametrize(
+    "sizes", [[8, 8, 8], [64, 8, 16, 8, 8, 24], [512, 8], [(8, 64), (64, 8), (16, 8), (8, 8)]]
+)
 def test_tiles_of_several_sizes_do_not_overlap(sizes):
     atlas = Atlas.for_tiles(sizes)
+    sizes = [(T, T) if np.ndim(T) == 0 else T for T in sizes]
     owner = np.full((atlas.height, atlas.width), -1)
     for k in range(len(sizes)):
         rows, cols = atlas.tile_slices(k)
         assert (owner[rows, cols] == -1).all()
         owner[rows, cols] = k
-        assert owner[rows, cols].shape == (sizes[k], sizes[k])
+        assert owner[rows, cols].shape == (sizes[k][1], sizes[k][0])  # rows x columns
     # each block names the tile it lies in
     blocks = atlas.patch_of_block.reshape(atlas.height // atlas.block, -1)
     ours = owner[:: atlas.block, :: atlas.block]
     np.testing.assert_array_equal(blocks[ours >= 0], ours[ours >= 0])
+
+
+def test_a_long_thin_patch_gets_a_long_thin_tile(tmp_path):
+    """A strip 40 long and 0.4 wide beside 300 tiny bumps: its tile is long along the
+    strip and short across (a square one would take its length squared)."""
+    from gshade.rendering.pipeline import _settings as render_settings
+    from gshade.rendering.sizing import frame, tile_sizes
+
+    strip = (
+        "["
+        + ", ".join(
+            "["
+            + ", ".join(f"[{40 * i / 3:.6g}, {-2 + 0.4 * j / 3:.6g}, 0]" for j in range(4))
+            + "]"
+            for i in range(4)
+        )
+        + "]"
+    )
+    path = _scene(tmp_path, 300)
+    text = path.read_text().replace(
+        "[shape]", f'[[surface]]\ntype = "bezier"\npoints = {strip}\n[shape]'
+    )
+    path.write_text(text)
+    scene = load_scene(path)
+    settings, where = render_settings(scene)
+    sizes = tile_sizes(scene, frame(scene, settings, where))
+    S, T = sizes[-1]  # the strip's: s runs along it
+    assert S >= 4 * T
+    assert not (sizes % BLOCK).any()

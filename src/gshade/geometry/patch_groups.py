@@ -19,6 +19,7 @@ from .bernstein import bernstein_basis
 from .bezier import BezierPatch
 from .blas_threads import single_threaded_blas
 from .patch import Patch, unit_to_domain, validate_order
+from .spline_batches import ALONE_FROM, batch_derivatives
 
 __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
 
@@ -31,9 +32,10 @@ def domain_spans(patches) -> NDArray[np.float64]:
     return np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches]).reshape(-1, 2)
 
 
-def patch_grid(patch: Patch, s: NDArray) -> tuple[NDArray, NDArray]:
-    """The grid u = u0 + (u1 - u0) s, v = v0 + (v1 - v0) s, shaped for the grid algorithm."""
-    u, v = unit_to_domain(patch.domain, s, s)
+def patch_grid(patch: Patch, s: NDArray, t: NDArray | None = None) -> tuple[NDArray, NDArray]:
+    """The grid u = u0 + (u1 - u0) s, v = v0 + (v1 - v0) t (t = s unless given), shaped for
+    the grid algorithm."""
+    u, v = unit_to_domain(patch.domain, s, s if t is None else t)
     return u[:, None], v[None, :]
 
 
@@ -51,9 +53,10 @@ def bezier_groups(patches) -> tuple[dict[tuple[int, int], list[int]], list[int]]
 
 @single_threaded_blas
 def grid_derivatives(
-    patches: list[Patch] | tuple[Patch, ...], s: NDArray, order: int = 0
+    patches: list[Patch] | tuple[Patch, ...], s: NDArray, order: int = 0, t: NDArray | None = None
 ) -> NDArray[np.float64]:
-    """Derivatives of every patch on the grid s x s of its normalised parameters.
+    """Derivatives of every patch on the grid s x t (t = s unless given) of its normalised
+    parameters.
 
     Parameters
     ----------
@@ -63,23 +66,35 @@ def grid_derivatives(
         u = u0 + (u1 - u0) s_a, v = v0 + (v1 - v0) s_b.
     order : int
         Highest total derivative order (derivatives in u and v, not in s).
+    t : ndarray, shape (m,), optional
+        The normalised parameters along v (default: ``s``).
 
     Returns
     -------
-    ndarray, shape (len(patches), order + 1, order + 1, n, n, 3)
-        Entry ``[k, i, j, a, b]`` is d^(i+j)p_k / du^i dv^j at (s_a, s_b); zero for
+    ndarray, shape (len(patches), order + 1, order + 1, n, m, 3)
+        Entry ``[k, i, j, a, b]`` is d^(i+j)p_k / du^i dv^j at (s_a, t_b); zero for
         i + j > order.
     """
     order = validate_order(order)
     s = np.asarray(s, dtype=np.float64).ravel()
-    n = s.size
-    out = np.zeros((len(patches), order + 1, order + 1, n, n, 3))
+    t = s if t is None else np.asarray(t, dtype=np.float64).ravel()
+    out = np.zeros((len(patches), order + 1, order + 1, s.size, t.size, 3))
     groups, others = bezier_groups(patches)
+    if s.size * t.size < ALONE_FROM:  # small grids: the B-splines' points at once
+        k = np.repeat(np.asarray(others, dtype=np.int64), s.size * t.size)
+        st = np.stack(np.meshgrid(s, t, indexing="ij"), -1).reshape(-1, 2)
+        lo = np.array([[p.domain[0][0], p.domain[1][0]] for p in patches]).reshape(-1, 2)
+        hi = np.array([[p.domain[0][1], p.domain[1][1]] for p in patches]).reshape(-1, 2)
+        uv = lo[k] + (hi[k] - lo[k]) * np.tile(st, (len(others), 1))
+        d = batch_derivatives(patches, k, uv[:, 0], uv[:, 1], order)
+        d = d.reshape(order + 1, order + 1, len(others), s.size, t.size, 3)
+        out[others] = np.moveaxis(d, 2, 0)
+        others = []
     for k in others:
-        out[k] = patches[k].derivatives(*patch_grid(patches[k], s), order)
+        out[k] = patches[k].derivatives(*patch_grid(patches[k], s, t), order)
     for (m, mv), members in groups.items():
         Bu = bernstein_basis(m, s, order)  # (o+1, n, m+1), derivatives in s
-        Bv = bernstein_basis(mv, s, order)
+        Bv = bernstein_basis(mv, t, order)
         for start in range(0, len(members), _CHUNK):
             chunk = members[start : start + _CHUNK]
             bezier = [cast(BezierPatch, patches[k]) for k in chunk]  # bezier_groups' members

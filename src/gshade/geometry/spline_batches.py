@@ -142,7 +142,7 @@ def batch_derivatives(
         else:
             out[:, :, at] = patch.derivatives(u[at], v[at], order)
     for members in groups.values():
-        batch = SplineBatch([cast(BSplinePatch, patches[k]) for k in members])  # grouped so
+        batch = SplineBatch([cast(BSplinePatch, patches[k]) for k in members])  # grouped by type
         place = np.full(len(patches), -1, dtype=np.int64)
         place[members] = np.arange(len(members))
         at = np.flatnonzero(place[index] >= 0)

@@ -3,21 +3,22 @@
 Written once, for numpy arrays (the textures, the exact channels) and Dr.Jit arrays (the
 integrator), through :class:`gshade.runtime.backend.ArrayOps`.
 
-Layout.  Patch k's tile is T_k x T_k texels, its first texel at column c0_k and row r0_k of
-an atlas of W x H texels.  Texel (row r, column c) has its centre at atlas coordinates
-((c + 0.5) / W, (r + 0.5) / H), and the texel centres of a tile sit on the grid
-s_i = i / (T_k - 1) of the patch's normalised parameters: s maps to the continuous texel
-column X = c0_k + s (T_k - 1), t to the row Y = r0_k + t (T_k - 1).  Tiles start on
-multiples of a block of B texels and each covers whole blocks, so that a *block map* (one
-patch number per B x B block) tells the tile a point lies in: the block of texel coordinate
-X is floor((X + 0.5) / B).  All tiles of one size (``Atlas.for_patches``: B = T, the tiles
-in rows of ceil(sqrt(n))) or each its own (``Atlas.for_tiles``: sizes in multiples of B,
-packed into shelves, largest first), so that a small face costs few texels.
+Layout.  Patch k's tile is S_k columns by T_k rows of texels, its first texel at column
+c0_k and row r0_k of an atlas of W x H texels.  Texel (row r, column c) has its centre at
+atlas coordinates ((c + 0.5) / W, (r + 0.5) / H), and the texel centres of a tile sit on the
+grid s_i = i / (S_k - 1), t_j = j / (T_k - 1) of the patch's normalised parameters: s maps
+to the continuous texel column X = c0_k + s (S_k - 1), t to the row Y = r0_k + t (T_k - 1).
+Tiles start on multiples of a block of B texels and each covers whole blocks, so that a
+*block map* (one patch number per B x B block) tells the tile a point lies in: the block of
+texel coordinate X is floor((X + 0.5) / B).  All tiles square and of one size
+(``Atlas.for_patches``: B = T, the tiles in rows of ceil(sqrt(n))) or each its own
+(``Atlas.for_tiles``: sides in multiples of B, packed into shelves, tallest first), so that
+a small face costs few texels, and a long thin one few across.
 
 Lookups.  A point's cell is the square of four texel centres around it inside its own tile
 (never reading a neighbouring patch's texels); within it, a value with its s, t and st
 derivatives is interpolated bicubically (Hermite: exact for bicubic polynomials, error
-O(h^4), h = 1 / (T_k - 1)), a slope bilinearly.
+O(h^4), spacings 1 / (S_k - 1) and 1 / (T_k - 1)), a slope bilinearly.
 
 Packed textures.  The integrator fetches all a texel's channels at once: :data:`GEOMETRY`
 and :data:`SHAPE` name the channels of its two kinds of packed texture.
@@ -81,7 +82,8 @@ class Tiles(NamedTuple):
     """Where the tiles are, as arrays of one library (numpy, or Dr.Jit for the
     integrator): the block size ``block`` (B), the blocks per atlas row ``blocks_wide`` and
     column ``blocks_high``, the patch of each block (row-major, ``patch_of_block``) and per
-    patch its tile's first column ``c0``, first row ``r0`` and size ``size`` (T)."""
+    patch its tile's first column ``c0``, first row ``r0``, columns ``columns`` (S) and rows
+    ``rows`` (T)."""
 
     block: int
     blocks_wide: int
@@ -89,13 +91,14 @@ class Tiles(NamedTuple):
     patch_of_block: Any
     c0: Any
     r0: Any
-    size: Any
+    columns: Any
+    rows: Any
 
 
 class Cell(NamedTuple):
     """The cell around a point: its first texel (column i, row j), the point's position
-    (a, b) in [0, 1]^2 within it, the first texel (c0, r0) of its tile and the tile's size
-    (T)."""
+    (a, b) in [0, 1]^2 within it, the first texel (c0, r0) of its tile and the tile's
+    columns and rows (S, T)."""
 
     i: Any
     j: Any
@@ -103,7 +106,13 @@ class Cell(NamedTuple):
     b: Any
     c0: Any
     r0: Any
-    tile: Any
+    columns: Any
+    rows: Any
+
+    @property
+    def spacing(self) -> tuple[Any, Any]:
+        """The texel spacings in s and t: 1 / (S - 1), 1 / (T - 1)."""
+        return 1.0 / (self.columns - 1.0), 1.0 / (self.rows - 1.0)
 
 
 def tile_of(X, Y, tiles: Tiles, ops: ArrayOps):
@@ -117,17 +126,17 @@ def tile_of(X, Y, tiles: Tiles, ops: ArrayOps):
 
 def locate_cell(x, y, width: int, height: int, tiles: Tiles, ops: ArrayOps) -> Cell:
     """The cell of atlas coordinates (x, y) in an atlas of ``width`` x ``height`` texels:
-    i = clip(floor(X), c0, c0 + T - 2), a = clip(X - i, 0, 1) with X the texel coordinate
-    and c0, T its tile's first column and size (rows likewise)."""
+    i = clip(floor(X), c0, c0 + S - 2), a = clip(X - i, 0, 1) with X the texel coordinate
+    and c0, S its tile's first column and columns (rows likewise)."""
     X = texel_coordinate(x, width)
     Y = texel_coordinate(y, height)
     k = tile_of(X, Y, tiles, ops)
-    c0, r0, T = (ops.gather(a, k) for a in (tiles.c0, tiles.r0, tiles.size))
-    i = ops.clip(ops.floor(X), c0, c0 + T - 2)
+    c0, r0, S, T = (ops.gather(a, k) for a in (tiles.c0, tiles.r0, tiles.columns, tiles.rows))
+    i = ops.clip(ops.floor(X), c0, c0 + S - 2)
     j = ops.clip(ops.floor(Y), r0, r0 + T - 2)
     a = ops.clip(X - i, 0.0, 1.0)
     b = ops.clip(Y - j, 0.0, 1.0)
-    return Cell(i, j, a, b, c0, r0, T)
+    return Cell(i, j, a, b, c0, r0, S, T)
 
 
 #: the corners of a cell, in the order its texels are fetched: (i, j), (i+1, j), (i, j+1),
@@ -135,19 +144,19 @@ def locate_cell(x, y, width: int, height: int, tiles: Tiles, ops: ArrayOps) -> C
 CORNERS = ((0, 0), (1, 0), (0, 1), (1, 1))
 
 
-def hermite(corners: Sequence, a, b, spacing, channels: Sequence[int]):
+def hermite(corners: Sequence, a, b, spacing: tuple, channels: Sequence[int]):
     """Bicubic Hermite interpolation at (a, b) of a cell from the value, d/ds, d/dt and
     d2/dsdt at its corners (``channels`` of each corner texel, in that order), with
-    ``spacing`` = 1 / (T - 1) the texel spacing in the normalised parameters (a number, or
-    one per point):
+    ``spacing`` = (1 / (S - 1), 1 / (T - 1)) the texel spacings in the normalised parameters
+    (numbers, or one per point):
     sum over the corners of H0 H0' value + H1 H0' d/ds + H0 H1' d/dt + H1 H1' d2/dsdt, with
     the cubic Hermite bases H0(a) = 1 - a^2 (3 - 2a) (or a^2 (3 - 2a)) and H1(a) =
     a (1 - a)^2 h (or -a^2 (1 - a) h)."""
-    h = spacing
+    hs, ht = spacing
     va = (1 - a * a * (3 - 2 * a), a * a * (3 - 2 * a))
-    da = (a * (1 - a) * (1 - a) * h, -a * a * (1 - a) * h)
+    da = (a * (1 - a) * (1 - a) * hs, -a * a * (1 - a) * hs)
     vb = (1 - b * b * (3 - 2 * b), b * b * (3 - 2 * b))
-    db = (b * (1 - b) * (1 - b) * h, -b * b * (1 - b) * h)
+    db = (b * (1 - b) * (1 - b) * ht, -b * b * (1 - b) * ht)
     total = 0.0
     for texel, (di, dj) in zip(corners, CORNERS, strict=True):
         weights = (va[di] * vb[dj], da[di] * vb[dj], va[di] * db[dj], da[di] * db[dj])
@@ -242,9 +251,10 @@ BLOCK = 8
 
 @dataclass(frozen=True, eq=False)
 class Atlas:
-    """Where each patch's tile lies: ``sizes[k]`` texels a side (T_k), its first texel at
-    row ``row0[k]`` and column ``col0[k]`` of a ``width`` x ``height`` atlas, all multiples
-    of ``block`` (B), which ``sizes`` are too, or B = T for tiles of one size."""
+    """Where each patch's tile lies: ``sizes[k]`` = (S_k, T_k) texels (columns along s,
+    rows along t), its first texel at row ``row0[k]`` and column ``col0[k]`` of a ``width``
+    x ``height`` atlas, all multiples of ``block`` (B), which the sides are too, or B = T
+    for square tiles of one size T."""
 
     sizes: NDArray[np.int64]
     row0: NDArray[np.int64]
@@ -257,11 +267,10 @@ class Atlas:
     def __post_init__(self) -> None:
         bw, bh = self.width // self.block, self.height // self.block
         blocks = np.zeros((bh, bw), dtype=np.int64)  # a gap's blocks: patch 0 (never read)
-        for k, (r0, c0, T) in enumerate(zip(self.row0, self.col0, self.sizes, strict=True)):
-            n = -(-int(T) // self.block)
-            blocks[
-                r0 // self.block : r0 // self.block + n, c0 // self.block : c0 // self.block + n
-            ] = k
+        B = self.block
+        for k, (r0, c0, (S, T)) in enumerate(zip(self.row0, self.col0, self.sizes, strict=True)):
+            ns, nt = -(-int(S) // B), -(-int(T) // B)  # the blocks the tile covers
+            blocks[r0 // B : r0 // B + nt, c0 // B : c0 // B + ns] = k
         object.__setattr__(self, "patch_of_block", blocks.ravel())
 
     @classmethod
@@ -272,60 +281,60 @@ class Atlas:
         cols = int(np.ceil(np.sqrt(n_patches)))
         k = np.arange(n_patches)
         rows = int(np.ceil(n_patches / cols))
-        return cls(np.full(n_patches, T), (k // cols) * T, (k % cols) * T, cols * T, rows * T, T)
+        sizes = np.full((n_patches, 2), T)
+        return cls(sizes, (k // cols) * T, (k % cols) * T, cols * T, rows * T, T)
 
     @classmethod
-    def for_tiles(cls, sizes: Sequence[int] | NDArray) -> Atlas:
-        """Tiles of the given sizes, packed into shelves: the largest first, left to right in
-        rows about sqrt(sum T_k^2) texels wide, each shelf as high as its first tile.  Sizes
-        all alike (any, >= 2) give :meth:`for_patches`' layout; else each is a multiple of
-        :data:`BLOCK`."""
+    def for_tiles(cls, sizes: Sequence | NDArray) -> Atlas:
+        """Tiles of the given sizes ((S_k, T_k) each, or T_k for square ones), packed into
+        shelves: the tallest first, left to right in rows about sqrt(sum S_k T_k) texels
+        wide, each shelf as high as its first tile.  Square tiles all alike (any side >= 2)
+        give :meth:`for_patches`' layout; else each side is a multiple of :data:`BLOCK`."""
         T = np.asarray(sizes, dtype=np.int64)
-        if T.size and (T == T[0]).all() and T[0] >= 2:  # one size: the square layout
-            return cls.for_patches(T.size, int(T[0]))
+        if T.ndim == 1:
+            T = np.stack([T, T], -1)
+        if T.size and (T == T[0, 0]).all() and T[0, 0] >= 2:  # one size: the square layout
+            return cls.for_patches(len(T), int(T[0, 0]))
         if T.size == 0 or (T % BLOCK).any() or (T < BLOCK).any():
-            raise ValueError(f"Atlas.for_tiles: sizes must be multiples of {BLOCK}, got {T}")
-        width = max(int(T.max()), BLOCK * int(np.ceil(np.sqrt(float((T**2).sum())) / BLOCK)))
-        row0, col0 = np.zeros_like(T), np.zeros_like(T)
+            raise ValueError(f"Atlas.for_tiles: sides must be multiples of {BLOCK}, got {T}")
+        area = float((T[:, 0] * T[:, 1]).sum())
+        width = max(int(T[:, 0].max()), BLOCK * int(np.ceil(np.sqrt(area) / BLOCK)))
+        row0, col0 = np.zeros(len(T), np.int64), np.zeros(len(T), np.int64)
         x = y = shelf = 0
-        for k in np.argsort(-T, kind="stable"):
-            if x + T[k] > width:  # the next shelf
+        for k in np.lexsort((-T[:, 0], -T[:, 1])):  # tallest first, then widest
+            if x + T[k, 0] > width:  # the next shelf
                 x, y, shelf = 0, y + shelf, 0
             row0[k], col0[k] = y, x
-            x += int(T[k])
-            shelf = max(shelf, int(T[k]))
+            x += int(T[k, 0])
+            shelf = max(shelf, int(T[k, 1]))
         return cls(T, row0, col0, width, y + shelf, BLOCK)
 
     @property
     def tile(self) -> int:
-        """The largest tile's size."""
+        """The largest tile's longer side."""
         return int(self.sizes.max())
 
     @property
     def texels(self) -> int:
         """The texels the tiles hold (the atlas's gaps aside)."""
-        return int((self.sizes**2).sum())
+        return int((self.sizes[:, 0] * self.sizes[:, 1]).sum())
 
-    def spacing(self, patch: NDArray | int) -> Any:
-        """The texel spacing in the normalised parameters of the tiles of ``patch``:
-        h = 1 / (T - 1)."""
-        return 1.0 / (self.sizes[patch] - 1)
-
-    def scale(self, patch: NDArray | int) -> tuple[Any, Any]:
-        """d(s, t) / d(atlas x, y) on the tiles of ``patch``: converts atlas-coordinate
-        derivatives to parameter ones."""
-        T = self.sizes[patch] - 1
-        return self.width / T, self.height / T
+    def spacing(self, patch: NDArray | int) -> tuple[Any, Any]:
+        """The texel spacings in the normalised parameters of the tiles of ``patch``:
+        1 / (S - 1) in s, 1 / (T - 1) in t."""
+        n = self.sizes[patch] - 1.0
+        return 1.0 / n[..., 0], 1.0 / n[..., 1]
 
     def tiles(self, ops: ArrayOps = NUMPY, array: Any = None) -> Tiles:
         """The layout as :class:`Tiles` of arrays made by ``array`` (default numpy's)."""
         make = np.asarray if array is None else array
+        columns, rows = self.sizes[:, 0], self.sizes[:, 1]
         return Tiles(
             self.block,
             self.width // self.block,
             self.height // self.block,
             make(self.patch_of_block.astype(np.float64)),
-            *(make(a.astype(np.float64)) for a in (self.col0, self.row0, self.sizes)),
+            *(make(a.astype(np.float64)) for a in (self.col0, self.row0, columns, rows)),
         )
 
     def tile_start(self, patch: NDArray | int) -> tuple[Any, Any]:
@@ -334,29 +343,32 @@ class Atlas:
 
     def tile_slices(self, patch: int) -> tuple[slice, slice]:
         """The rows and columns of patch ``patch``'s tile in an atlas image."""
-        r0, c0, T = int(self.row0[patch]), int(self.col0[patch]), int(self.sizes[patch])
-        return slice(r0, r0 + T), slice(c0, c0 + T)
+        r0, c0 = int(self.row0[patch]), int(self.col0[patch])
+        S, T = (int(x) for x in self.sizes[patch])
+        return slice(r0, r0 + T), slice(c0, c0 + S)
 
     def all_tile_slices(self) -> list[tuple[slice, slice]]:
         """:meth:`tile_slices` of every patch, in order."""
         return [self.tile_slices(k) for k in range(len(self.sizes))]
 
+    def texel_positions(self, patch: NDArray, st: NDArray) -> tuple[NDArray, NDArray]:
+        """Continuous texel column X and row Y of normalised parameters ``st`` (N, 2) on
+        patches ``patch`` (N,): X = c0 + s (S - 1), Y = r0 + t (T - 1)."""
+        S, T = self.sizes[patch, 0], self.sizes[patch, 1]
+        return self.col0[patch] + st[:, 0] * (S - 1), self.row0[patch] + st[:, 1] * (T - 1)
+
     def texcoords(self, patch: NDArray, st: NDArray) -> NDArray[np.float64]:
         """Atlas coordinates of normalised parameters ``st`` (N, 2) on patches ``patch`` (N,)."""
-        r0, c0 = self.tile_start(patch)
-        T = self.sizes[patch]
-        x = atlas_coordinate(c0, st[:, 0], T, self.width)
-        y = atlas_coordinate(r0, st[:, 1], T, self.height)
-        return np.stack([x, y], -1)
+        X, Y = self.texel_positions(patch, st)
+        return np.stack([(X + 0.5) / self.width, (Y + 0.5) / self.height], -1)
 
     def locate(self, xy: NDArray) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """Patch index and normalised parameters of atlas coordinates ``xy`` (..., 2)."""
         X = texel_coordinate(xy[..., 0], self.width)
         Y = texel_coordinate(xy[..., 1], self.height)
         k = tile_of(X, Y, self.tiles(), NUMPY).astype(np.int64)
-        T = self.sizes[k] - 1
-        s = np.clip((X - self.col0[k]) / T, 0.0, 1.0)
-        t = np.clip((Y - self.row0[k]) / T, 0.0, 1.0)
+        s = np.clip((X - self.col0[k]) / (self.sizes[k, 0] - 1), 0.0, 1.0)
+        t = np.clip((Y - self.row0[k]) / (self.sizes[k, 1] - 1), 0.0, 1.0)
         return k, np.stack([s, t], -1)
 
     def cell(self, xy: NDArray) -> Cell:
@@ -381,4 +393,4 @@ class Atlas:
             channels = packing.hermite_channels(name, component)
         except KeyError:
             return bilinear(corners, cell.a, cell.b, packing.channel(name, component))
-        return hermite(corners, cell.a, cell.b, 1.0 / (cell.tile - 1), channels)
+        return hermite(corners, cell.a, cell.b, cell.spacing, channels)

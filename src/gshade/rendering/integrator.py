@@ -205,18 +205,21 @@ def _define(mi):
             ray: one Newton step (:func:`gshade.rendering.newton.newton_step`) from the mesh
             hit, with p from bicubic Hermite interpolation, p_s and p_t bilinear."""
             corners, cell = self._cell(si, self.geometry, hit)
-            a, b, T = cell.a, cell.b, cell.tile
-            p = mi.Vector3f(*(hermite(corners, a, b, 1.0 / (T - 1.0), ch) for ch in _P))
+            a, b = cell.a, cell.b
+            p = mi.Vector3f(*(hermite(corners, a, b, cell.spacing, ch) for ch in _P))
             ps = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_S))
             pt = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_T))
             ds, dt, _, solvable = newton_step(ps, pt, ray.d, si.p - p, ops, TINY, with_t=False)
             ok = hit & solvable
             # stay inside this patch's tile (between its first and last texel centres); d(s,
-            # t) / d(atlas x, y) = (W, H) / (T - 1)
-            x = si.uv.x + ds * (T - 1.0) / self.atlas_w
-            y = si.uv.y + dt * (T - 1.0) / self.atlas_h
-            x = ops.clip(x, *tile_bounds(cell.c0, T, self.atlas_w))
-            y = ops.clip(y, *tile_bounds(cell.r0, T, self.atlas_h))
+            # t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
+            S, T = cell.columns, cell.rows
+            x = ops.clip(
+                si.uv.x + ds * (S - 1.0) / self.atlas_w, *tile_bounds(cell.c0, S, self.atlas_w)
+            )
+            y = ops.clip(
+                si.uv.y + dt * (T - 1.0) / self.atlas_h, *tile_bounds(cell.r0, T, self.atlas_h)
+            )
             si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
 
         def _lookup(self, g):
@@ -228,12 +231,12 @@ def _define(mi):
         def _shape_value(self, si, hit, texture):
             """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
             defined (bilinear validity > 1/2), from one fetch of the cell's texels; and the
-            size of the tile it was read from."""
+            cell (its tile's columns and rows)."""
             corners, cell = self._cell(si, texture, hit)
-            a, b, T = cell.a, cell.b, cell.tile
-            f = hermite(corners, a, b, 1.0 / (T - 1.0), _F)
+            a, b = cell.a, cell.b
+            f = hermite(corners, a, b, cell.spacing, _F)
             slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
-            return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, T
+            return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, cell
 
         def _light(self, scene, sampler, si, ray, hit):
             """The diffuse shading factor (see the module's docstring) and whether the key
@@ -259,10 +262,11 @@ def _define(mi):
             hit = active & si.is_valid()
             si.compute_uv_partials(ray)
             self._onto_surface(si, ray, hit)
-            f, (f_s, f_t), defined, T = self._shape_value(si, hit, self.values)
+            f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values)
             # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates:
-            # d(s, t) / d(atlas x, y) = (W, H) / (T - 1)
-            ks, kt = self.atlas_w / (T - 1.0), self.atlas_h / (T - 1.0)
+            # d(s, t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
+            ks = self.atlas_w / (cell.columns - 1.0)
+            kt = self.atlas_h / (cell.rows - 1.0)
             fx = f_s * si.duv_dx.x * ks + f_t * si.duv_dx.y * kt
             fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
             if self.display == COLORMAP:

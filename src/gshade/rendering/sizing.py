@@ -92,16 +92,18 @@ def frame(scene, settings, where: str) -> Framing:
 
 
 def _patch_extents(scene):
-    """Per patch, points standing for the extent its tile covers: its control points (a
-    grid of its surface if it has none); for a CAD face, a 9 x 9 grid of the surface over
-    its box (the rational arcs' control points lie off the surface, overstating it)."""
+    """Per patch, a grid of points (a, b, 3) standing for the extent its tile covers: its
+    control net (a grid of its surface if it has none); for a CAD face, a 9 x 9 grid of the
+    surface over its box (the rational arcs' control points lie off the surface, overstating
+    it)."""
     for surface in scene.surfaces:
         for p in surface.patches:
-            if surface.cad is None and hasattr(p, "points"):
-                yield np.asarray(p.points).reshape(-1, 3)
+            points = getattr(p, "points", None)
+            if surface.cad is None and points is not None and np.ndim(points) == 3:
+                yield np.asarray(points)
             else:
                 n = 9 if surface.cad is not None else 5
-                yield np.asarray(p(*p.parameter_grid(n, n))).reshape(-1, 3)
+                yield np.asarray(p(*p.parameter_grid(n, n))).reshape(n, n, 3)
 
 
 def extent_points(scene) -> NDArray:
@@ -155,32 +157,40 @@ def mesh_resolution(scene, settings, framing: Framing) -> int:
 
 
 def tile_sizes(scene, framing: Framing) -> NDArray[np.int64]:
-    """Texels per tile side, per patch: ``texture_resolution`` for all if set, else from the
-    patches' projected sizes: about one texel every :data:`PIXELS_PER_TEXEL` pixels of each
-    patch's own size, raised alike (all tiles below a common size T* brought up to it) for
-    as long as the atlas stays within :data:`TEXELS_PER_PIXEL` (:func:`_fill`) — so a few
-    patches all get the largest one's tile, as before 0.8, and hundreds of small faces
-    cost what their pixels cost —, in multiples of :data:`gshade.rendering.atlas.BLOCK`,
-    within the atlas budget."""
+    """Texels per tile, (columns along s, rows along t) per patch: ``texture_resolution``
+    for all if set, else from the patches' projected sizes.  While every patch can have the
+    largest one's square tile (about one texel every :data:`PIXELS_PER_TEXEL` pixels of its
+    projected extent) within :data:`TEXELS_PER_PIXEL`, all get it, as before 0.8.  Else each
+    side follows its own patch's projected length along s and t (a texel every
+    :data:`PIXELS_PER_TEXEL` pixels), the shorter sides raised alike (:func:`_fill`) within
+    the same texels, in multiples of :data:`gshade.rendering.atlas.BLOCK`: hundreds of small
+    faces, or long thin ones, cost what their pixels cost."""
     n = len(scene.patches)
     if scene.render.texture_resolution:
-        return np.full(n, int(np.clip(scene.render.texture_resolution, 2, MAX_TILE)))
+        side = int(np.clip(scene.render.texture_resolution, 2, MAX_TILE))
+        return np.full((n, 2), side)
     view, lo, hi = framing.view, framing.lo, framing.hi
-    sizes = []
-    for pts in _patch_extents(scene):
-        extent = float(np.linalg.norm(np.ptp(pts, axis=0)))
+    extents, lengths = [], []
+    for grid in _patch_extents(scene):
+        pts = grid.reshape(-1, 3)
         depth = float((pts.mean(axis=0) - view.origin) @ view.forward)
         depth = max(depth, NEAREST_FRACTION * float(np.linalg.norm(hi - lo)))
-        sizes.append(extent / view.pixel_size(depth))
-    own = np.clip(np.ceil(np.asarray(sizes) / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE)
+        pixel = view.pixel_size(depth)
+        extents.append(float(np.linalg.norm(np.ptp(pts, axis=0))) / pixel)
+        # the longest polyline along s (the grid's first axis) and along t
+        along_s = np.linalg.norm(np.diff(grid, axis=0), axis=-1).sum(axis=0).max()
+        along_t = np.linalg.norm(np.diff(grid, axis=1), axis=-1).sum(axis=1).max()
+        lengths.append((along_s / pixel, along_t / pixel))
     pixels = scene.render.width * scene.render.height
-    budget = _budget(pixels, MAX_ATLAS_TEXELS)
-    largest = max(2, min(int(own.max()), int(np.sqrt(budget / n))))
     spend = TEXELS_PER_PIXEL * pixels
+    budget = _budget(pixels, MAX_ATLAS_TEXELS)
+    square = np.clip(np.ceil(np.asarray(extents) / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE)
+    largest = max(2, min(int(square.max()), int(np.sqrt(budget / n))))
     if n * largest**2 <= spend:  # every patch the largest one's tile
-        return np.full(n, largest)
+        return np.full((n, 2), largest)
+    own = np.clip(np.ceil(np.asarray(lengths) / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE)
     tiles = _fill(own, spend)
-    total = float((tiles**2).sum())
+    total = float(tiles.prod(axis=1).sum())
     if total > budget:  # all alike, none below MIN_TILE
         tiles = BLOCK * np.floor(tiles * np.sqrt(budget / total) / BLOCK)
         tiles = np.maximum(tiles, BLOCK * np.ceil(MIN_TILE / BLOCK))
@@ -188,14 +198,14 @@ def tile_sizes(scene, framing: Framing) -> NDArray[np.int64]:
 
 
 def _fill(own: NDArray, texels: int) -> NDArray:
-    """The tiles max(own_k, T*) (in multiples of BLOCK) with the largest common size T* (at
-    most the largest tile) whose atlas holds at most ``texels`` texels (none raised if even
-    the tiles ``own`` exceed it)."""
+    """The tiles max(own, T*) side by side (in multiples of BLOCK) with the largest common
+    side T* (at most the longest side) whose tiles hold at most ``texels`` texels (none
+    raised if even the tiles ``own`` exceed it)."""
     own = BLOCK * np.ceil(own / BLOCK)
     lo, hi = 0, int(own.max()) // BLOCK  # T* = BLOCK * m, m in [lo, hi]
     while lo < hi:  # the largest m within the texels
         m = (lo + hi + 1) // 2
-        if float((np.maximum(own, BLOCK * m) ** 2).sum()) <= texels:
+        if float(np.maximum(own, BLOCK * m).prod(axis=1).sum()) <= texels:
             lo = m
         else:
             hi = m - 1

@@ -82,10 +82,7 @@ def trimmed_region(atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> 
         rows, cols = atlas.tile_slices(int(k))
         region[rows, cols] = True
     on = trimmed[patch]
-    r0, c0 = atlas.tile_start(patch[on])
-    T = atlas.sizes[patch[on]]
-    x = c0 + params[on, 0] * (T - 1)
-    y = r0 + params[on, 1] * (T - 1)
+    x, y = atlas.texel_positions(patch[on], params[on])
     for row in (np.floor(y), np.ceil(y)):
         for col in (np.floor(x), np.ceil(x)):
             region[row.astype(np.int64), col.astype(np.int64)] = True
@@ -199,15 +196,16 @@ def period_off_edges(
 
 
 def _area_element(tex: ShapeTextures) -> NDArray | None:
-    """|p_s x p_t| h^2 at each texel (h = 1 / (T - 1) its tile's spacing): the surface area
-    a texel stands for (None if all 0).
+    """|p_s x p_t| h_s h_t at each texel (h_s, h_t its tile's spacings): the surface area a
+    texel stands for (None if all 0).
 
     CAD faces differ in size by orders of magnitude, and their tiles much less, so their
     ranges are taken by area: a sliver face's extreme curvature does not set them."""
     area = np.linalg.norm(np.cross(tex.tangent_s, tex.tangent_t), axis=-1)
     atlas = tex.atlas
     for k, tile in enumerate(atlas.all_tile_slices()):
-        area[tile] *= float(atlas.spacing(k)) ** 2
+        hs, ht = atlas.spacing(k)
+        area[tile] *= float(hs * ht)
     return area if (area > 0).any() else None
 
 

@@ -73,30 +73,34 @@ CHUNK_TEXELS = 1 << 17
 
 
 def _chunk_derivatives(patches, chunk, grid, order):
-    """Derivatives of the patches ``chunk`` on the tile grid: (order+1, order+1, n, T, T, 3),
-    regularised at irregular points (see :func:`gshade.geometry.regularised_derivatives`),
-    the regularity (n, T, T) and the parameter spans (n, 2)."""
+    """Derivatives of the patches ``chunk`` on the tile grid (s, t):
+    (order+1, order+1, n, S, T, 3), regularised at irregular points (see
+    :func:`gshade.geometry.regularised_derivatives`), the regularity (n, S, T) and the
+    parameter spans (n, 2)."""
     members = [patches[k] for k in chunk]
     spans = domain_spans(members)
+    s, t = grid
     if len(members) == 1:  # in place, no copy
-        rd = regularised_derivatives(members[0], *patch_grid(members[0], grid), order)
+        rd = regularised_derivatives(members[0], *patch_grid(members[0], s, t), order)
         return rd.d[:, :, None], rd.regular[None], spans
-    d = np.moveaxis(grid_derivatives(members, grid, order), 0, 2)
+    d = np.moveaxis(grid_derivatives(members, s, order, t), 0, 2)
     # each patch judged on its own scale (as regularised_derivatives judges it)
     regular = np.stack([~irregular_mask(d[:, :, c]) for c in range(len(members))])
     for c in np.flatnonzero(~regular.all(axis=(1, 2))):
-        rd = regularised_derivatives(members[c], *patch_grid(members[c], grid), order)
+        rd = regularised_derivatives(members[c], *patch_grid(members[c], s, t), order)
         d[:, :, c], regular[c] = rd.d, rd.regular
     return d, regular, spans
 
 
-def _chunks(atlas: Atlas) -> list[tuple[list[int], int]]:
-    """The patches in chunks of one tile size T, of about :data:`CHUNK_TEXELS` texels."""
+def _chunks(atlas: Atlas) -> list[tuple[list[int], tuple[int, int]]]:
+    """The patches in chunks of one tile size (S, T), of about :data:`CHUNK_TEXELS`
+    texels."""
     out = []
-    for T in np.unique(atlas.sizes):
-        same = np.flatnonzero(atlas.sizes == T).tolist()
-        per_chunk = max(1, CHUNK_TEXELS // int(T * T))
-        out += [(same[i : i + per_chunk], int(T)) for i in range(0, len(same), per_chunk)]
+    for S, T in np.unique(atlas.sizes, axis=0):
+        same = np.flatnonzero((atlas.sizes == (S, T)).all(axis=1)).tolist()
+        per_chunk = max(1, CHUNK_TEXELS // int(S * T))
+        size = (int(S), int(T))
+        out += [(same[i : i + per_chunk], size) for i in range(0, len(same), per_chunk)]
     return out
 
 
@@ -126,9 +130,9 @@ def shape_textures(
         for q in ("p", "p_s", "p_t", "p_st")
     ]
     order = max(2, max(fn.order for fn, _ in functions) + 1)
-    for chunk, T in _chunks(atlas):
-        grid = np.linspace(0.0, 1.0, T)
-        h = 1.0 / (T - 1)
+    for chunk, (S, T) in _chunks(atlas):
+        grid = np.linspace(0.0, 1.0, S), np.linspace(0.0, 1.0, T)
+        hs, ht = 1.0 / (S - 1), 1.0 / (T - 1)
         d, regular, spans = _chunk_derivatives(patches, chunk, grid, order)
         su = spans[:, 0, None, None, None]
         sv = spans[:, 1, None, None, None]
@@ -143,8 +147,8 @@ def shape_textures(
             f_t = res.partials[..., 1] * spans[:, 1, None, None]
             if not regular.all():
                 irr = ~regular
-                f_s[irr] = np.gradient(res.f, h, axis=1)[irr]
-                f_t[irr] = np.gradient(res.f, h, axis=2)[irr]
+                f_s[irr] = np.gradient(res.f, hs, axis=1)[irr]
+                f_t[irr] = np.gradient(res.f, ht, axis=2)[irr]
             shaped.append((res, f_s, f_t))
         for c, k in enumerate(chunk):
             tile = atlas.tile_slices(k)
@@ -153,6 +157,6 @@ def shape_textures(
                 image[tile] = field.transpose(1, 0, 2)
             for j, (res, f_s, f_t) in enumerate(shaped):
                 values[j][tile] = np.stack([res.f[c], f_s[c], f_t[c]], -1).transpose(1, 0, 2)
-                twist[j][tile] = np.gradient(f_s[c], h, axis=1).T
+                twist[j][tile] = np.gradient(f_s[c], ht, axis=1).T
                 valid[j][tile] = res.valid[c].T
     return ShapeTextures(atlas, values, twist, valid, *geometry)
