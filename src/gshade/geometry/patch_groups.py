@@ -81,12 +81,12 @@ def grid_derivatives(
     out = np.zeros((len(patches), order + 1, order + 1, s.size, t.size, 3))
     groups, others = bezier_groups(patches)
     if s.size * t.size < ALONE_FROM:  # small grids: the B-splines' points at once
-        k = np.repeat(np.asarray(others, dtype=np.int64), s.size * t.size)
+        owner = np.repeat(np.asarray(others, dtype=np.int64), s.size * t.size)
         st = np.stack(np.meshgrid(s, t, indexing="ij"), -1).reshape(-1, 2)
         lo = np.array([[p.domain[0][0], p.domain[1][0]] for p in patches]).reshape(-1, 2)
         hi = np.array([[p.domain[0][1], p.domain[1][1]] for p in patches]).reshape(-1, 2)
-        uv = lo[k] + (hi[k] - lo[k]) * np.tile(st, (len(others), 1))
-        d = batch_derivatives(patches, k, uv[:, 0], uv[:, 1], order)
+        uv = lo[owner] + (hi[owner] - lo[owner]) * np.tile(st, (len(others), 1))
+        d = batch_derivatives(patches, owner, uv[:, 0], uv[:, 1], order)
         d = d.reshape(order + 1, order + 1, len(others), s.size, t.size, 3)
         out[others] = np.moveaxis(d, 2, 0)
         others = []
