@@ -22,6 +22,7 @@ from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
 from ..geometry.patch import unit_to_domain
 from ..geometry.patch_groups import domain_spans, grid_derivatives
+from ..geometry.spline_batches import batch_derivatives
 
 __all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
 
@@ -177,26 +178,35 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
 
         raise strict_refusal(cad.model.path, m.left_out)
     place = {face: k for k, face in enumerate(cad.faces)}
-    index = np.array([place[int(f)] for f in m.face], dtype=np.int32)
-    params = np.empty_like(m.uv)
+    index = np.array([place[int(f)] for f in m.face], dtype=np.int64)
+    swapped = np.asarray(cad.swapped, dtype=bool)[index]
+    uv = np.where(swapped[:, None], m.uv[:, ::-1], m.uv)
+    domains = np.array([p.domain for p in patches], dtype=np.float64)[index]
+    lo, hi = domains[:, :, 0], domains[:, :, 1]
+    params = np.clip((uv - lo) / (hi - lo), 0.0, 1.0)
+    u, v = lo[:, 0] + params[:, 0] * (hi - lo)[:, 0], lo[:, 1] + params[:, 1] * (hi - lo)[:, 1]
+    # the faces' first derivatives all at once; each face's regularity on its own scale,
+    # and the limits at its irregular points (poles) from its own higher derivatives
+    d = batch_derivatives(patches, index, u, v, 1)
     normals = np.empty_like(m.positions)
-    for k, patch in enumerate(patches):
-        mine = index == k
-        if not mine.any():
+    order = np.argsort(index, kind="stable")
+    for mine in np.split(order, np.flatnonzero(np.diff(index[order])) + 1):
+        if not mine.size:
             continue
-        uv = m.uv[mine][:, ::-1] if cad.swapped[k] else m.uv[mine]
-        (u0, u1), (v0, v1) = patch.domain
-        st = np.clip((uv - (u0, v0)) / (u1 - u0, v1 - v0), 0.0, 1.0)
-        params[mine] = st
-        u, v = unit_to_domain(patch.domain, st[:, 0], st[:, 1])
-        normals[mine] = patch_normals(patch, u, v).n
+        normal = unit_normal(d[:, :, mine])
+        normals[mine] = normal.n
+        if not normal.regular.all():
+            irr = mine[~normal.regular]
+            normals[irr] = patch_normals(patches[int(index[mine[0]])], u[irr], v[irr]).n
     P = np.ascontiguousarray(m.positions, dtype=np.float64)
     F = m.triangles
     scale = float(np.ptp(P, axis=0).max()) if len(P) else 1.0
     if len(F):
         area = np.linalg.norm(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]), axis=1)
         F = F[area > 1e-14 * scale * scale]
-    mesh = TriangleMesh(P, normals, params, index, np.ascontiguousarray(F, np.int32), 0)
+    mesh = TriangleMesh(
+        P, normals, params, index.astype(np.int32), np.ascontiguousarray(F, np.int32), 0
+    )
     return mesh, list(m.left_out), list(m.notes)
 
 
