@@ -42,17 +42,26 @@ def centre_values(
     hits = np.flatnonzero(patch >= 0)
     order = hits[np.argsort(patch[hits], kind="stable")]  # the hits, patch by patch
     out = {name: np.zeros(patch.size, dtype=np.float32) for name in functions}
-    highest = max((fn.order for fn, _ in functions.values()), default=0) + 1
-    for at in np.split(order, np.flatnonzero(np.diff(patch[order])) + 1):
-        if not at.size:
-            continue
-        p = patches[int(patch[at[0]])]
-        (u0, u1), (v0, v1) = p.domain
-        u = np.clip(channels["u"].ravel()[at].astype(np.float64), u0, u1)
-        v = np.clip(channels["v"].ravel()[at].astype(np.float64), v0, v1)
-        d = regularised_derivatives(p, u, v, highest).d
+    highest = max((fn.order for fn, _ in functions.values()), default=0)  # f needs order k
+    u_all, v_all = channels["u"].ravel(), channels["v"].ravel()
+    for start in range(0, order.size, BLOCK):  # one evaluation of each function a block
+        block = order[start : start + BLOCK]
+        d = np.empty((highest + 1, highest + 1, block.size, 3))
+        on = patch[block]
+        for at in np.split(np.arange(block.size), np.flatnonzero(np.diff(on)) + 1):
+            if not at.size:
+                continue
+            p = patches[int(on[at[0]])]
+            (u0, u1), (v0, v1) = p.domain
+            u = np.clip(u_all[block[at]].astype(np.float64), u0, u1)
+            v = np.clip(v_all[block[at]].astype(np.float64), v0, v1)
+            d[:, :, at] = regularised_derivatives(p, u, v, highest).d
         for name, (fn, params) in functions.items():
-            out[name][at] = evaluate(
+            out[name][block] = evaluate(
                 fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
             ).f
     return {name: values.reshape(shape) for name, values in out.items()}
+
+
+#: Centre hits per evaluation of the functions (bounds the derivatives' memory).
+BLOCK = 1 << 16
