@@ -107,18 +107,34 @@ def draw_junctions(
             *_screen_derivatives(params["u"], patch),
             *_screen_derivatives(params["v"], patch),
         )
+        flat_patch = patch.ravel()
+        by_patch = np.argsort(flat_patch, kind="stable")
+        starts = np.searchsorted(flat_patch[by_patch], np.arange(len(domains) + 1))
+        faces: dict[int, tuple] = {}
         for line in edges:
             for k, curve in line.curves:
-                on = patch == k
-                if not on.any():
+                if k not in faces:  # the face's pixels, their (u, v), J and scale, once
+                    pixels = by_patch[starts[k] : starts[k + 1]]
+                    J = [x.ravel()[pixels] for x in jacobian]
+                    uv = np.stack([params["u"].ravel()[pixels], params["v"].ravel()[pixels]], -1)
+                    faces[k] = (pixels, uv, J, _uv_per_pixel(J))
+                pixels, uv, J, scale = faces[k]
+                if not pixels.size:
                     continue
-                pixels = np.flatnonzero(on)
-                J = [x.ravel()[pixels] for x in jacobian]
-                uv = np.stack([params["u"].ravel()[pixels], params["v"].ravel()[pixels]], -1)
-                distance = _curve_distance(uv, J, curve, width)
+                # only the pixels the search below can reach: within its bound of the
+                # curve's box (in the scaled (u, v) it searches in)
+                reach = (SEARCH_WIDTHS * width + SEARCH_PIXELS) * scale
+                near = np.all(
+                    (uv >= curve.min(axis=0) - reach) & (uv <= curve.max(axis=0) + reach), axis=1
+                )
+                if not near.any():
+                    continue
+                Jn = [x[near] for x in J]
+                distance = _curve_distance(uv[near], Jn, curve, width, scale)
                 c = np.clip(0.5 * width + 0.5 - distance, 0.0, 1.0)
                 flat: NDArray = coverage[line.cls].reshape(-1)  # a view: written through
-                flat[pixels] = np.maximum(flat[pixels], c)
+                at = pixels[near]
+                flat[at] = np.maximum(flat[at], c)
     out = dict(channels)
     rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
     alpha = channels["A"].astype(np.float64)[..., None]
@@ -146,10 +162,31 @@ def _iso_lines(junction: Junction, domains: list) -> list[tuple[int, str, float]
     return out
 
 
-def _curve_distance(uv: NDArray, J: list[NDArray], curve: NDArray, width: float) -> NDArray:
+#: The search for a pixel's nearest curve points reaches this many line widths plus pixels.
+SEARCH_WIDTHS, SEARCH_PIXELS = 4.0, 8.0
+
+
+def _uv_per_pixel(J: list[NDArray]) -> NDArray:
+    """A face's (u, v) per pixel: the medians of |(u_x, u_y)| and |(v_x, v_y)| over its
+    pixels (1 where none), the scale in which :func:`_curve_distance` searches."""
+    ux, uy, vx, vy = J
+    ok = np.abs(ux * vy - uy * vx) > 0
+    scale = np.array(
+        [
+            np.median(np.hypot(ux, uy)[ok]) if ok.any() else 1.0,
+            np.median(np.hypot(vx, vy)[ok]) if ok.any() else 1.0,
+        ]
+    )
+    return np.where(scale > 0, scale, 1.0)
+
+
+def _curve_distance(
+    uv: NDArray, J: list[NDArray], curve: NDArray, width: float, scale: NDArray
+) -> NDArray:
     """Pixel distance from each pixel (its (u, v), its Jacobian [[u_x, u_y], [v_x, v_y]])
     to the polyline ``curve`` (m, 2) in (u, v): the nearest of the segments at the pixel's
-    few nearest curve points, each mapped to pixels by J^-1; inf where no point is near."""
+    few nearest curve points (searched in (u, v) / ``scale``, about a pixel a unit), each
+    mapped to pixels by J^-1; inf where no point is near."""
     from scipy.spatial import cKDTree
 
     ux, uy, vx, vy = J
@@ -157,16 +194,9 @@ def _curve_distance(uv: NDArray, J: list[NDArray], curve: NDArray, width: float)
     ok = np.abs(det) > 0
     safe = np.where(ok, det, 1.0)
     inverse = np.stack([vy / safe, -uy / safe, -vx / safe, ux / safe], -1)  # J^-1, row-major
-    # candidates: nearest curve points in (u, v) scaled to about a pixel per unit
-    scale = np.array(
-        [
-            np.median(np.hypot(ux, uy)[ok]) if ok.any() else 1.0,
-            np.median(np.hypot(vx, vy)[ok]) if ok.any() else 1.0,
-        ]
-    )
-    scale = np.where(scale > 0, scale, 1.0)
     k = min(4, len(curve))
-    found = cKDTree(curve / scale).query(uv / scale, k=k, distance_upper_bound=4.0 * width + 8.0)
+    bound = SEARCH_WIDTHS * width + SEARCH_PIXELS
+    found = cKDTree(curve / scale).query(uv / scale, k=k, distance_upper_bound=bound)
     dist = np.reshape(found[0], (len(uv), k))
     index = np.reshape(found[1], (len(uv), k))
     best = np.full(len(uv), np.inf)
