@@ -106,6 +106,9 @@ TIMEOUT_S = 600
 
 TARGET_S, TARGET_RATIO, TARGET_GB = 5.0, 1.5, 2.0
 SECTION = "bench_cad"
+#: RESULTS.md's section of a run with ``--all`` (outside parts, never committed).
+OUTSIDE = "bench_cad_outside"
+CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".3dm")
 
 #: The report's fixed notes: how the peer is set up, what the error means.
 METHOD_NOTES = (
@@ -437,12 +440,15 @@ def targets(model: Model) -> list[str]:
 
 
 def section(info, tables, notes, args) -> str:
+    what = f"FOLDER --all --rounds {args.rounds}" if args.all else f"--rounds {args.rounds}"
     run = (
-        f"Run: `.venv/bin/python benchmarks/bench_cad.py --rounds {args.rounds} --write`; "
+        f"Run: `.venv/bin/python benchmarks/bench_cad.py {what} --write`; "
         f"whole processes, {WIDTH} x {HEIGHT}, {SPP} spp, one untimed warm-up round, then "
         f"{args.rounds} rounds, gshade and the peer interleaved (the order alternating)."
     )
     heading = "CAD files, gshade and the peer (`benchmarks/bench_cad.py`)"
+    if args.all:
+        heading = "Outside CAD parts, gshade and the peer (`benchmarks/bench_cad.py --all`)"
     return markdown_section(heading, run, info, tables, notes)
 
 
@@ -452,9 +458,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
     parser.add_argument("--keep", type=Path, help="keep the pictures and EXRs here")
+    parser.add_argument(
+        "--all",
+        action="store_true",
+        help="every CAD file in the folder (not only the shared models'), written to "
+        "RESULTS.md's section of outside parts",
+    )
     args = parser.parse_args(argv)
     # resolved: gshade reads a data file only within its scene's folder, links resolved
-    models = [Model((args.folder / n).resolve()) for n in MODELS if (args.folder / n).is_file()]
+    names = (
+        sorted(p.name for p in args.folder.iterdir() if p.suffix.lower() in CAD_SUFFIXES)
+        if args.all
+        else MODELS
+    )
+    models = [Model((args.folder / n).resolve()) for n in names if (args.folder / n).is_file()]
     if not models:
         raise SanityError(f"no model found in {args.folder}")
     if args.keep:
@@ -514,7 +531,11 @@ def main(argv: list[str] | None = None) -> int:
     notes.append(
         f"Load average (1, 5, 15 min): {load_start} at the start, {load_average()} at the end."
     )
-    text = (SECTION, section(info, tables, notes, args)) if args.write else None
+    text = (
+        (OUTSIDE if args.all else SECTION, section(info, tables, notes, args))
+        if args.write
+        else None
+    )
     publish(info, tables, notes, text)
     return 0
 
