@@ -50,14 +50,21 @@ class SplineBatch:
         self.lo = np.array([[p.domain[0][0], p.domain[1][0]] for p in patches])
         self.hi = np.array([[p.domain[0][1], p.domain[1][1]] for p in patches])
 
-    def derivatives(self, member: NDArray, u: NDArray, v: NDArray, order: int) -> NDArray:
+    def derivatives(
+        self, member: NDArray, u: NDArray, v: NDArray, order: int, beyond: bool = False
+    ) -> NDArray:
         """Derivatives up to total order ``order`` of patch ``member[i]`` (its place in the
-        batch) at (u[i], v[i]), clipped into its domain: shape (order + 1, order + 1, N, 3),
-        zero for i + j > order."""
+        batch) at (u[i], v[i]), clipped into its domain (with ``beyond``, not clipped: past
+        the domain the end pieces continued, as
+        :meth:`gshade.geometry.BSplinePatch.derivatives_beyond`): shape
+        (order + 1, order + 1, N, 3), zero for i + j > order."""
         order = validate_order(order)
         member = np.asarray(member, dtype=np.int64)
-        u = np.clip(np.asarray(u, dtype=np.float64), self.lo[member, 0], self.hi[member, 0])
-        v = np.clip(np.asarray(v, dtype=np.float64), self.lo[member, 1], self.hi[member, 1])
+        u = np.asarray(u, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        if not beyond:
+            u = np.clip(u, self.lo[member, 0], self.hi[member, 0])
+            v = np.clip(v, self.lo[member, 1], self.hi[member, 1])
         p, q = self.degree
         su = np.empty(u.size, dtype=np.int64)
         sv = np.empty(v.size, dtype=np.int64)
@@ -105,12 +112,18 @@ class SplineBatch:
 
 
 def batch_derivatives(
-    patches: Sequence[Patch], index: NDArray, u: NDArray, v: NDArray, order: int = 0
+    patches: Sequence[Patch],
+    index: NDArray,
+    u: NDArray,
+    v: NDArray,
+    order: int = 0,
+    beyond: bool = False,
 ) -> NDArray[np.float64]:
     """Derivatives of patch ``index[i]`` at (u[i], v[i]) for points on many patches: the
     B-spline patches with fewer than :data:`ALONE_FROM` points by batches of one degree and
     kind (:class:`SplineBatch`), any other patch through its own ``derivatives``.  Shape
-    (order + 1, order + 1, N, 3).
+    (order + 1, order + 1, N, 3).  With ``beyond``, B-spline patches are evaluated past their
+    domains too, their end pieces continued (``derivatives_beyond``).
 
     Examples
     --------
@@ -139,6 +152,8 @@ def batch_derivatives(
         patch = patches[k]
         if type(patch) is BSplinePatch and at.size < ALONE_FROM:
             groups.setdefault((patch.degree, patch.rational), []).append(k)
+        elif beyond and isinstance(patch, BSplinePatch):
+            out[:, :, at] = patch.derivatives_beyond(u[at], v[at], order)
         else:
             out[:, :, at] = patch.derivatives(u[at], v[at], order)
     for members in groups.values():
@@ -146,7 +161,7 @@ def batch_derivatives(
         place = np.full(len(patches), -1, dtype=np.int64)
         place[members] = np.arange(len(members))
         at = np.flatnonzero(place[index] >= 0)
-        out[:, :, at] = batch.derivatives(place[index[at]], u[at], v[at], order)
+        out[:, :, at] = batch.derivatives(place[index[at]], u[at], v[at], order, beyond)
     return out
 
 

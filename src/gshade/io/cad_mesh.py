@@ -145,18 +145,30 @@ def mesh_faces(
                     f"face {i}: meshed alone at {factor:g} times the deflection (the mesher "
                     "gave it no triangles at the deflection asked for)"
                 )
-    parts = []
-    count = 0
+    raw = []
     for i in chosen:
         if i in left_out:
             continue
         try:
-            part = _face_mesh(kernel_faces[i], usable[i])
+            raw.append((i, _face_nodes(kernel_faces[i], usable[i])))
         except GshadeError as exc:
             left_out[i] = LeftOutFace(i, str(exc), MESHING)
-            continue
         except Exception as exc:
             left_out[i] = LeftOutFace(i, f"the kernel failed ({_why(exc)})", MESHING)
+    # every face's nodes on its exact surface at once, at the node's own (u, v), past the
+    # domain too (a trim straying by a tolerance): the end pieces continued, as the kernel
+    # evaluates (and the edge measures); points and speeds
+    d_all = _node_derivatives([usable[i].patch for i, _ in raw], [r for _, r in raw])
+    parts = []
+    count = 0
+    at = 0
+    for i, (nodes, uv, triangles, boundary) in raw:
+        d = d_all[:, :, at : at + len(nodes)]
+        at += len(nodes)
+        try:
+            part = _on_surface(d, nodes, uv, triangles, boundary, usable[i].patch)
+        except GshadeError as exc:
+            left_out[i] = LeftOutFace(i, str(exc), MESHING)
             continue
         parts.append((part, count, i))
         count += len(part[0])
@@ -237,9 +249,10 @@ def _mesh(kernel_faces: dict, chosen: list[int], deflection: float, angle: float
         raise RuntimeError("not done")
 
 
-def _face_mesh(face: Any, cad: Any) -> tuple:
-    """One face's (positions, uv, triangles, boundary, node_gap) from its triangulation,
-    uv in the face's patch's parameters (:meth:`gshade.io.cad.CadFace.to_patch`)."""
+def _face_nodes(face: Any, cad: Any) -> tuple:
+    """One face's triangulation: its nodes (n, 3), their uv in the face's patch's parameters
+    (:meth:`gshade.io.cad.CadFace.to_patch`), its triangles (m, 3, oriented with the face)
+    and which nodes lie on its boundary."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_REVERSED
     from OCP.TopLoc import TopLoc_Location
@@ -264,14 +277,27 @@ def _face_mesh(face: Any, cad: Any) -> tuple:
         raise GshadeError("the kernel's mesh refers to missing nodes")
     if face.Orientation() == TopAbs_REVERSED:
         triangles = triangles[:, ::-1]
-    boundary = _boundary(triangles, n)
-    uv = cad.to_patch(uv)
-    patch = cad.patch
-    (u0, u1), (v0, v1) = patch.domain
-    # at the node's own (u, v), past the domain too (a trim straying by a tolerance): the
-    # end pieces continued, as the kernel evaluates (and the edge measures); points and speeds
-    d = np.asarray(patch.derivatives_beyond(uv[:, 0], uv[:, 1], 1))
-    uv = np.stack([np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1)], -1)
+    return nodes, cad.to_patch(uv), triangles, _boundary(triangles, n)
+
+
+def _node_derivatives(patches: list, raw: list[tuple]) -> NDArray:
+    """The first derivatives (2, 2, N, 3) of the faces' surfaces at all their nodes, past
+    the domains too (:func:`gshade.geometry.spline_batches.batch_derivatives`)."""
+    from ..geometry.spline_batches import batch_derivatives
+
+    if not raw:
+        return np.empty((2, 2, 0, 3))
+    index = np.concatenate([np.full(len(r[0]), k) for k, r in enumerate(raw)])
+    uv = np.concatenate([r[1] for r in raw])
+    return batch_derivatives(patches, index, uv[:, 0], uv[:, 1], 1, beyond=True)
+
+
+def _on_surface(
+    d: NDArray, nodes: NDArray, uv: NDArray, triangles: NDArray, boundary: NDArray, patch: Any
+) -> tuple:
+    """One face's (positions, uv, triangles, boundary, node_gap): its nodes moved onto the
+    exact surface (``d``: its derivatives there), boundary nodes kept where the mesher put
+    them (shared with the neighbour), poles split."""
     exact = d[0, 0]
     nodes, exact, uv, triangles, boundary = _split_poles(d, nodes, exact, uv, triangles, boundary)
     gaps = np.linalg.norm(exact - nodes, axis=1)[~boundary]
