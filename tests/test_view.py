@@ -284,3 +284,44 @@ def test_a_cad_model_numbers_faces():
     image = view_data([(channels, {"junctions": edges})])["images"][0]
     assert image["cad"] and image["seams"]["count"] == 1
     assert not view_data([(channels, {})])["images"][0]["cad"]
+    # the header says what the patch channel numbers (gshade 0.8 writes it)
+    assert view_data([(channels, {"patch_channel": "face"})])["images"][0]["cad"]
+    said = {"patch_channel": "patch", "junctions": edges}
+    assert not view_data([(channels, said)])["images"][0]["cad"]
+
+
+def test_a_cad_render_says_its_patch_channel_numbers_faces(tmp_path):
+    """A render of a CAD file writes ``patch_channel = "face"`` and its length unit, which
+    the view reads (its readout then says "face"); a patch scene says "patch"."""
+    pytest.importorskip("OCP")
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+
+    writer = STEPControl_Writer()
+    writer.Transfer(BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Shape(), STEPControl_AsIs)
+    writer.Write(str(tmp_path / "box.step"))
+    out = tmp_path / "box.exr"
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gshade",
+            "render",
+            str(tmp_path / "box.step"),
+            "-o",
+            str(out),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--spp",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    channels, header = read_exr(out)
+    assert header["patch_channel"] == "face" and header["length_unit"] == "mm"
+    assert view_data([(channels, header)])["images"][0]["cad"]

@@ -200,7 +200,11 @@ def _channel_entries(channels: Mapping[str, NDArray]) -> list[dict]:
 
 def _is_cad(header: Mapping[str, object], junctions: Sequence[Mapping]) -> bool:
     """Whether the image shows a CAD model, whose ``patch`` channel numbers faces: the
-    header's junctions are B-rep edges, or an attribute says so (``cad``, a length unit)."""
+    header's ``patch_channel`` says ``"face"`` (gshade 0.8 writes it), or (older images) its
+    junctions are B-rep edges, or an attribute says so (``cad``, a length unit)."""
+    numbered = header.get("patch_channel", header.get("gshade:patch_channel"))
+    if numbered in ("face", "patch"):
+        return numbered == "face"
     if any("edge" in j for j in junctions):
         return True
     unit = header.get("length_unit", header.get("gshade:length_unit"))

@@ -326,7 +326,9 @@ def left_out_faces(scene, unmeshed=()) -> list:
 def _metadata(
     scene, settings, variant: str, view: View, resolution: int, atlas: Atlas, legend_text: str
 ) -> dict[str, str]:
-    """The EXR header: version, scene, variant, the settings as rendered, the legend."""
+    """The EXR header: version, scene, variant, the settings as rendered, the legend, what
+    the ``patch`` channel numbers (``"face"``: every surface a CAD model's; else
+    ``"patch"``) and the length unit (``"mm"`` ..., ``"length"`` where none is known)."""
     return {
         "gshade_version": __version__,
         "scene_name": scene.name,
@@ -351,6 +353,8 @@ def _metadata(
             sort_keys=True,
         ),
         "legend": legend_text,
+        "patch_channel": "face" if all(s.cad is not None for s in scene.surfaces) else "patch",
+        "length_unit": _length_unit(scene),
     }
 
 
