@@ -31,11 +31,13 @@ def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
     return BSplineCurve(np.asarray(centre, float) + radius * c, 2, knots, _CIRCLE_WEIGHTS)
 
 
-#: How far (relative) an arc may exceed a full turn (6.3e-4 rad): the parameter box of a
-#: periodic CAD face, which its trimming curves bound, passes a full turn by up to the
-#: file's tolerance (Fusion 360: -pi to pi + 6.7e-11 rad, -pi - 5.1e-5 to pi + 6e-6 rad on
-#: a cylinder of a 800-face part); far below a turn's last quarter.
-TURN_OVERSHOOT = 1e-4
+#: How far (relative) an arc may exceed a full turn (0.063 rad, 3.6 degrees): the parameter
+#: box of a periodic CAD face, which its trimming curves bound, passes a full turn by up to
+#: the file's tolerance (Fusion 360: -pi to pi + 6.7e-11 rad, -pi - 5.1e-5 to pi + 6e-6 rad
+#: on a cylinder of a 800-face part; NX 10: 2 pi + 0.006 rad on four faces of a 1,040-face
+#: part); the arc then covers its start twice over that sliver, which the trims cut off.
+#: Far below a turn's last quarter.
+TURN_OVERSHOOT = 1e-2
 
 
 def _arc_segments(a0: float, a1: float) -> tuple[int, float]:
