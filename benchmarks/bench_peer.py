@@ -86,6 +86,8 @@ PAIR_SIZE, QUICK_PAIR_SIZE = 2048, 512
 THRESHOLDS = {"fail": 0.02, "failpercent": 1.0, "warn": 0.01, "warnpercent": 0.1}
 TIMEOUT_S = 600
 TARGET_RATIO, TARGET_SECOND_S, TARGET_COMPARE_RATIO, TARGET_COMPARE_RSS = 1.0, 1.0, 1.5, 2.0
+#: Against the plainer teapot peer (``teapot_peer.py --plain``: no contour lines), issue 27.
+TARGET_PLAIN_RATIO = 0.8
 SECTION = "bench_peer"
 
 
@@ -119,9 +121,11 @@ class Teapot:
 # --------------------------------------------------------------------------- commands
 
 
-def teapot_peer_command(teapot: Teapot, png: Path, sample: tuple[Path, Path] | None = None):
+def teapot_peer_command(
+    teapot: Teapot, png: Path, sample: tuple[Path, Path] | None = None, plain: bool = False
+):
     cmd = [PYTHON, str(TEAPOT_PEER), teapot.shape, str(png)]
-    cmd += ["--camera", json.dumps(teapot.camera)]
+    cmd += ["--camera", json.dumps(teapot.camera)] + (["--plain"] if plain else [])
     return cmd + (["--sample", str(sample[0]), str(sample[1])] if sample else [])
 
 
@@ -250,6 +254,12 @@ def one_round(index: int, state: dict, tmp: Path) -> None:
             index,
             step(keep, cases[shape].gshade, gshade, f"gshade render teapot-{shape}", exr),
             step(keep, cases[shape].peer, peer, f"peer {shape}", png, stages=teapot.peer_stages),
+        )
+        plain = teapot_peer_command(teapot, png, plain=True)
+        pair(
+            index,
+            step(keep, cases[f"{shape} plain"].gshade, gshade, f"gshade teapot-{shape}", exr),
+            step(keep, cases[f"{shape} plain"].peer, plain, f"plain peer {shape}", png),
         )
         if keep:
             run = run_process(stage_command(SCENES[shape], fresh(exr), 1), TIMEOUT_S)
@@ -482,6 +492,9 @@ def main(argv: list[str] | None = None) -> int:
         s: Case(f"teapot-{s}", "gshade render", "teapot_peer.py", TARGET_RATIO, TARGET_RATIO)
         for s in SCENES
     }
+    for s in SCENES:
+        plain = "teapot_peer.py --plain"
+        cases[f"{s} plain"] = Case(f"teapot-{s}", "gshade render", plain, TARGET_PLAIN_RATIO)
     cases["bracket"] = Case("bracket.step (mean)", "gshade render", "cad_peer.py")
     compare_targets = (TARGET_COMPARE_RATIO, TARGET_COMPARE_RSS)
     size = QUICK_PAIR_SIZE if args.quick else PAIR_SIZE

@@ -16,6 +16,9 @@ oriented along p_u x p_v, as gshade's ``N``) and then, by ``SHAPE``:
   (<n, l> a multiple of T / 2) drawn over it as black lines (``contour``): gshade's
   ``display = "both"`` as VTK draws it;
 
+or, with ``--plain``, the plainer peer of issue 27: the mean curvature's colour map alone
+(no contour lines; the isophotes are the same either way);
+
 then plot off-screen through gshade's camera (``--camera``, horizontal field of view),
 shaded with those normals (Phong interpolation; VTK's default light kit), and save a
 screenshot (PNG).  Off-screen rendering without X: EGL (Mesa's llvmpipe).
@@ -23,7 +26,7 @@ screenshot (PNG).  Off-screen rendering without X: EGL (Mesa's llvmpipe).
 Usage, from the repository root::
 
     python benchmarks/teapot_peer.py {isophotes,mean} OUT.png [--camera JSON]
-        [--vertices 64] [--width 1024] [--height 768] [--sample P.npy OUT.npy]
+        [--vertices 64] [--width 1024] [--height 768] [--plain] [--sample P.npy OUT.npy]
 
 ``--sample P.npy OUT.npy``: also write, at the points ``P`` (n x 3), the mesh's mean
 curvature (``mean``) or <n, l> (``isophotes``), interpolated linearly on the closest
@@ -96,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--width", type=int, default=1024)
     parser.add_argument("--height", type=int, default=768)
     parser.add_argument("--sample", nargs=2, type=Path, metavar=("P.npy", "OUT.npy"))
+    parser.add_argument("--plain", action="store_true", help="no contour lines over the map")
     args = parser.parse_args(argv)
 
     lap = Laps()
@@ -126,8 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     else:
         plotter.add_mesh(mesh, scalars="mean curvature", cmap="coolwarm", clim=args.range, **common)
         edges = np.arange(-1.0, 1.0, 1.0 / STRIPES)[1:]  # every half period T / 2
-        lines = mesh.contour(isosurfaces=edges, scalars="n.l")
-        if lines.n_points:
+        lines = None if args.plain else mesh.contour(isosurfaces=edges, scalars="n.l")
+        if lines is not None and lines.n_points:
             plotter.add_mesh(lines, color="black", line_width=1)
     place_camera(plotter, args.camera)
     plotter.screenshot(str(args.png))
