@@ -168,6 +168,7 @@ class Model:
     stages: dict[str, list[dict]] = field(default_factory=lambda: {s: [] for s in SHAPES})
     peer_stages: list[dict] = field(default_factory=list)
     error: dict | None = None
+    error_failed: str | None = None  # why the peer's error could not be measured
 
 
 def timed(cmd: list[str]) -> tuple[Run, float]:
@@ -486,7 +487,10 @@ def main(argv: list[str] | None = None) -> int:
             one_round(models, tmp, index, args.rounds)
         for model in models:
             if model.refused is None and model.no_peer is None:
-                curvature_error(model, tmp, args.keep)
+                try:
+                    curvature_error(model, tmp, args.keep)
+                except SanityError as exc:  # the timings stand; say what failed
+                    model.error_failed = str(exc).splitlines()[0]
 
     info = machine_info(
         [
@@ -526,6 +530,8 @@ def main(argv: list[str] | None = None) -> int:
             )
         if m.refused:
             notes.append(f"{m.path.name}: not rendered: `{m.refused}`")
+        if m.error_failed:
+            notes.append(f"{m.path.name}: the peer's error not measured: `{m.error_failed}`")
         if m.no_peer:
             notes.append(f"{m.path.name}: no peer: `{m.no_peer}`")
     notes.append(

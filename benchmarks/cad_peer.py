@@ -165,7 +165,11 @@ def place_camera(plotter, camera: dict | None) -> None:
 
 def sample_linear(mesh, scalars: np.ndarray, points: np.ndarray) -> np.ndarray:
     """``scalars`` (one per mesh point) interpolated linearly at the points of the mesh's
-    triangles closest to ``points``."""
+    triangles closest to ``points`` (its triangles alone: a merged mesh may also hold lines
+    and vertices, whose cells come first)."""
+    import pyvista as pv
+
+    mesh = pv.PolyData(mesh.points, faces=mesh.faces)
     cells, closest = mesh.find_closest_cell(points, return_closest_point=True)
     corners = mesh.regular_faces[cells]
     a, b, c = (mesh.points[corners[:, k]] for k in range(3))
