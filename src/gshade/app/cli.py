@@ -13,14 +13,16 @@ written as escapes, never sent to the terminal.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
 from .. import __version__
 from ..errors import GshadeError
+from ..runtime.cache_folder import CACHE_VARIABLE
 from . import commands
 from .flags import in_flags
 from .terminal import printable
@@ -73,6 +75,17 @@ def _strict_flag(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _cache_flag(parser: argparse.ArgumentParser) -> None:
+    """``--no-cache``: no cache on disk is read or written (``GSHADE_CACHE_DIR=off`` for the
+    command and its workers): CAD files are read and converted once per command."""
+    parser.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="neither read nor write gshade's caches on disk (as GSHADE_CACHE_DIR=off): "
+        "CAD files are read and converted once per command",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser; each subcommand's arguments carry ``run`` (its function in
     :mod:`gshade.app.commands`) and ``error_status`` (for a GshadeError, default 2)."""
@@ -121,6 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--html", help="also write this HTML page of the EXR (as gshade view makes it)"
     )
     _strict_flag(render)
+    _cache_flag(render)
     render.set_defaults(run=commands.render)
 
     view = sub.add_parser(
@@ -193,6 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="render each scene several times and compare by a z-test against the "
         "reference's variances (for noisy soft-lit renders)",
     )
+    _cache_flag(chk)
     chk.set_defaults(run=commands.check)
 
     bat = sub.add_parser("batch", help="render many scenes (and sweeps) into a folder")
@@ -220,11 +235,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help='run on an existing Dask cluster, e.g. tcp://host:8786 (pip install "gshade[dask]")',
     )
+    _cache_flag(bat)
     bat.set_defaults(run=commands.batch)
 
     fig = sub.add_parser("figure", help="a multi-panel figure from a figure spec")
     fig.add_argument("spec", help="figure spec (TOML)")
     fig.add_argument("-o", "--output", required=True, help="OUT.png, OUT.pdf or OUT.svg")
+    _cache_flag(fig)
     fig.set_defaults(run=commands.figure)
 
     cont = sub.add_parser("continuity", help="measure and classify the patch junctions")
@@ -249,12 +266,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cont.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     _strict_flag(cont)
+    _cache_flag(cont)
     cont.set_defaults(run=commands.continuity)
 
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help="scene file (TOML)")
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     _strict_flag(info)
+    _cache_flag(info)
     info.set_defaults(run=commands.info)
     return parser
 
@@ -307,6 +326,30 @@ def main(argv: list[str] | None = None) -> int:
     # floating-point trouble is found by explicit checks (finite inputs, finite images) and
     # reported in one line: numpy's own warnings would only add lines before it
     np.seterr(all="ignore")
+    with _caches_off(getattr(args, "no_cache", False)):
+        return _run(args)
+
+
+@contextlib.contextmanager
+def _caches_off(off: bool) -> Iterator[None]:
+    """With ``off`` (``--no-cache``), ``GSHADE_CACHE_DIR=off`` in the environment while the
+    command runs (its workers and the CAD kernel's processes inherit it), as it was after."""
+    if not off:
+        yield
+        return
+    before = os.environ.get(CACHE_VARIABLE)
+    os.environ[CACHE_VARIABLE] = "off"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(CACHE_VARIABLE, None)
+        else:
+            os.environ[CACHE_VARIABLE] = before
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The subcommand, its errors and signals turned into exit statuses (see the module)."""
     _prestart_cad_kernel(args)
     try:
         return args.run(args)
@@ -328,11 +371,18 @@ def main(argv: list[str] | None = None) -> int:
 
 def _prestart_cad_kernel(args: argparse.Namespace) -> None:
     """Given a CAD file to read, start the kernel's zygote now: it loads the kernel's
-    libraries while this process loads its own (:func:`gshade.io.cad_zygote.prestart`)."""
+    libraries while this process loads its own (:func:`gshade.io.cad_zygote.prestart`);
+    not for files whose reads are cached (:func:`gshade.io.cad_cache.cached`: the kernel
+    may not be needed at all)."""
     from ..io.cad import CAD_EXTENSIONS
 
     given = [getattr(args, "scene", None), *(getattr(args, "scenes", None) or [])]
-    if any(isinstance(p, str) and Path(p).suffix.lower() in CAD_EXTENSIONS for p in given):
+    cad = [p for p in given if isinstance(p, str) and Path(p).suffix.lower() in CAD_EXTENSIONS]
+    if cad:
+        from ..io.cad_cache import cached
+
+        if all(cached(p) for p in cad):
+            return
         from ..io.cad_zygote import prestart
 
         prestart()

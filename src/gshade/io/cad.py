@@ -274,6 +274,14 @@ def read_cad(
         exhausts the kernel is one error.  False reads here: ``shape`` is the kernel's own
         (for code that works on it), and a damaged file may take this process down.
 
+    Notes
+    -----
+    An isolated read is converted once (:mod:`gshade.io.cad_cache`): the same file (by
+    content) read with the same options is given back from the cache on disk (the model;
+    its child, started when an operation whose answer is not kept needs it, is given the
+    kernel's shape as read, healed and converted), or shares the child of a model of it
+    still in use here; ``GSHADE_CACHE_DIR=off`` keeps nothing on disk.
+
     Raises
     ------
     GshadeError
@@ -289,26 +297,126 @@ def read_cad(
             f"{path.suffix or '(none)'!r}"
         )
     if isolated:
-        from ..limits import cad_read_memory
-        from .cad_process import KernelProcess
-
         if not _installed(_LIBRARIES[reader]):  # said here, without a child to start
             raise GshadeError(
                 f"{path}: reading {path.suffix} files needs the CAD libraries ({INSTALL}): "
                 f"no module named {_LIBRARIES[reader]!r}"
             )
-
-        try:
-            size = path.stat().st_size
-        except OSError:  # the reader says what is wrong with it
-            size = 0
-        kernel = KernelProcess(path)
-        model: CadModel = kernel.call(
-            "read", (path, sew, tolerance), doing="reading it", memory=cad_read_memory(size)
-        )
-        model.shape = kernel
-        return model
+        return _read_isolated(path, sew, tolerance)
     return reader_module(path).read(path, sew=sew, tolerance=tolerance)
+
+
+def _read_isolated(path: Path, sew: bool | None, tolerance: float | None) -> CadModel:
+    """:func:`read_cad` in a child process, converted once (:mod:`gshade.io.cad_cache`): a
+    model of the same read in use here shares its child; a cached read comes back without
+    the kernel, its child started when an operation the cache does not answer needs it;
+    else the file is read, and the read kept."""
+    from . import cad_cache
+
+    key = cad_cache.model_key(path, sew, tolerance)
+    if key is None:  # not a regular file: the reader says what is wrong with it
+        return _read_afresh(path, sew, tolerance, None)
+    model = cad_cache.live_model(key, path)
+    if model is None:
+        entry = cad_cache.find_model(key, path)
+        if entry is not None:
+            model = _restored(entry, key, sew, tolerance)
+    if model is None:
+        model = _read_afresh(path, sew, tolerance, key)
+    return cad_cache.remember(key, path, model)
+
+
+def _read_afresh(
+    path: Path, sew: bool | None, tolerance: float | None, key: str | None
+) -> CadModel:
+    """Read the file in a new child; with a cache ``key``, keep the read."""
+    from . import cad_cache
+    from .cad_process import KernelProcess
+
+    kernel = KernelProcess(path, None if key is None else cad_cache.Answers(key))
+    model, answer = _read_in(kernel, path, sew, tolerance)
+    model.shape = kernel
+    if key is not None and not _kept(kernel, key, path, sew, tolerance, model, answer):
+        return _read_afresh(path, sew, tolerance, None)  # the child went with the keeping
+    return model
+
+
+def _read_in(
+    kernel: Any, path: Path, sew: bool | None, tolerance: float | None
+) -> tuple[CadModel, bytes]:
+    """The child ``kernel`` reads the file: the model, and the child's answer that gave it."""
+    from ..limits import cad_read_memory
+
+    try:
+        size = path.stat().st_size
+    except OSError:  # the reader says what is wrong with it
+        size = 0
+    model: CadModel
+    model, answer = kernel.request(
+        "read", (path, sew, tolerance), doing="reading it", memory=cad_read_memory(size)
+    )
+    return model, answer
+
+
+def _kept(
+    kernel: Any,
+    key: str,
+    path: Path,
+    sew: bool | None,
+    tolerance: float | None,
+    model: CadModel,
+    answer: bytes,
+) -> bool:
+    """Keep the read the child ``kernel`` made (when the cache is on and the file did not
+    change meanwhile); False when the child ended asking for its shape."""
+    from . import cad_cache
+
+    if cad_cache.keeping() and cad_cache.model_key(path, sew, tolerance) == key:
+        try:
+            shape = kernel.call("keep", doing="keeping its shape")
+        except GshadeError:
+            return False
+        cad_cache.store_model(key, path, model, answer, shape)
+    return True
+
+
+def _restored(entry: Any, key: str, sew: bool | None, tolerance: float | None) -> CadModel:
+    """The cached read ``entry`` (a :class:`gshade.io.cad_cache.ModelEntry`) as a model whose
+    child is started when first needed, and then given the cached shape (in the child, as
+    any read: a cached shape the kernel cannot read costs a read of the file, kept anew)."""
+    from ..limits import cad_read_memory
+    from . import cad_cache
+    from .cad_process import KernelProcess
+
+    model: CadModel = entry.model
+    path, numbers, count = model.path, _numbers(model), model.face_count
+    cached = (entry.answer, entry.shape, str(path))  # not the model: no cycle through it
+    memory = cad_read_memory(len(entry.answer) + len(entry.shape))
+
+    def prepare(kernel: KernelProcess) -> None:
+        try:
+            if kernel.call("load", cached, doing="reading it", memory=memory) == count:
+                return
+        except GshadeError:  # a crash, an overrun or a refusal: the entry costs a read
+            pass
+        kernel.restart()
+        fresh, answer = _read_in(kernel, path, sew, tolerance)
+        if _numbers(fresh) != numbers:
+            raise GshadeError(f"{path}: the file changed while it was in use; read it again")
+        if not _kept(kernel, key, path, sew, tolerance, fresh, answer):
+            raise GshadeError(f"{path}: the CAD kernel's process ended keeping its shape")
+
+    kernel = KernelProcess(path, cad_cache.Answers(key), start=False)
+    kernel.later(prepare)
+    model.shape = kernel
+    return model
+
+
+def _numbers(model: CadModel) -> tuple:
+    """What a model's kernel operations rely on: its faces' numbers, rendered and left out,
+    and its kernel shape's."""
+    rendered = tuple(face.index for face in model.faces)
+    return rendered, tuple(f.index for f in model.left_out), model.kernel_numbers()
 
 
 def reader_module(path: str | os.PathLike) -> Any:

@@ -12,7 +12,10 @@ process that has the kernel's libraries loaded: :mod:`gshade.io.cad_zygote`):
   patches, boxes, loops: plain arrays), the kernel's shape stays in the child;
 - **operations** on the model's shape (meshing, the edges' parameter curves): functions
   marked with :func:`kernel_operation` run in the child on its model when the model's
-  ``shape`` is a :class:`KernelProcess`, and in this process when it is the kernel's shape.
+  ``shape`` is a :class:`KernelProcess`, and in this process when it is the kernel's shape;
+- **a cached read** (:mod:`gshade.io.cad_cache`): the child is given the model and the
+  kernel's shape as a read kept them ("load"), and is asked for the shape after a read
+  ("keep"); the answers to operations are looked up in the cache first (``answers``).
 
 Each call is bounded in wall-clock time (:func:`kernel_seconds`: ``GSHADE_CAD_TIMEOUT``,
 default :data:`gshade.limits.CAD_SECONDS`, or less inside :func:`kernel_time_limit`), in CPU
@@ -45,14 +48,16 @@ import tempfile
 import time
 import weakref
 from collections.abc import Callable, Iterator
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar, Protocol, TypeVar
 
 from ..errors import GshadeError
 from ..limits import CAD_SECONDS, memory_limit
 
 __all__ = [
     "CHILD_MODULES",
+    "AnswerStore",
     "KernelProcess",
+    "allowed_answer",
     "kernel_operation",
     "kernel_seconds",
     "kernel_time_limit",
@@ -72,7 +77,7 @@ _OPERATIONS: dict[str, Callable[..., Any]] = {}
 _OPERATION_MODULES = ("gshade.io.cad", "gshade.io.cad_mesh", "gshade.io.cad_edges")
 #: What a child loads before its bounds are set, beside the file's reader (the zygote loads
 #: them, and the readers, once for all its children: :mod:`gshade.io.cad_zygote`).
-CHILD_MODULES = ("numpy", "matplotlib.path", *_OPERATION_MODULES)
+CHILD_MODULES = ("numpy", "matplotlib.path", *_OPERATION_MODULES, "gshade.io.cad_cache")
 
 #: What native code's exceptions say when an allocation (or a library's mapping) failed.
 _OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
@@ -133,6 +138,16 @@ def kernel_operation(doing: str) -> Callable[[F], F]:
     return mark
 
 
+class AnswerStore(Protocol):
+    """Where a :class:`KernelProcess` looks for its operations' answers before it asks the
+    child, and keeps them (:class:`gshade.io.cad_cache.Answers`): the child's answer
+    messages, as they came."""
+
+    def get(self, operation: str, args: tuple, kwargs: dict) -> bytes | None: ...
+
+    def put(self, operation: str, args: tuple, kwargs: dict, answer: bytes) -> None: ...
+
+
 class KernelProcess:
     """A child process holding one CAD model's kernel shape; it stands in for the shape
     (``CadModel.shape``) in this process.
@@ -141,28 +156,83 @@ class KernelProcess:
     ----------
     path : path-like
         The model's file, for messages.
+    answers : AnswerStore, optional
+        The answers to its :func:`kernel_operation` calls kept from earlier runs: a call
+        found there is not sent to the child, and the child's answers are kept there.
+    start : bool
+        Start the child now; False leaves it to :meth:`later`.
     """
 
-    def __init__(self, path: str | os.PathLike) -> None:
+    def __init__(
+        self, path: str | os.PathLike, answers: AnswerStore | None = None, start: bool = True
+    ) -> None:
         self.path = str(path)
+        self.answers = answers
+        self._process: Any = None  # a Popen, or the zygote's Forked
+        self._prepare: Callable[[KernelProcess], None] | None = None
+        self._finalizer: Any = None
+        if start:
+            self._start()
+
+    def _start(self) -> None:
         from .cad_zygote import start_child
 
-        self._log = tempfile.TemporaryFile()
+        log = tempfile.TemporaryFile()
         try:
-            self._child: Any = start_child(self._log)  # a Popen, or the zygote's Forked
+            self._process = start_child(log)
         except OSError as exc:
-            self._log.close()
-            raise GshadeError(f"{path}: cannot start the CAD kernel's process ({exc})") from None
-        self._finalizer = weakref.finalize(self, _stop, self._child, self._log)
+            log.close()
+            raise GshadeError(
+                f"{self.path}: cannot start the CAD kernel's process ({exc})"
+            ) from None
+        self._finalizer = weakref.finalize(self, _stop, self._process, log)
+
+    def later(self, prepare: Callable[[KernelProcess], None]) -> None:
+        """Start the child only when it is first needed (a call that ``answers`` does not
+        hold): then ``prepare(self)`` gives it its model (a cached read:
+        :mod:`gshade.io.cad_cache`), and may :meth:`restart` it."""
+        self._prepare = prepare
+
+    @property
+    def _child(self) -> Any:
+        """The child, started (and prepared) if it is still to be."""
+        prepare, self._prepare = self._prepare, None
+        if prepare is not None:
+            self._start()
+            try:
+                prepare(self)
+            except BaseException:
+                self.close()
+                raise
+        return self._process
+
+    def restart(self) -> None:
+        """End the child and start a new one (without a model)."""
+        self.close()
+        self._start()
 
     def __repr__(self) -> str:
-        state = "running" if self._child is not None else "ended"
+        if self._prepare is not None:
+            state = "not started"
+        else:
+            state = "running" if self._process is not None else "ended"
         return f"<KernelProcess of {self.path} ({state})>"
+
+    @property
+    def running(self) -> bool:
+        """Whether the child is there to answer (to be started when needed, or not closed
+        and not ended)."""
+        if self._prepare is not None:
+            return True
+        child = self._process
+        return child is not None and child.poll() is None
 
     def close(self) -> None:
         """End the child (its model is gone)."""
-        self._finalizer()
-        self._child = None
+        self._prepare = None
+        if self._finalizer is not None:
+            self._finalizer()
+        self._process = None
 
     def call(
         self,
@@ -175,6 +245,7 @@ class KernelProcess:
         """Run ``operation`` ("module:name" of a :func:`kernel_operation`, or "read") in the
         child on its model, within :func:`kernel_seconds` and ``memory`` bytes of address
         space more than it holds (default :func:`gshade.limits.memory_limit`); its result.
+        A :func:`kernel_operation` whose answer ``answers`` holds is answered from there.
 
         Raises
         ------
@@ -182,6 +253,32 @@ class KernelProcess:
             The operation's own one-line error, or one line naming the file when the child
             crashed, overran its time or memory, or had ended already.
         """
+        kwargs = kwargs or {}
+        kept = self.answers if ":" in operation else None
+        if kept is not None:
+            found = kept.get(operation, args, kwargs)
+            if found is not None:
+                try:
+                    kind, value = allowed_answer(found)
+                except Exception:  # a foreign entry, whatever its bytes raise: asked anew
+                    kind = ""
+                if kind == "ok":
+                    return value
+        value, answer = self.request(operation, args, kwargs, doing, memory)
+        if kept is not None:
+            kept.put(operation, args, kwargs, answer)
+        return value
+
+    def request(
+        self,
+        operation: str,
+        args: tuple = (),
+        kwargs: dict | None = None,
+        doing: str = "working on it",
+        memory: int | None = None,
+    ) -> tuple[Any, bytes]:
+        """:meth:`call`, always asking the child: its result, and the child's answer
+        message that gave it (for :mod:`gshade.io.cad_cache`)."""
         from ..limits import gigabytes
 
         child = self._child
@@ -192,10 +289,12 @@ class KernelProcess:
         seconds = kernel_seconds()
         budget = memory_limit() if memory is None else memory
         request = pickle.dumps((operation, args, kwargs or {}, budget, seconds), protocol=5)
+        data = b""
+        watch = _MemoryWatch(child.pid)
         try:
             _send(child, request)
-            watch = _MemoryWatch(child.pid)
-            kind, value = _Results.answer(_receive(child, time.monotonic() + seconds, watch))
+            data = _receive(child, time.monotonic() + seconds, watch)
+            kind, value = _Results.answer(data)
         except _Overrun:
             self.close()
             raise GshadeError(
@@ -224,7 +323,7 @@ class KernelProcess:
             self.close()
             raise
         if kind == "ok":
-            return value
+            return value, data
         if kind == "failed":
             raise GshadeError(f"{self.path}: the CAD kernel failed {doing} ({value})")
         if kind == "memory":  # its memory is spent (a MemoryError or a crash at the limit)
@@ -342,6 +441,12 @@ def _read_exactly(fd: int, size: int, deadline: float, tick: Callable[[], None])
     return bytes(chunks)
 
 
+def allowed_answer(data: bytes) -> tuple[str, Any]:
+    """A child's answer message (kind, value), unpickled through the allow-list of plain
+    data and gshade's CAD result classes (:class:`_Results`): never code to run."""
+    return _Results.answer(data)
+
+
 class _Results(pickle.Unpickler):
     """Unpickles only plain data and gshade's CAD result classes."""
 
@@ -454,6 +559,26 @@ def _serve(parent: int) -> None:
                 from dataclasses import replace
 
                 answer: tuple[str, Any] = ("ok", replace(model, shape=None))
+            elif operation == "load":  # a cached read: the model and its shape's bytes
+                from .cad import reader_module
+                from .cad_cache import restored_model
+
+                cached, shape, path = args
+                model = None
+                reader_module(path)  # the libraries are loaded outside the bounds
+                for name in CHILD_MODULES:
+                    importlib.import_module(name)
+                importlib.import_module("OCP.BinTools")
+                _bound(memory, seconds)
+                model = restored_model(cached, shape, path)
+                answer = ("ok", model.face_count)
+            elif operation == "keep":  # the model's shape, for the cache
+                from .cad_cache import shape_bytes
+
+                if model is None or model.shape is None:
+                    raise GshadeError("no model here to keep")
+                _bound(memory, seconds)
+                answer = ("ok", shape_bytes(model.shape))
             else:
                 module, _, _ = operation.partition(":")
                 if module in _OPERATION_MODULES:

@@ -205,8 +205,9 @@ class Forked:
 
 
 def _preload() -> None:
-    """Load what the children use, once: the readers of every CAD format and
-    :data:`gshade.io.cad_process.CHILD_MODULES` (what is not installed is left out)."""
+    """Load what the children use, once: the readers of every CAD format,
+    :data:`gshade.io.cad_process.CHILD_MODULES` and the kernel's binary shape format (of a
+    cached read: :mod:`gshade.io.cad_cache`); what is not installed is left out."""
     import importlib
 
     from .cad import CAD_EXTENSIONS, reader_module
@@ -218,6 +219,8 @@ def _preload() -> None:
     for extension in CAD_EXTENSIONS:
         with contextlib.suppress(Exception):
             reader_module(f"model{extension}")
+    with contextlib.suppress(Exception):  # what reads and writes a cached shape
+        importlib.import_module("OCP.BinTools")
 
 
 def _zygote_main(parent: int, fd: int) -> None:

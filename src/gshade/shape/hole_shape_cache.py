@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import stat
 import threading
 import time
 from collections import OrderedDict
@@ -37,6 +35,8 @@ from numpy.typing import NDArray
 
 from ..geometry.blas_threads import single_threaded_blas
 from ..geometry.hole_fill import HoleFilling, filling_patches
+from ..runtime.cache_folder import CACHE_VARIABLE, read_entry, write_entry
+from ..runtime.cache_folder import cache_folder as shared_cache_folder
 from .hole_shape import (
     FREE,
     ITERATIONS,
@@ -82,8 +82,6 @@ def optimise_filling(
 
 # --------------------------------------------------------------------------- the cache
 
-#: Environment variable: the folder of gshade's caches (``off``: none on disk).
-CACHE_VARIABLE = "GSHADE_CACHE_DIR"
 #: Optimised fillings kept in memory per process (the least recently used go first).
 CACHE_ENTRIES = 512
 #: The first line of a cache file, and the largest file read (n = 100 patches of degree 9:
@@ -99,19 +97,9 @@ _lock = threading.Lock()
 def cache_folder() -> Path | None:
     """The folder of the cached optimised fillings: ``$GSHADE_CACHE_DIR/hole-shape``, else
     ``$XDG_CACHE_HOME/gshade/hole-shape`` (an absolute path) or
-    ``~/.cache/gshade/hole-shape``; None with ``GSHADE_CACHE_DIR=off`` (or no home)."""
-    given = os.environ.get(CACHE_VARIABLE, "").strip()
-    if given.lower() == "off":
-        return None
-    if given:
-        return Path(given) / "hole-shape"
-    xdg = os.environ.get("XDG_CACHE_HOME", "").strip()
-    if xdg and os.path.isabs(xdg):
-        return Path(xdg) / "gshade" / "hole-shape"
-    try:
-        return Path.home() / ".cache" / "gshade" / "hole-shape"
-    except (RuntimeError, KeyError, OSError):
-        return None
+    ``~/.cache/gshade/hole-shape``; None with ``GSHADE_CACHE_DIR=off`` (or no home)
+    (:func:`gshade.runtime.cache_folder.cache_folder`)."""
+    return shared_cache_folder("hole-shape")
 
 
 @lru_cache(maxsize=1)
@@ -189,20 +177,9 @@ def _read_entry(
 ) -> tuple[NDArray[np.float64], ShapeOptimisation] | None:
     """A cache file's points and report, or None for any file that is not a whole entry of
     this key (missing, a link, not a regular file, too large, truncated, another format)."""
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0))
-    except (OSError, ValueError):
+    data = read_entry(path, _MAX_CACHE_FILE)
+    if data is None:
         return None
-    try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode) or info.st_size > _MAX_CACHE_FILE:
-            return None
-        with os.fdopen(os.dup(fd), "rb") as f:
-            data = f.read(_MAX_CACHE_FILE + 1)
-    except OSError:
-        return None
-    finally:
-        os.close(fd)
     try:
         if not data.startswith(_MAGIC) or len(data) > _MAX_CACHE_FILE:
             return None
@@ -281,8 +258,6 @@ def _remember(key: str, x: NDArray[np.float64], info: ShapeOptimisation) -> None
 
 def _store(key: str, x: NDArray[np.float64], info: ShapeOptimisation) -> None:
     """Keep a result in memory and, best effort, on disk (an unwritable folder: memory)."""
-    import tempfile  # here, not on the import path of every command
-
     _remember(key, x, info)
     folder = cache_folder()
     if folder is None:
@@ -290,20 +265,4 @@ def _store(key: str, x: NDArray[np.float64], info: ShapeOptimisation) -> None:
     payload = np.ascontiguousarray(x, dtype="<f8").tobytes()
     report = {k: v for k, v in asdict(info).items() if k not in ("cached", "seconds")}
     header = {"key": key, "sha256": hashlib.sha256(payload).hexdigest(), "info": report}
-    data = _MAGIC + json.dumps(header).encode() + b"\n" + payload
-    try:
-        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".tmp", dir=folder)
-    except OSError:
-        return
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, folder / f"{key}.bin")  # atomic: readers see a whole file
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if not isinstance(exc, OSError):
-            raise
+    write_entry(folder, f"{key}.bin", [_MAGIC, json.dumps(header).encode(), b"\n", payload])

@@ -1,0 +1,501 @@
+"""Converted CAD models kept by content: a file is read and converted once.
+
+Reading a CAD file (the kernel's parse, healing and NURBS conversion, gshade's faces) takes
+seconds: 4.4 s for a 305-face STEP part.  A batch, a sweep or a check renders one file
+many times, so :func:`gshade.io.cad.read_cad` keeps what a read gives:
+
+- **on disk**, in ``cad`` under gshade's cache folder (:mod:`gshade.runtime.cache_folder`:
+  ``$GSHADE_CACHE_DIR``, else ``$XDG_CACHE_HOME/gshade`` or ``~/.cache/gshade``;
+  ``GSHADE_CACHE_DIR=off`` or ``--no-cache``: nothing on disk), an entry ``KEY.model`` a
+  model: the kernel process's answer (the faces, left-out faces and notes: the pickled
+  :class:`~gshade.io.cad.CadModel`) and the kernel's shape as read, healed and converted
+  (Open CASCADE's binary B-rep, ``BinTools``).  The kernel's operations on the model (the
+  mesh, the edges: answers of :func:`~gshade.io.cad_process.kernel_operation`) are kept
+  beside it (:class:`Answers`: ``KEY.answer``).  A hit gives back the model without the
+  kernel; its kernel process is started only for an operation whose answer is not kept,
+  and then given the cached shape (:func:`restored_model`, in milliseconds, in its own
+  child as any read: a cached shape that crashes the kernel costs a read of the file,
+  not the render).  So a second render at the same size asks the kernel nothing.
+- **in memory**, while a model of the file is in use in this process (:func:`live_model`):
+  a second read of it shares the model's kernel process.
+
+The key (:func:`model_key`) is a SHA-256 of the file's content (its bytes, streamed), its
+reader (by extension), the reading options (``sew``, ``tolerance``; ``strict`` is applied
+after reading, so one entry serves both), gshade's version and the source of the modules
+that read and convert with that reader (a change to them is another conversion; an
+answer's key adds the source of its operation's module, the mesher's or the edges'), and
+the kernel's versions (numpy, the installed cadquery-ocp and rhino3dm).  An entry is trusted
+only whole: a regular file (not a link) of bounded size, its header naming the same key,
+each part of the size and SHA-256 the header gives, the model unpickled through the kernel
+answers' allow-list (:func:`gshade.io.cad_process.allowed_answer`, never a plain
+``pickle.load``), its face count the header's and the shape's.  Anything else is a miss,
+read afresh and written anew.  Entries are written whole (:func:`~gshade.runtime.cache_folder.
+write_entry`: concurrent batch workers each rename a whole file into place).  The folder
+is bounded (:data:`CACHE_BYTES`): after each write, the entries used longest ago go first
+(an entry's modification time is its last use: a hit sets it).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import pickle
+import re
+import stat
+import threading
+import time
+import weakref
+from dataclasses import dataclass, replace
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from ..errors import GshadeError
+from ..limits import MAX_DATA_FILE_BYTES
+from ..runtime.cache_folder import cache_folder, read_entry, write_entry
+from .cad import CAD_EXTENSIONS, CadModel
+from .cad_process import allowed_answer
+
+__all__ = [
+    "CACHE_BYTES",
+    "CACHE_NAME",
+    "Answers",
+    "ModelEntry",
+    "cached",
+    "find_model",
+    "keeping",
+    "live_model",
+    "model_key",
+    "remember",
+    "restored_model",
+    "shape_bytes",
+    "store_model",
+]
+
+#: The subfolder of the cache folder that holds the CAD entries.
+CACHE_NAME = "cad"
+#: The most bytes the CAD entries take together; the entries used longest ago are removed.
+CACHE_BYTES = 2**30
+#: The first line of an entry (a new format is a new line: old entries are then misses).
+_MAGIC = b"gshade cad cache 1\n"
+#: The longest header line read (its JSON: key, kind, parts' sizes and checksums).
+_MAX_HEADER = 2**16
+#: Entry names: the key (SHA-256, hex) and the kind.
+_ENTRY = re.compile(r"[0-9a-f]{64}\.(model|answer)")
+#: Temporaries older than this (seconds) were left by a process that died while writing.
+_STALE_SECONDS = 3600.0
+#: The modules (relative to the package, as globs) whose source a read depends on: every
+#: reader's, and each reader's own (tests/test_cad_cache.py checks that these hold what
+#: the readers import).
+_SOURCES = (
+    "io/cad.py",
+    "io/cad_cache.py",
+    "io/files.py",
+    "errors.py",
+    "limits.py",
+    "runtime/native.py",
+    "geometry/bspline.py",
+    "geometry/bezier.py",
+    "geometry/bernstein.py",
+    "geometry/blas_threads.py",
+    "geometry/knots.py",
+    "geometry/patch.py",
+    "geometry/rational.py",
+    "geometry/revolution.py",
+)
+_OCCT_SOURCES = ("io/cad_occt.py", "io/cad_healing.py", "io/cad_quadrics.py", "io/step_accuracy.py")
+_READER_SOURCES = {"occt": _OCCT_SOURCES, "3dm": ("io/cad_3dm*.py", *_OCCT_SOURCES)}
+#: The modules whose source the kernel's operations depend on, beside the read's, by the
+#: operations' module.
+_OPERATION_SOURCES = {
+    "gshade.io.cad_mesh": ("io/cad_mesh.py", "geometry/spline_batches.py"),
+    "gshade.io.cad_edges": ("io/cad_edges.py",),
+}
+
+
+# --------------------------------------------------------------------------- the key
+
+
+def model_key(path: str | os.PathLike, sew: bool | None, tolerance: float | None) -> str | None:
+    """The key (SHA-256, hex) of reading ``path`` with ``sew`` and ``tolerance``: its
+    content's hash, its reader, the options and :func:`_fingerprint`; None for a path
+    that is not a regular file of at most :data:`gshade.limits.MAX_DATA_FILE_BYTES` (the
+    reader says what is wrong with it)."""
+    path = Path(path)
+    content = _content_hash(path)
+    if content is None:
+        return None
+    suffix = path.suffix.lower()
+    reader = CAD_EXTENSIONS.get(suffix, "")
+    options = [content, reader, suffix, sew, _number(tolerance)]
+    fingerprint = _fingerprint(_SOURCES, *_READER_SOURCES.get(reader, ()))
+    return hashlib.sha256(fingerprint + json.dumps(options).encode()).hexdigest()
+
+
+def _number(value: float | None) -> str | None:
+    """A tolerance as text that names its float exactly (``repr``)."""
+    return None if value is None else repr(float(value))
+
+
+_hashes: dict[tuple, str] = {}  # (path, device, inode, size, mtime, ctime) -> content hash
+
+
+def _signature(path: Path) -> tuple | None:
+    """What identifies a file's content without reading it (its path, device, inode, size
+    and times), or None for what is not a regular file."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    if not stat.S_ISREG(st.st_mode):
+        return None
+    return (str(path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def _content_hash(path: Path) -> str | None:
+    """The SHA-256 of the file's bytes, read in chunks (remembered by its
+    :func:`_signature` in this process); None for what is not a regular file of bounded
+    size or cannot be read."""
+    signature = _signature(path)
+    if signature is None or signature[3] > MAX_DATA_FILE_BYTES:
+        return None
+    if signature in _hashes:
+        return _hashes[signature]
+    h = hashlib.sha256()
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                return None
+            while chunk := f.read(2**20):
+                h.update(chunk)
+    except (OSError, ValueError):
+        return None
+    if _signature(path) != signature:  # it changed while being read
+        return None
+    if len(_hashes) > 1024:
+        _hashes.clear()
+    _hashes[signature] = digest = h.hexdigest()
+    return digest
+
+
+@lru_cache(maxsize=8)
+def _fingerprint(*sources: str | tuple[str, ...]) -> bytes:
+    """What a conversion depends on besides the file and the options: the entry format,
+    gshade's version, the source of the modules ``sources`` (globs relative to the package,
+    or tuples of them), numpy's version and the kernel's (:func:`_kernel_versions`)."""
+    import numpy as np
+
+    from .. import __version__
+
+    h = hashlib.sha256(_MAGIC + f"{__version__} numpy {np.__version__}".encode())
+    h.update(json.dumps(_kernel_versions()).encode())
+    package = Path(__file__).resolve().parents[1]
+    patterns = [p for group in sources for p in ((group,) if isinstance(group, str) else group)]
+    for pattern in patterns:
+        for source in sorted(package.glob(pattern)):
+            h.update(source.relative_to(package).as_posix().encode())
+            try:
+                h.update(hashlib.sha256(source.read_bytes()).digest())
+            except OSError:
+                h.update(b"unreadable")
+    return h.digest()
+
+
+def _kernel_versions() -> list[list[str]]:
+    """The kernel's libraries as installed: per module (OCP, rhino3dm) where it is and the
+    distributions beside it (``cadquery_ocp_novtk-8.0.1.1.0.dist-info``), without importing
+    them (a second)."""
+    import importlib.util
+
+    found = []
+    for module, distribution in (("OCP", "cadquery_ocp"), ("rhino3dm", "rhino3dm")):
+        try:
+            spec = importlib.util.find_spec(module)
+        except (ImportError, ValueError):
+            spec = None
+        if spec is None or not spec.origin:
+            found.append([module, "missing"])
+            continue
+        site = Path(spec.origin).parent.parent
+        try:
+            names = sorted(n for n in os.listdir(site) if n.startswith(distribution) and "-" in n)
+        except OSError:
+            names = []
+        found.append([module, str(spec.origin), *names])
+    return found
+
+
+# --------------------------------------------------------------------------- entries
+
+
+def _folder() -> Path | None:
+    return cache_folder(CACHE_NAME)
+
+
+def keeping() -> bool:
+    """Whether reads are kept on disk (the cache folder is not off)."""
+    return _folder() is not None
+
+
+def _write(key: str, kind: str, parts: list[bytes], **header: Any) -> bool:
+    """Write the entry ``KEY.KIND`` of ``parts`` (a header gives their sizes and
+    checksums), then keep the folder within :data:`CACHE_BYTES`."""
+    folder = _folder()
+    size = sum(len(p) for p in parts)
+    if folder is None or size > CACHE_BYTES // 2:
+        return False
+    checks = [[len(p), hashlib.sha256(p).hexdigest()] for p in parts]
+    head = json.dumps({**header, "key": key, "kind": kind, "parts": checks}).encode()
+    name = f"{key}.{kind}"
+    written = write_entry(folder, name, [_MAGIC, head, b"\n", *parts])
+    if written:
+        _evict(folder, keep=name)
+    return written
+
+
+def _read(key: str, kind: str) -> tuple[dict, list[bytes]] | None:
+    """The header and parts of the entry ``KEY.KIND``, or None for anything but a whole
+    entry of this key (see the module)."""
+    folder = _folder()
+    if folder is None:
+        return None
+    data = read_entry(folder / f"{key}.{kind}", CACHE_BYTES, touch=True)
+    if data is None or not data.startswith(_MAGIC):
+        return None
+    end = data.find(b"\n", len(_MAGIC), len(_MAGIC) + _MAX_HEADER)
+    if end < 0:
+        return None
+    try:
+        header = json.loads(data[len(_MAGIC) : end].decode("utf-8"))
+        if not isinstance(header, dict) or header.get("key") != key:
+            return None
+        if header.get("kind") != kind:
+            return None
+        parts, at = [], end + 1
+        for size, digest in header["parts"]:
+            part = data[at : at + int(size)]
+            if len(part) != size or hashlib.sha256(part).hexdigest() != digest:
+                return None
+            parts.append(part)
+            at += size
+    except (ValueError, TypeError, KeyError, UnicodeDecodeError, RecursionError):
+        return None
+    if at != len(data):
+        return None
+    return header, parts
+
+
+def _evict(folder: Path, keep: str) -> None:
+    """Remove the entries used longest ago (by modification time) until the folder's
+    entries take at most :data:`CACHE_BYTES` (never ``keep``), and the temporaries that
+    writers which died left behind.  Only regular files named as entries are counted and
+    removed; links and other files are left alone."""
+    now = time.time()
+    entries, total = [], 0
+    try:
+        with os.scandir(folder) as listing:
+            for item in listing:
+                try:
+                    st = item.stat(follow_symlinks=False)
+                except OSError:
+                    continue
+                if not stat.S_ISREG(st.st_mode):
+                    continue
+                if item.name.startswith(".") and item.name.endswith(".tmp"):
+                    if now - st.st_mtime > _STALE_SECONDS:
+                        _remove(folder / item.name)
+                elif _ENTRY.fullmatch(item.name):
+                    entries.append((st.st_mtime_ns, item.name, st.st_size))
+                    total += st.st_size
+    except OSError:
+        return
+    for _, name, size in sorted(entries):
+        if total <= CACHE_BYTES:
+            break
+        if name != keep:
+            _remove(folder / name)
+            total -= size
+
+
+def _remove(path: Path) -> None:
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
+
+
+@dataclass
+class ModelEntry:
+    """A cached read: the model (its ``shape`` None), the kernel process's answer it was
+    unpickled from, and the kernel's shape (``BinTools`` bytes) for a new process."""
+
+    model: CadModel
+    answer: bytes
+    shape: bytes
+
+
+def find_model(key: str, path: str | os.PathLike) -> ModelEntry | None:
+    """The cached read of ``key``, checked (see the module), its model's ``path`` set to
+    ``path``; None when there is none to trust."""
+    found = _read(key, "model")
+    if found is None:
+        return None
+    header, parts = found
+    if len(parts) != 2:
+        return None
+    answer, shape = parts
+    named = header.get("names")  # the path the model's messages name, if they do
+    if named is not None and named != str(path):
+        return None
+    try:
+        kind, model = allowed_answer(answer)
+    except Exception:  # whatever a foreign entry's bytes raise in the unpickler: a miss
+        return None
+    if kind != "ok" or not isinstance(model, CadModel):
+        return None
+    if model.face_count != header.get("faces") or not model.faces:
+        return None
+    model.path, model.shape = Path(path), None
+    return ModelEntry(model, answer, shape)
+
+
+def cached(path: str | os.PathLike) -> bool:
+    """Whether a read of ``path`` with the default options is kept (an entry by that name
+    is there; :func:`find_model` checks it): the command line then starts no kernel
+    before it is needed."""
+    folder, key = _folder(), model_key(path, None, None)
+    return folder is not None and key is not None and (folder / f"{key}.model").is_file()
+
+
+def store_model(
+    key: str, path: str | os.PathLike, model: CadModel, answer: bytes, shape: bytes
+) -> bool:
+    """Keep a read: ``answer`` (the kernel process's answer that gave ``model``) and the
+    kernel's ``shape`` (:func:`shape_bytes`); whether it was written."""
+    said = [*model.notes, *(f"{f.why} {f.tried}" for f in model.left_out)]
+    names = str(path) if any(str(path) in line for line in said) else None
+    return _write(key, "model", [answer, shape], faces=model.face_count, names=names)
+
+
+class Answers:
+    """The kernel's answers to operations on one cached model (``KEY.answer`` entries,
+    their key from the model's and the operation's name and arguments): what
+    :class:`~gshade.io.cad_process.KernelProcess` asks before it asks the kernel."""
+
+    def __init__(self, key: str) -> None:
+        self.key = key
+
+    def _key(self, operation: str, args: tuple, kwargs: dict) -> str | None:
+        """The answer's key: the model's, the operation, its arguments and the source of
+        its module (:data:`_OPERATION_SOURCES`); None for a call not to keep."""
+        module = operation.partition(":")[0]
+        if module not in _OPERATION_SOURCES:
+            return None
+        try:
+            call = pickle.dumps((operation, args, sorted(kwargs.items())), protocol=5)
+        except Exception:  # arguments that do not pickle: not kept
+            return None
+        h = hashlib.sha256(_fingerprint(_OPERATION_SOURCES[module]))
+        h.update(f"{self.key} {operation} ".encode() + call)
+        return h.hexdigest()
+
+    def get(self, operation: str, args: tuple, kwargs: dict) -> bytes | None:
+        """The answer kept for the call (the child's answer message), or None."""
+        key = self._key(operation, args, kwargs)
+        found = None if key is None else _read(key, "answer")
+        return None if found is None or len(found[1]) != 1 else found[1][0]
+
+    def put(self, operation: str, args: tuple, kwargs: dict, answer: bytes) -> None:
+        """Keep the child's answer message to the call."""
+        key = self._key(operation, args, kwargs)
+        if key is not None:
+            _write(key, "answer", [answer], model=self.key, operation=operation)
+
+
+# --------------------------------------------------------------------------- the kernel
+
+
+def shape_bytes(shape: Any) -> bytes:
+    """The kernel's shape in Open CASCADE's binary format (no triangulations: the mesher
+    makes its own), exact: read back it has the same faces in the same order, with the same
+    orientations, surfaces, curves and tolerances (in the kernel's child)."""
+    from OCP.BinTools import BinTools, BinTools_FormatVersion
+
+    stream = io.BytesIO()
+    version = BinTools_FormatVersion.BinTools_FormatVersion_CURRENT
+    BinTools.Write_s(shape, stream, False, False, version)
+    return stream.getvalue()
+
+
+def restored_model(answer: bytes, shape: bytes, path: str) -> CadModel:
+    """A cached model with its kernel shape, in the kernel's child: ``answer`` unpickled
+    through the allow-list, ``shape`` read by the kernel (:func:`shape_bytes`), checked to
+    have the model's kernel faces.
+
+    Raises
+    ------
+    GshadeError
+        When the entry is no such model (the caller reads the file afresh).
+    """
+    from OCP.BinTools import BinTools
+    from OCP.TopoDS import TopoDS_Shape
+
+    from .cad_healing import shape_faces
+
+    kind, model = allowed_answer(answer)
+    if kind != "ok" or not isinstance(model, CadModel):
+        raise GshadeError(f"{path}: the cached read is not a model")
+    kernel_shape = TopoDS_Shape()
+    BinTools.Read_s(kernel_shape, io.BytesIO(shape))
+    faces = 0 if kernel_shape.IsNull() else len(shape_faces(kernel_shape))
+    if faces != len(model.kernel_numbers()):
+        raise GshadeError(f"{path}: the cached shape has {faces} faces for the model's")
+    model.path, model.shape = Path(path), kernel_shape
+    return model
+
+
+# --------------------------------------------------------------------------- in memory
+
+# (key, path, pid) -> the kernel process of a model in use, and the model without it
+_live: dict[tuple[str, str, int], tuple[weakref.ref, CadModel]] = {}
+_live_lock = threading.Lock()
+
+
+def live_model(key: str, path: str | os.PathLike) -> CadModel | None:
+    """A model of the same read that this process still uses (its kernel process running):
+    a new :class:`~gshade.io.cad.CadModel` with the same faces and kernel process; None
+    when there is none."""
+    with _live_lock:
+        found = _live.get((key, str(path), os.getpid()))
+    if found is None:
+        return None
+    kernel = found[0]()
+    if kernel is None or not kernel.running:
+        return None
+    template = found[1]
+    return replace(
+        template,
+        faces=list(template.faces),
+        left_out=list(template.left_out),
+        notes=list(template.notes),
+        shape=kernel,
+    )
+
+
+def remember(key: str, path: str | os.PathLike, model: CadModel) -> CadModel:
+    """Note ``model`` (its ``shape`` a kernel process) as in use, for :func:`live_model`,
+    while its kernel process lives; the model."""
+    where = (key, str(path), os.getpid())
+
+    def gone(_: object) -> None:
+        with _live_lock:
+            if _live.get(where, (None,))[0] is ref:
+                del _live[where]
+
+    ref = weakref.ref(model.shape, gone)
+    with _live_lock:
+        _live[where] = (ref, replace(model, shape=None))
+    return model
