@@ -16,6 +16,11 @@ The oracle's G3 is "its measures all within gshade's default tolerances, the
 curvature-gradient jump estimated by finite differences of the kernel's curvatures"; the
 kernel's own LocalAnalysis has no G3 (its matrix has G2 for G2-or-better).
 
+Both also say whether the two faces' orientations agree along each edge (``orientation``:
+gshade's from the edge's orientations in the faces, the oracle's from its normals and the
+faces' directions across the edge); the per-file line counts the inconsistent edges of each
+and the pairs where they differ.
+
 Usage::
 
     python benchmarks/continuity_oracle.py FILE... [--samples 32] [--json] [--only NAME]
@@ -167,6 +172,16 @@ def disagreements(pairs: list[dict], worst: int) -> list[dict]:
     return rows[:worst]
 
 
+def orientations(pairs: list[dict]) -> dict:
+    """How many paired edges each side calls ``inconsistent``, and on how many they differ."""
+    both = [(p["o"], p["g"]) for p in pairs if p["o"] is not None and p["g"] is not None]
+    return {
+        "oracle": sum(o.get("orientation") == "inconsistent" for o, _ in both),
+        "gshade": sum(g.get("orientation") == "inconsistent" for _, g in both),
+        "differ": sum(o.get("orientation") != g.get("orientation") for o, g in both),
+    }
+
+
 def _f(x) -> str:
     return "-" if x is None else f"{x:.3g}"
 
@@ -182,7 +197,7 @@ def show_disagreement(p: dict) -> str:
         f"curvature jump {_f(o.get('curvature_jump'))}/{_f(g['curvature_jump'])}, "
         f"gradient jump {_f(o.get('curvature_gradient_jump'))}/{_f(g['curvature_gradient_jump'])}; "
         f"LA G1 angle {_f(o.get('la_g1_angle_deg'))} deg; inward dot {_f(o.get('inward_dot'))}; "
-        f"midpoint ({mid})"
+        f"orientation {o.get('orientation')}/{g.get('orientation')}; midpoint ({mid})"
     )
 
 
@@ -217,6 +232,7 @@ def compare_file(path: Path, samples: int, timeout: float, worst: int) -> dict:
         how[p["how"]] = how.get(p["how"], 0) + 1
     result["pairing"] = how
     result["matrix"], result["la_matrix"] = matrices(pairs)
+    result["orientation"] = orientations(pairs)
     result["worst"] = [
         {
             "edge": p["g"]["edge"],
@@ -315,6 +331,11 @@ def show(result: dict, worst: int) -> str:
     )
     both = sum(p["o"] is not None and p["g"] is not None for p in pairs)
     lines.append(f"  agreement (own vs gshade): {agree}/{both}")
+    turned = result["orientation"]
+    lines.append(
+        f"  orientation inconsistent: oracle {turned['oracle']}, gshade {turned['gshade']}; "
+        f"the two differ on {turned['differ']}"
+    )
     lines.extend(measure_lines(pairs, oracle.tolerances_for(result["diagonal"])))
     opposite = [
         p["o"] for p in pairs if p["o"] is not None and p["o"].get("normal_angle_deg", 0) > 170
@@ -342,6 +363,15 @@ def total(results: list[dict]) -> tuple[dict, dict]:
                     mine[r][c] += n
     own = {r: v for r, v in own.items() if r != "error" or sum(v.values())}
     return own, la
+
+
+def total_orientations(results: list[dict]) -> dict:
+    """:func:`orientations` summed over the files."""
+    out = {"oracle": 0, "gshade": 0, "differ": 0}
+    for res in results:
+        for key, n in res.get("orientation", {}).items():
+            out[key] += n
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -372,13 +402,27 @@ def main(argv: list[str] | None = None) -> int:
             res.pop("_pairs", None)
         print(
             json.dumps(
-                {"files": results, "total": {"matrix": own, "la_matrix": la}}, indent=1, default=str
+                {
+                    "files": results,
+                    "total": {
+                        "matrix": own,
+                        "la_matrix": la,
+                        "orientation": total_orientations(results),
+                    },
+                },
+                indent=1,
+                default=str,
             )
         )
     else:
         print("== all files")
         print(show_matrix("  own thresholds (rows) vs gshade (cols):", own))
         print(show_matrix("  kernel LocalAnalysis (rows; G2 = G2 or better) vs gshade:", la))
+        turned = total_orientations(results)
+        print(
+            f"  orientation inconsistent: oracle {turned['oracle']}, gshade {turned['gshade']}; "
+            f"the two differ on {turned['differ']}"
+        )
     return 0
 
 

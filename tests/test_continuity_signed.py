@@ -24,8 +24,14 @@ from OCP.BRepBuilderAPI import (
 )
 from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
 from OCP.BRepTools import BRepTools
-from OCP.collections import Array1_gp_Pnt
-from OCP.Geom import Geom_BezierCurve, Geom_ConicalSurface, Geom_CylindricalSurface, Geom_Plane
+from OCP.collections import Array1_double, Array1_gp_Pnt, Array1_int, Array2_gp_Pnt
+from OCP.Geom import (
+    Geom_BezierCurve,
+    Geom_BSplineSurface,
+    Geom_ConicalSurface,
+    Geom_CylindricalSurface,
+    Geom_Plane,
+)
 from OCP.gp import gp_Ax3, gp_Dir, gp_Pnt, gp_Trsf, gp_Vec
 from OCP.TopoDS import TopoDS_Compound
 
@@ -230,6 +236,66 @@ def test_a_cone_split_into_faces_is_g3_on_every_split_edge_far_from_the_origin(f
     for j in report:
         assert j.curvature_gradient_jump > 0.0  # the noise is there, and below its estimate
         assert j.curvature_gradient_jump <= j.round_off["curvature_gradient_jump"]
+
+
+def test_the_round_off_of_a_part_far_from_the_origin_is_as_near_it(folder):
+    """Each face is evaluated about its own centre: the same cone split at the origin and
+    1e5 away has the same round-off floors, not 1e4 times larger ones (before, its
+    derivatives' round-off went with |P|, the control points' distance from the origin)."""
+    tol = Tolerances(g0=1e-6, g1=0.0, g2=0.0, g3=0.0)
+    near = edge_report(_write(split_cone((0.0, 0.0, 0.0)), folder, "near.brep"), tolerances=tol)[0]
+    far = edge_report(_write(split_cone((1e5, 0.0, 0.0)), folder, "far.brep"), tolerances=tol)[0]
+    assert {j.cls for j in near + far} == {"G3"}
+    for key in ("normal_angle_deg", "curvature_jump", "curvature_gradient_jump"):
+        a = max(j.round_off[key] for j in near)
+        b = max(j.round_off[key] for j in far)
+        assert b < 2 * a, key
+        assert all(getattr(j, key) <= j.round_off[key] for j in far)  # still above the noise
+
+
+#: :func:`plane_and_parabola`: the second face z = C (x - 1)^2, so the normal curvature
+#: jumps by 2 C across x = 1, and the part's offset from the origin.
+PARABOLA_C = 5e-10
+FAR = (1e5, 1e5, 0.0)
+
+
+def plane_and_parabola(offset=FAR):
+    """The unit square z = 0 (x in [0, 1]) and the parabolic strip z = C (x - 1)^2 (x in
+    [1, 2]), each its own B-spline surface (degrees (1, 1) and (2, 1)), sewn along x = 1:
+    G1 with the curvature jump 2 C, both moved by ``offset``."""
+    ox, oy, oz = offset
+    sewing = BRepBuilderAPI_Sewing(1e-6)
+    for xs, zs in (((0.0, 1.0), (0.0, 0.0)), ((1.0, 1.5, 2.0), (0.0, 0.0, PARABOLA_C))):
+        n = len(xs)
+        poles = Array2_gp_Pnt(1, n, 1, 2)
+        for i, (x, z) in enumerate(zip(xs, zs, strict=True)):
+            for j, y in enumerate((0.0, 1.0)):
+                poles.SetValue(i + 1, j + 1, gp_Pnt(ox + x, oy + y, oz + z))
+        ends, mults = Array1_double(1, 2), Array1_int(1, 2)
+        ends.SetValue(1, 0.0)
+        ends.SetValue(2, 1.0)
+        mults.SetValue(1, n)
+        mults.SetValue(2, n)
+        twos = Array1_int(1, 2)
+        twos.SetValue(1, 2)
+        twos.SetValue(2, 2)
+        surface = Geom_BSplineSurface(poles, ends, ends, mults, twos, n - 1, 1, False, False)
+        sewing.Add(BRepBuilderAPI_MakeFace(surface, 0.0, 1.0, 0.0, 1.0, 1e-7).Face())
+    sewing.Perform()
+    return sewing.SewedShape()
+
+
+def test_a_small_curvature_jump_far_from_the_origin_is_not_lifted_by_the_round_off(folder):
+    """A G1 junction 1.4e5 from the origin whose curvature jumps by 1e-9, with the G2
+    tolerance 1e-10: G1.  Evaluated about the origin, the parabola's second derivative had
+    a round-off estimate of ~1e-8 (8 eps (p + q + 2) sum |B''| |P| with |P| = 1.4e5), which
+    lifted the tolerance over the jump: G2 (issue 26: the hammer's edge 102)."""
+    model = _write(plane_and_parabola(), folder, "parabola.brep")
+    tol = Tolerances(g0=1e-6, g1=1e-3, g2=1e-10, g3=1e-3)
+    (j,) = edge_report(model, tolerances=tol)[0]
+    assert j.cls == "G1"
+    assert j.curvature_jump == pytest.approx(2 * PARABOLA_C, rel=1e-4)
+    assert j.round_off["curvature_jump"] < 1e-3 * j.curvature_jump
 
 
 def test_the_round_off_does_not_hide_a_real_curvature_jump(folder):

@@ -84,9 +84,11 @@ class Tolerances:
 @dataclass
 class Junction:
     """A measured junction: two patches' sides, or (``edge`` set) a B-rep edge of a CAD
-    model between two faces (``patches`` the face numbers; no sides), or (``knot`` set) an
-    interior knot line of one B-spline patch or face (``patches`` its number twice; no
-    sides; :mod:`gshade.analysis.knot_lines`)."""
+    model between two faces (``patches`` the face numbers; no sides; ``orientation``
+    ``"consistent"`` or ``"inconsistent"``, whether the faces' orientations agree along the
+    edge, :attr:`gshade.io.cad_edges.CadEdge.consistent`), or (``knot`` set) an interior
+    knot line of one B-spline patch or face (``patches`` its number twice; no sides;
+    :mod:`gshade.analysis.knot_lines`)."""
 
     patches: tuple[int, int]
     sides: tuple[str, str] | None
@@ -101,6 +103,7 @@ class Junction:
     knot: KnotLine | None = None
     round_off: dict | None = None
     max_at: dict | None = None
+    orientation: str | None = None
 
     def as_dict(self) -> dict:
         """The JSON row: the fields above (``class`` for ``cls``; ``round_off``, each
@@ -110,7 +113,7 @@ class Junction:
         d["class"] = d.pop("cls")
         d["patches"] = list(self.patches)
         d.pop("knot")
-        for key in ("round_off", "max_at"):
+        for key in ("round_off", "max_at", "orientation"):
             if d[key] is None:
                 d.pop(key)
         if self.knot is not None:

@@ -21,6 +21,10 @@ evaluation sums (:func:`derivative_round_off`), carried to the measure to first 
 (:func:`side_round_off`); a junction's class compares each measure with the larger of the
 tolerance and ``ROUND_OFF_SAFETY`` x (side i's + side j's round-off), largest over the samples.
 
+A B-spline side may be evaluated about its own centre (:func:`centred`): the round-off of
+its derivatives, and its estimate, then scale with the size of its control net rather than
+with its distance from the origin.
+
 Each side is evaluated in its own parametrisation scaled by powers of two per direction
 (:func:`derivative_scales`: |p_u|, |p_v| of order 1 over the face), so that the test for an
 irregular point, |p_u x p_v| <= ``IRREGULAR_TOL`` s_u s_v, uses the face's own scale, and is
@@ -29,6 +33,7 @@ unchanged by the speed of its parametrisation, whatever else is measured with it
 
 from __future__ import annotations
 
+import copy
 from typing import NamedTuple
 
 import numpy as np
@@ -36,7 +41,7 @@ from numpy.typing import NDArray
 
 from ..geometry.bspline import BSplinePatch
 from ..geometry.differential import IRREGULAR_TOL, _cross, _dot, solve_first_form
-from ..geometry.patch import Patch, TensorProductPatch
+from ..geometry.patch import Patch, TensorProductPatch, homogeneous
 from ..geometry.regularity import toward_interior
 from ..shape import evaluate
 
@@ -45,6 +50,7 @@ __all__ = [
     "ROUND_OFF_SAFETY",
     "Comparison",
     "SideGeometry",
+    "centred",
     "compare_sides",
     "derivative_round_off",
     "derivative_scales",
@@ -81,6 +87,27 @@ def derivative_scales(patch: Patch) -> tuple[float, float]:
     return out[0], out[1]
 
 
+def centred(patch: Patch) -> tuple[Patch, NDArray | None]:
+    """A B-spline patch moved by -c, c the centre of its control points' box, and c (other
+    patches as they are, and None).
+
+    The same surface up to the rounding of P - c (at most half an ulp of each difference):
+    evaluated there, a derivative's rounding (and :func:`derivative_round_off`) is of order
+    eps sum |B^(i)| |P - c|, not eps sum |B^(i)| |P|: on a face of size s far from the
+    origin, s / |P| of it (:func:`side_derivatives` with ``origin`` puts positions back).
+    A rational patch keeps its weights (sum w B (P - c) / sum w B = p - c)."""
+    if not isinstance(patch, BSplinePatch):
+        return patch, None
+    points = np.asarray(patch.points, dtype=np.float64)
+    centre = 0.5 * (points.min(axis=(0, 1)) + points.max(axis=(0, 1)))
+    # the same knots, degrees and weights, validated once: a copy with its points (and
+    # their homogeneous net) moved costs a tenth of a new patch's checks
+    moved = copy.copy(patch)
+    moved.points = points - centre
+    moved._net = homogeneous(moved.points, patch.weights)
+    return moved, centre
+
+
 def _evaluate(patch: Patch, u: NDArray, v: NDArray, order: int) -> NDArray:
     """Derivatives at (u, v); a B-spline beyond its domain continued (end pieces)."""
     if isinstance(patch, BSplinePatch):
@@ -95,6 +122,7 @@ def side_derivatives(
     v: NDArray,
     order: int = 3,
     scales: tuple[float, float] | None = None,
+    origin: NDArray | None = None,
 ) -> tuple[NDArray, NDArray, tuple[float, float]]:
     """Derivatives of order ``order`` at (u, v) in the patch's scaled parametrisation
     (d[i, j] / (s_u^i s_v^j), :func:`derivative_scales`), regularised where irregular, their
@@ -105,7 +133,9 @@ def side_derivatives(
     1e-5 x the domain's size toward its centre (their limits up to O(1e-5)); positions stay.
     A B-spline is evaluated beyond its domain where (u, v) lie there (its end pieces
     continued, as the kernel does; a CAD edge's pcurve may stray past its face's box).
-    ``scales``: the patch's :func:`derivative_scales`, where known.
+    ``scales``: the patch's :func:`derivative_scales`, where known.  ``origin``: the patch
+    is the surface moved by -origin (:func:`centred`); the positions are moved back, their
+    rounding (eps |p|) added to their round-off.
     """
     u = np.asarray(u, dtype=np.float64).ravel()
     v = np.asarray(v, dtype=np.float64).ravel()
@@ -128,6 +158,9 @@ def side_derivatives(
         d[:, :, irregular] = moved * factor[:, :, None, None]
         d[0, 0][irregular] = position
     error = derivative_round_off(patch, u, v, order) * factor[:, :, None]
+    if origin is not None:
+        d[0, 0] += origin
+        error[0, 0] += _EPS * np.linalg.norm(d[0, 0], axis=-1)
     return d, error, (su, sv)
 
 

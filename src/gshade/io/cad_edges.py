@@ -7,6 +7,10 @@ Sampling both pcurves at the same t therefore pairs the points of the two faces 
 edge, which is what continuity across the edge is measured on
 (:mod:`gshade.analysis.edge_continuity`) and what junction lines are drawn along.
 
+Each sample also carries the direction into the face across the edge, in the face's
+(u, v) (the side where the face's material lies), and each pair of faces whether their
+orientations agree along the edge (:attr:`CadEdge.consistent`).
+
 Not junctions: seams (an edge bounding one face twice, as on a periodic face), degenerate
 edges (a pole), free edges (one face).  An edge shared by more than two faces (non-manifold)
 gives every pair.
@@ -44,12 +48,26 @@ class CadEdge:
     tolerance : float
         The kernel's tolerance of the edge (model units): how far the two faces' points
         may lie apart in a valid B-rep.
+    inward : (ndarray (n, 2), ndarray (n, 2))
+        At each point, a direction in each face's (u, v) across its pcurve toward the side
+        where the face lies (the pcurve's tangent turned a quarter; not of unit length;
+        zero where unknown): the face's material is left of its boundary run as the face
+        runs it, seen from its outward normal.  In the kernel's parameters; a patch's
+        parameters (:meth:`gshade.io.cad.CadFace.to_patch`) increase with them, so the
+        signs of the components hold there too.
+    consistent : bool or None
+        Whether the two faces' orientations agree across the edge: their boundaries run
+        along it in opposite directions, as in any consistently oriented shell.  False
+        where both run it the same way (one face's outward normal points to the inside
+        of the other's); None where a face holds the edge more than once.
     """
 
     index: int
     faces: tuple[int, int]
     uv: tuple[NDArray[np.float64], NDArray[np.float64]]
     tolerance: float
+    inward: tuple[NDArray[np.float64], NDArray[np.float64]]
+    consistent: bool | None
 
 
 @kernel_operation("sampling its edges")
@@ -89,14 +107,16 @@ def edges_to_left_out(
     wanted, lost = set(faces), set(left_out)
     out: list[tuple[int, int, int]] = []
     for e, _, sharing in _edge_faces(model):
-        numbers = sorted({f for f, _ in sharing})
+        numbers = sorted({f for f, *_ in sharing})
         out.extend((e, i, j) for i in numbers if i in wanted for j in numbers if j in lost)
     return out
 
 
-def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any]]]]:
+def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any, Any]]]]:
     """Each edge of the model's shape that is no pole: its number (0-based, in the kernel's
-    map of edges), the edge, and the faces it bounds other than as a seam, (number, face)."""
+    map of edges), the edge, and the faces it bounds other than as a seam, (number, face,
+    sense) with sense the edge's orientation in the face as the shape holds it (None where
+    the face holds the edge more than once)."""
     from OCP.BRep import BRep_Tool
     from OCP.collections import (
         IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as EdgeFaces,
@@ -118,6 +138,19 @@ def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any
         position += 1
     edge_faces = EdgeFaces()
     TopExp.MapShapesAndUniqueAncestors_s(model.shape, EDGE, FACE, edge_faces)
+    senses: dict[int, dict[int, Any]] = {}  # face map index -> edge index -> orientation
+
+    def sense(face: Any, index: int, e: int) -> Any:
+        if index not in senses:  # each face's edges once: their orientations in it
+            found: dict[int, Any] = {}
+            explorer = TopExp_Explorer(face, EDGE)
+            while explorer.More():
+                k = edge_faces.FindIndex(explorer.Current())
+                found[k] = None if k in found else explorer.Current().Orientation()
+                explorer.Next()
+            senses[index] = found
+        return senses[index].get(e)
+
     for e in range(1, edge_faces.Extent() + 1):
         edge = TopoDS.Edge(edge_faces.FindKey(e))
         if BRep_Tool.Degenerated_s(edge):
@@ -125,9 +158,10 @@ def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any
         sharing = []
         for shape in edge_faces.FindFromIndex(e):
             face = TopoDS.Face(shape)
-            f = number.get(face_map.FindIndex(face))
+            index = face_map.FindIndex(face)
+            f = number.get(index)
             if f is not None and not BRep_Tool.IsClosed_s(edge, face):
-                sharing.append((f, face))
+                sharing.append((f, face, sense(face, index, e)))
         yield e - 1, edge, sharing
 
 
@@ -139,28 +173,51 @@ def _shared_edges(model: CadModel, samples: int, faces: list[int] | None) -> lis
     fraction = (np.arange(samples) + 0.5) / samples
     out = []
     for e, edge, sharing in _edge_faces(model):
-        mine = [(f, face) for f, face in sharing if f in wanted]
+        mine = [(f, face, sense) for f, face, sense in sharing if f in wanted]
         if len(mine) < 2:
             continue
         tolerance = float(BRep_Tool.Tolerance_s(edge))
-        curves = {f: usable[f].to_patch(_pcurve_points(edge, face, fraction)) for f, face in mine}
+        curves = {f: _pcurve_points(edge, face, sense, fraction) for f, face, sense in mine}
+        points = {f: usable[f].to_patch(uv) for f, (uv, _) in curves.items()}
         for a in range(len(mine)):
             for b in range(a + 1, len(mine)):
-                i, j = mine[a][0], mine[b][0]
+                (i, _, sense_i), (j, _, sense_j) = mine[a], mine[b]
                 if i == j:
                     continue
-                out.append(CadEdge(e, (i, j), (curves[i], curves[j]), tolerance))
+                consistent = None if None in (sense_i, sense_j) else sense_i != sense_j
+                out.append(
+                    CadEdge(
+                        e,
+                        (i, j),
+                        (points[i], points[j]),
+                        tolerance,
+                        (curves[i][1], curves[j][1]),
+                        consistent,
+                    )
+                )
     return out
 
 
-def _pcurve_points(edge: Any, face: Any, fraction: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The edge's pcurve on the face at t0 + fraction (t1 - t0), as (n, 2) (u, v)."""
+def _pcurve_points(
+    edge: Any, face: Any, sense: Any, fraction: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The edge's pcurve on the face at t0 + fraction (t1 - t0), as (n, 2) (u, v), and
+    directions (n, 2) into the face there: the pcurve's tangent turned a quarter to the
+    left where the face, taken forward (its normal p_u x p_v), runs the edge forward
+    (``sense``, the edge's orientation in the face as the shape holds it), to the right
+    where it runs it backward (zero where ``sense`` is None)."""
     from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+    from OCP.gp import gp_Pnt2d, gp_Vec2d
 
     curve = BRepAdaptor_Curve2d(edge, face)
     t0, t1 = curve.FirstParameter(), curve.LastParameter()
-    out = np.empty((len(fraction), 2))
+    out = np.empty((len(fraction), 4))  # u, v, and the tangent turned left
+    p, d = gp_Pnt2d(), gp_Vec2d()
     for k, s in enumerate(fraction.tolist()):
-        p = curve.Value(t0 + s * (t1 - t0))
-        out[k] = p.X(), p.Y()
-    return out
+        curve.D1(t0 + s * (t1 - t0), p, d)
+        out[k] = p.X(), p.Y(), -d.Y(), d.X()
+    # FORWARD 0, REVERSED 1 (INTERNAL, EXTERNAL: no side)
+    turn = int(face.Orientation())
+    left = 0.0 if sense is None or int(sense) > 1 or turn > 1 else 1.0 - 2.0 * (int(sense) ^ turn)
+    out[:, 2:] *= left
+    return out[:, :2], out[:, 2:]
