@@ -378,7 +378,7 @@ def _loops(
         strict=True,
     ):
         seams.fix_ambiguous(grid, uv, free, is_outer, [len(t.t) for t in trims if t.edge >= 0])
-        sh.split_trims(trims, uv)
+        sh.split_trims(trims, uv, free)
         ratio = ratio[free < 0]
         tol = max(tol, float(ratio.max()) if ratio.size else 0.0)
         keep = np.r_[True, np.any(np.abs(np.diff(uv, axis=0)) > 1e-12 * grid.span, axis=1)]

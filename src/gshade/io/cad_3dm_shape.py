@@ -11,13 +11,17 @@ with the file's topology, so that it needs no sewing:
 - one ``TopoDS_Vertex`` per Brep vertex and one ``TopoDS_Edge`` per Brep edge, on the edge's
   exact NURBS curve C(t) (or, where openNURBS's NURBS form does not match the edge's
   parametrisation within 1e-9 of its size, a cubic interpolating the edge's samples);
-- on every face that uses an edge, a pcurve c(t): the cubic B-spline that interpolates the
-  recovered (u_k, v_k) at the same t_k (``Geom2dAPI_Interpolate``; a polyline if that fails),
-  two of them on a seam; singular trims at poles become degenerated edges on the segment
+- on every face that uses an edge, a pcurve c(t) that traces the face's point nearest C(t)
+  to 1e-12 of the model (:mod:`gshade.io.cad_3dm_pcurves`, all faces' trims at once, started
+  from the recovered (u_k, v_k)), two of them on a seam; where that fit fails, the cubic
+  B-spline that interpolates the (u_k, v_k) at the same t_k (``Geom2dAPI_Interpolate``; a
+  polyline if that fails); singular trims at poles become degenerated edges on the segment
   between their neighbours' ends;
 - wires in the trims' order and sense, faces reversed where the Brep face is, one shell per
-  Brep; ``BRepLib.SameParameter`` then measures |S(c(t)) - C(t)| over each edge and sets the
-  edge and vertex tolerances from it (the inversion's accuracy).
+  Brep; a fitted edge keeps its pcurves (same parameter, its tolerance 1.5 times the
+  largest |S(c(t)) - C(t)| measured on them: the faces' own distance from the edge), the
+  others are fitted by ``BRepLib.SameParameter``, which sets their tolerances from the
+  measured deviation.
 
 Faces come out in the model's order (checked): an edge shared by two faces is one
 ``TopoDS_Edge`` in both, as the watertight mesher and the continuity along edges need.
@@ -65,6 +69,7 @@ from OCP.TopoDS import (
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..runtime.native import captured_output
+from . import cad_3dm_pcurves as pc
 from .cad import CadFace, LeftOutFace
 
 __all__ = [
@@ -83,6 +88,8 @@ _START_TOLERANCE = 1e-7
 #: openNURBS's NURBS form of an edge is used when it matches the edge's samples within this
 #: fraction of the model's size.
 _CURVE_MATCH = 1e-9
+#: An edge's tolerance over the largest |S(c(t)) - C(t)| measured on its fitted pcurves.
+_MARGIN = 1.5
 #: Edge samples per span and degree, and their bounds, for the recovered trimming loops.
 _SAMPLES_PER_SPAN = 4
 _MIN_SAMPLES, _MAX_SAMPLES = 9, 200
@@ -162,6 +169,13 @@ def build_shape(
     built: list[Any] = []
     numbers: list[int] = []
     left_out: list[LeftOutFace] = []
+    breps = {
+        id(part): _BrepFaces(part, by_number, builder, tol)
+        for part in parts
+        if not isinstance(part, int)
+    }
+    jobs = [job for brep in breps.values() for job in brep.prepare()]
+    fitted = _fit(jobs, tol / _START_TOLERANCE)
     for part in parts:
         if isinstance(part, int):
             try:
@@ -175,7 +189,7 @@ def build_shape(
             continue
         shell = TopoDS_Shell()
         builder.MakeShell(shell)
-        made, lost = _brep_faces(part, by_number, builder, tol)
+        made, lost = breps[id(part)].finish(fitted)
         for number, face in made:
             builder.Add(shell, face)
             built.append(face)
@@ -184,7 +198,7 @@ def build_shape(
         builder.Add(compound, shell)
     try:
         with captured_output():
-            BRepLib.SameParameter_s(compound, tol, True)
+            BRepLib.SameParameter_s(compound, tol, False)
             BRepLib.UpdateTolerances_s(compound, False)
     except Exception as exc:
         raise GshadeError(f"{path}: the kernel could not fit the trims ({_why(exc)})") from None
@@ -306,57 +320,153 @@ def _pcurve(t: NDArray[np.float64], uv: NDArray[np.float64]) -> Any:
     return Geom2d_BSplineCurve(poles, knots, mults, 1, False)
 
 
-def _brep_faces(
-    part: BrepPart, faces: dict[int, CadFace], builder: Any, tol: float
-) -> tuple[list[tuple[int, Any]], list[LeftOutFace]]:
-    """The Brep's faces, sharing their vertices and edges, (number, face) each; and those
-    the kernel could not build, left out."""
-    brep = part.brep
-    match = _CURVE_MATCH / _START_TOLERANCE * tol
-    vertices: dict[int, Any] = {}
-    edges: dict[int, Any] = {}
-    ranges: dict[int, tuple[float, float]] = {}
+class _BrepFaces:
+    """A Brep's faces on the kernel, sharing their vertices and edges: the edges made first
+    (:meth:`prepare`, which hands out the pcurves to fit), the faces once the pcurves are
+    fitted (:meth:`finish`)."""
 
-    def vertex(k: int) -> Any:
-        if k not in vertices:
-            loc = brep.Vertices[k].Location
+    def __init__(self, part: BrepPart, faces: dict[int, CadFace], builder: Any, tol: float):
+        self.part, self.faces, self.builder, self.tol = part, faces, builder, tol
+        self.match = _CURVE_MATCH / _START_TOLERANCE * tol
+        self.vertices: dict[int, Any] = {}
+        self.edges: dict[int, Any] = {}
+        self.ranges: dict[int, tuple[float, float]] = {}
+        self.curves: dict[int, Any] = {}
+        self.ready: list[tuple[int, list[list[Trim]], list[Trim]]] = []
+        self.left_out: list[LeftOutFace] = []
+
+    def vertex(self, k: int) -> Any:
+        if k not in self.vertices:
+            loc = self.part.brep.Vertices[k].Location
             v = TopoDS_Vertex()
-            builder.MakeVertex(v, gp_Pnt(loc.X, loc.Y, loc.Z), tol)
-            vertices[k] = v
-        return vertices[k]
+            self.builder.MakeVertex(v, gp_Pnt(loc.X, loc.Y, loc.Z), self.tol)
+            self.vertices[k] = v
+        return self.vertices[k]
 
-    def edge(trim: Trim) -> Any:
+    def edge(self, trim: Trim) -> Any:
         k = trim.edge
-        if k not in edges:
-            t, xyz = part.samples[k]
-            curve = _edge_curve(brep.Edges[k].ToNurbsCurve(), t, xyz, match)
+        if k not in self.edges:
+            t, xyz = self.part.samples[k]
+            curve = _edge_curve(self.part.brep.Edges[k].ToNurbsCurve(), t, xyz, self.match)
             e = TopoDS_Edge()
-            builder.MakeEdge(e, curve, tol)
+            self.builder.MakeEdge(e, curve, self.tol)
             start, end = trim.vertices[::-1] if trim.reversed else trim.vertices
-            builder.Add(e, vertex(start).Oriented(TopAbs_FORWARD))
-            builder.Add(e, vertex(end).Oriented(TopAbs_REVERSED))
-            builder.Range(e, float(t[0]), float(t[-1]))
-            edges[k] = e
-            ranges[k] = (float(t[0]), float(t[-1]))
-        return edges[k]
+            self.builder.Add(e, self.vertex(start).Oriented(TopAbs_FORWARD))
+            self.builder.Add(e, self.vertex(end).Oriented(TopAbs_REVERSED))
+            self.builder.Range(e, float(t[0]), float(t[-1]))
+            self.edges[k] = e
+            self.curves[k] = curve
+            self.ranges[k] = (float(t[0]), float(t[-1]))
+        return self.edges[k]
 
-    out = []
-    left_out = []
-    for index, loops in part.faces:
-        try:
-            out.append((index, _face(faces[index], loops, builder, tol, edge, vertex)))
-        except GshadeError as exc:
-            left_out.append(LeftOutFace(index, str(exc), _BUILDING))
-        except Exception as exc:
-            left_out.append(LeftOutFace(index, f"the kernel failed ({_why(exc)})", _BUILDING))
-    for k, e in edges.items():
-        builder.SameParameter(e, False)
-        builder.Range(e, *ranges[k])
-    return out, left_out
+    def prepare(self) -> list[tuple[Any, list[tuple[Trim, Any]]]]:
+        """Make the edges, face by face (a face whose edges the kernel cannot make is left
+        out); the pcurves to fit: per face, its patch and the trims that need one (a seam's
+        both, else an edge's first), of at least two samples."""
+        jobs = []
+        for index, loops in self.part.faces:
+            try:
+                needed = _needed(loops, self.edge)
+            except Exception as exc:
+                self.left_out.append(_left_out(index, exc))
+                continue
+            self.ready.append((index, loops, needed))
+            trims = [(x, self.curves[x.edge]) for x in needed if len(x.t) >= 2]
+            jobs.append((self.faces[index].patch, trims))
+        return jobs
+
+    def finish(self, fitted: dict[int, Any]) -> tuple[list[tuple[int, Any]], list[LeftOutFace]]:
+        """The faces, (number, face) each, on the pcurves ``fitted`` (by ``id`` of the trim:
+        :class:`.cad_3dm_pcurves.Pcurve`; the others the samples' cubics); and those the
+        kernel could not build, left out.  A fitted edge's tolerance is the largest distance
+        measured between its pcurves' images and its curve (no SameParameter refit)."""
+        apart: dict[int, float] = {}  # the edge's measured |S(c(t)) - C(t)|
+        unfitted: set[int] = set()
+        out = []
+        for index, loops, needed in self.ready:
+            pcurves = {}
+            for trim in needed:
+                fit = fitted.get(id(trim))
+                if fit is None:
+                    unfitted.add(trim.edge)
+                    pcurves[id(trim)] = _pcurve(trim.t, trim.uv)
+                else:
+                    apart[trim.edge] = max(apart.get(trim.edge, 0.0), fit.apart)
+                    pcurves[id(trim)] = fit.curve
+            try:
+                face = _face(
+                    self.faces[index],
+                    loops,
+                    self.builder,
+                    self.tol,
+                    self.edge,
+                    self.vertex,
+                    pcurves,
+                )
+                out.append((index, face))
+            except Exception as exc:
+                self.left_out.append(_left_out(index, exc))
+        for k, e in self.edges.items():
+            self.builder.Range(e, *self.ranges[k])
+            if k in unfitted or k not in apart:  # the kernel fits these
+                self.builder.SameParameter(e, False)
+            else:  # the pcurves trace the edge: its tolerance is their measured distance
+                self.builder.UpdateEdge(e, max(self.tol, _MARGIN * apart[k]))
+                self.builder.SameParameter(e, True)
+                self.builder.SameRange(e, True)
+        return out, self.left_out
 
 
-def _face(cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex) -> Any:
-    """One face on its exact surface, bounded by wires of the shared edges."""
+def _left_out(index: int, exc: Exception) -> LeftOutFace:
+    if isinstance(exc, GshadeError):
+        return LeftOutFace(index, str(exc), _BUILDING)
+    return LeftOutFace(index, f"the kernel failed ({_why(exc)})", _BUILDING)
+
+
+def _fit(jobs: list[tuple[Any, list[tuple[Trim, Any]]]], size: float) -> dict[int, Any]:
+    """The pcurves of the jobs' trims (:func:`.cad_3dm_pcurves.fit_faces`: all faces at
+    once; where that fails, face by face; a face the fit cannot do is left to the samples'
+    cubics), by ``id`` of the trim."""
+    out: dict[int, Any] = {}
+
+    def run(some: list[tuple[Any, list[tuple[Trim, Any]]]]) -> None:
+        faces = [(patch, [(c, x.t, x.uv) for x, c in trims]) for patch, trims in some]
+        for (_, trims), fits in zip(some, pc.fit_faces(faces, size), strict=True):
+            out.update((id(x), fit) for (x, _), fit in zip(trims, fits, strict=True))
+
+    jobs = [job for job in jobs if job[1]]
+    try:
+        run(jobs)
+    except Exception:  # find the faces it fails on
+        for job in jobs:
+            try:
+                run([job])
+            except Exception:  # this face's trims: the samples' cubics
+                pass
+    return out
+
+
+def _needed(loops: list[list[Trim]], edge) -> list[Trim]:
+    """The trims of a face that need a pcurve (a seam's both, the forward one first, else
+    an edge's first), their edges made (``edge``: the kernel edge of a trim)."""
+    seams: dict[int, list[Trim]] = {}
+    for loop in loops:
+        for trim in loop:
+            if trim.edge >= 0:
+                seams.setdefault(trim.edge, []).append(trim)
+    needed = []
+    for uses in seams.values():
+        edge(uses[0])
+        seam = len(uses) == 2 and uses[0].reversed != uses[1].reversed
+        needed.extend(uses if seam else uses[:1])
+    return needed
+
+
+def _face(
+    cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex, pcurve
+) -> Any:
+    """One face on its exact surface, bounded by wires of the shared edges (``pcurve``: the
+    pcurves of the trims that need one, by ``id``)."""
     face = TopoDS_Face()
     builder.MakeFace(face, surface(cad.patch), TopLoc_Location(), tol)
     seams: dict[int, list[Trim]] = {}
@@ -381,11 +491,9 @@ def _face(cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge,
                 if len(uses) == 2 and uses[0].reversed != uses[1].reversed:
                     if trim is uses[0]:  # a seam: both pcurves at once, the forward one first
                         fwd, rev = (uses[1], uses[0]) if uses[0].reversed else uses
-                        builder.UpdateEdge(
-                            e, _pcurve(fwd.t, fwd.uv), _pcurve(rev.t, rev.uv), face, tol
-                        )
+                        builder.UpdateEdge(e, pcurve[id(fwd)], pcurve[id(rev)], face, tol)
                 elif trim is uses[0]:
-                    builder.UpdateEdge(e, _pcurve(trim.t, trim.uv), face, tol)
+                    builder.UpdateEdge(e, pcurve[id(trim)], face, tol)
             builder.Add(wire, e.Oriented(TopAbs_REVERSED if trim.reversed else TopAbs_FORWARD))
         builder.Add(face, wire)
     return face.Reversed() if cad.reversed else face
@@ -408,15 +516,30 @@ def _degenerated(trim: Trim, builder: Any, tol: float, vertex) -> Any:
     return e
 
 
-def split_trims(trims: list[Trim], uv: NDArray[np.float64]) -> None:
+def split_trims(
+    trims: list[Trim], uv: NDArray[np.float64], free: NDArray[np.intp] | None = None
+) -> None:
     """Hand each trim its piece of the loop's parameters (in its edge's sense); a singular
-    trim the segment from the previous trim's end to the next one's start."""
+    trim the segment from the previous trim's end to the next one's start.
+
+    ``free`` (per point of the loop; -1 off the poles) names, at a pole, the direction along
+    which the surface does not move: there a trim's point takes that parameter from its
+    nearest point off the pole in the same trim (the trim's own limit at the pole, not the
+    next trim's), so that the trim's pcurve runs on without a jump and the singular trim
+    spans the gap between the trims' ends."""
     at = 0
     for trim in trims:
         if trim.edge >= 0:
-            piece = uv[at : at + len(trim.t)]
+            piece = uv[at : at + len(trim.t)].copy()
+            if free is not None:
+                loose = free[at : at + len(trim.t)]
+                away = np.flatnonzero(loose < 0)
+                if away.size:
+                    for k in np.flatnonzero(loose >= 0):
+                        j = away[np.argmin(np.abs(away - k))]
+                        piece[k, loose[k]] = piece[j, loose[k]]
             at += len(trim.t)
-            trim.uv = piece[::-1].copy() if trim.reversed else piece.copy()
+            trim.uv = piece[::-1].copy() if trim.reversed else piece
     m = len(trims)
     for i, trim in enumerate(trims):
         if trim.edge < 0:

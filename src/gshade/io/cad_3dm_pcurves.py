@@ -1,0 +1,825 @@
+"""Pcurves for Rhino edges that trace the edge on the face to round-off.
+
+rhino3dm gives no 2D trimming curves; :mod:`gshade.io.cad_3dm` recovers each trim's (u, v)
+at samples of the edge.  A cubic interpolating those samples strays from the edge between
+them, and the more so where the edge has a corner (a joined curve: interior knots of full
+multiplicity) or the face a knot line; two faces' pcurves then part by far more than the
+faces do (1e-4 of the model on Rhino's logo).  Here each pcurve traces the face's point
+nearest the kernel's edge curve C(t) at every t, within ``ACCURACY`` of the model's size,
+the trims of all the model's faces at once (a few numpy calls a Newton step, whatever the
+number of faces: :class:`Splines` evaluates many patches and curves together):
+
+- nearest points by Gauss-Newton point inversion on the surface with its end pieces
+  continued past the domain (so that an edge a tolerance outside the face has a smooth
+  nearest point), first at the samples; where those lie beyond a side of the domain, the
+  side's nearest point is the face's: the parameter across the side pinned to it;
+- the parameter range is cut at the edge curve's distinct knots (its corners and its
+  pieces' joins), where the nearest point crosses the face's interior knot lines and
+  where it crosses a side (both by Newton on t), so that on each piece the nearest point
+  moves analytically with t;
+- on each piece the pcurve is the polynomial of degree ``DEGREE`` through the nearest
+  points at the piece's Chebyshev-Lobatto nodes; its error is measured at the midpoints
+  between the nodes: the 3D length of the Gauss-Newton step from the pcurve's point
+  towards the nearest point;
+- a piece is kept when that error is within the accuracy, or when halving no longer
+  lowers it (round-off, or a face that strays from the edge in a way no polynomial
+  follows); else it is halved, the halves' Newton started from its own polynomial (one or
+  two steps), up to ``MAX_PIECES`` pieces a pcurve;
+- the pieces join into one B-spline (interior knots of multiplicity ``DEGREE``, lowered by
+  one where that moves the pcurve by less than the accuracy: no kink there), its poles
+  clamped into the domain.
+
+Where the faces meet C(t) exactly, S(c(t)) = C(t) to round-off; where a face lies off the
+edge (a file whose faces meet only within its tolerance), c(t) is the face's nearest point,
+so that the distance between two faces' S(c(t)) is their true gap, not a fitting artefact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import comb
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from OCP.collections import Array1_double, Array1_gp_Pnt2d, Array1_int
+from OCP.Geom2d import Geom2d_BSplineCurve
+from OCP.gp import gp_Pnt2d
+
+from ..geometry.bspline import BSplinePatch
+from ..geometry.knots import basis_functions
+
+__all__ = ["ACCURACY", "DEGREE", "MAX_PIECES", "Pcurve", "Splines", "fit_faces", "one_side"]
+
+#: The pcurve's image within this fraction of the model's size of the face's point nearest
+#: the edge.
+ACCURACY = 1e-12
+#: The pieces' polynomial degree.
+DEGREE = 7
+#: At most so many pieces a pcurve, and halvings of a piece.
+MAX_PIECES, _MAX_DEPTH = 256, 40
+#: A halved piece whose error is above this fraction of its parent's is not halved again.
+_STALL = 0.8
+#: Gauss-Newton steps at most: at the samples (from the recovered trims), at the first
+#: pieces' nodes (from the samples), from a parent piece's polynomial, and per Newton step on
+#: t at a crossing.
+_STEPS_SAMPLES, _STEPS_FIRST, _STEPS_WARM, _STEPS_CROSSING = 6, 12, 6, 4
+#: Newton steps on t locating a knot line's crossing.
+_CROSSING_STEPS = 4
+#: The relative round-off of a point's coordinates.
+_ROUND_OFF = 1e-15
+#: The inversion stays within the domain widened by this fraction of its span.
+_REACH = 0.25
+#: Samples this close to a side of the domain (relative to the span) may lie beyond it.
+_NEAR_SIDE = 1e-6
+#: A patch of more knot intervals (u times v) is evaluated on its own, not from a table of
+#: Bézier cells.
+_MAX_CELLS = 20000
+#: Two parameters name one point (a seam) when their points are this close, relative to
+#: the model's size.
+_SAME_POINT = 1e-6
+
+_NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev-Lobatto
+_CHECKS = 0.5 * (_NODES[:-1] + _NODES[1:])
+
+
+def _bernstein(x: NDArray[np.float64], p: int) -> NDArray[np.float64]:
+    """The Bernstein polynomials of degree ``p`` at ``x``, (n, p + 1)."""
+    up, down = np.ones((len(x), p + 1)), np.ones((len(x), p + 1))
+    for k in range(1, p + 1):  # x^k and (1 - x)^k by products
+        up[:, k] = up[:, k - 1] * x
+        down[:, k] = down[:, k - 1] * (1.0 - x)
+    return _BINOMIALS[p] * up * down[:, ::-1]
+
+
+#: Binomial coefficients C(p, k), k = 0..p, by degree p.
+_BINOMIALS = [np.array([comb(p, k) for k in range(p + 1)], dtype=np.float64) for p in range(33)]
+
+
+def _bernstein_d1(x: NDArray[np.float64], p: int) -> tuple[NDArray, NDArray]:
+    """The Bernstein polynomials of degree ``p`` at ``x`` and their derivatives, (n, p + 1)."""
+    values = _bernstein(x, p)
+    slopes = np.zeros_like(values)
+    if p:
+        lower = p * _bernstein(x, p - 1)
+        slopes[:, 1:] += lower
+        slopes[:, :-1] -= lower
+    return values, slopes
+
+
+#: Bernstein coefficients from the values at the nodes.
+_TO_POLES = np.linalg.inv(_bernstein(_NODES, DEGREE))
+#: Values at the check points from the Bernstein coefficients.
+_AT_CHECKS = _bernstein(_CHECKS, DEGREE)
+#: Values at the nodes of the two halves, from the Bernstein coefficients.
+_AT_HALVES = (_bernstein(0.5 * _NODES, DEGREE), _bernstein(0.5 + 0.5 * _NODES, DEGREE))
+
+
+class _Intervals:
+    """The knot intervals of many splines along one parameter, found for many points of
+    many splines in one search: spline i's interior knots as keys i + 1/4 + x/2 in
+    (i, i + 1), x the knot's place in the spline's domain (0 to 1)."""
+
+    def __init__(self, breaks: list[NDArray[np.float64]]):
+        self.lo = np.array([b[0] for b in breaks])
+        self.span = np.array([b[-1] - b[0] for b in breaks])
+        count = np.array([len(b) - 1 for b in breaks])
+        self.count = count
+        self.first = np.cumsum(count) - count  # each spline's first interval
+        self.inner_before = np.cumsum(count - 1) - (count - 1)
+        self.keys = np.concatenate(
+            [i + 0.25 + 0.5 * (b[1:-1] - b[0]) / (b[-1] - b[0]) for i, b in enumerate(breaks)]
+        )
+        self.start = np.concatenate([b[:-1] for b in breaks])
+        self.width = np.concatenate([np.diff(b) for b in breaks])
+
+    def locate(self, which: NDArray[np.intp], t: NDArray[np.float64]):
+        """Per point: its interval in its spline (0-based), the interval's global index,
+        its place in it (0 to 1 inside, beyond at the ends) and the interval's width."""
+        x = np.clip((t - self.lo[which]) / self.span[which], -0.4, 1.4)
+        keys = which + 0.25 + 0.5 * x
+        local = np.searchsorted(self.keys, keys, side="right") - self.inner_before[which]
+        local = np.clip(local, 0, self.count[which] - 1)
+        at = self.first[which] + local
+        width = self.width[at]
+        return local, (t - self.start[at]) / width, width
+
+
+class _Group:
+    """Splines of one degree pair (p, q): their Bézier cells (homogeneous, (n, p + 1, q + 1,
+    4)), by spline, u interval and v interval."""
+
+    def __init__(self, degree: tuple[int, int], members: list[tuple]):
+        self.degree = degree
+        self.u = _Intervals([m[0] for m in members])
+        self.v = _Intervals([m[1] for m in members])
+        self.cells = np.concatenate([m[2] for m in members])
+        sizes = np.array([len(m[2]) for m in members])
+        self.first = np.cumsum(sizes) - sizes
+        self.nv = self.v.count
+
+    def evaluate(self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]):
+        p, q = self.degree
+        iu, su, wu = self.u.locate(which, u)
+        bu, du = _bernstein_d1(su, p)
+        if q:
+            iv, sv, wv = self.v.locate(which, v)
+            bv, dv = _bernstein_d1(sv, q)
+        else:
+            iv, wv = np.zeros_like(iu), np.ones(len(u))
+            bv, dv = np.ones((len(u), 1)), np.zeros((len(u), 1))
+        net = self.cells[self.first[which] + iu * self.nv[which] + iv]  # (n, p+1, q+1, 4)
+        row = np.einsum("na,nabc->nbc", bu, net)
+        row_u = np.einsum("na,nabc->nbc", du, net)
+        h = np.einsum("nb,nbc->nc", bv, row)
+        hu = np.einsum("nb,nbc->nc", bv, row_u) / wu[:, None]
+        hv = np.einsum("nb,nbc->nc", dv, row) / wv[:, None]
+        w = h[:, 3:]
+        x = h[:, :3] / w
+        return x, (hu[:, :3] - x * hu[:, 3:]) / w, (hv[:, :3] - x * hv[:, 3:]) / w
+
+
+class _Own:
+    """A patch with too many knot intervals for a table of cells: its own evaluation."""
+
+    def __init__(self, patch: BSplinePatch):
+        self.patch = patch
+
+    def evaluate(self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]):
+        d = self.patch.derivatives_beyond(u, v, 1)
+        return d[0, 0], d[1, 0], d[0, 1]
+
+
+def _to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
+    """The Bézier coefficients of a B-spline (control points ``net``, (n, ...)) on each of
+    its knot intervals in the domain: the distinct knots (ends included) and (intervals,
+    p + 1, ...), from its values at p + 1 Chebyshev points inside each interval (a
+    polynomial of degree p there: exact to round-off)."""
+    U = np.asarray(knots, dtype=np.float64)
+    lo, hi = U[p], U[len(U) - p - 1]
+    breaks = np.unique(U[(U >= lo) & (U <= hi)])
+    x = _INSIDE[p]
+    t = (breaks[:-1, None] + np.diff(breaks)[:, None] * x).ravel()
+    spans, values = basis_functions(U, p, t, 0)
+    local = net[spans[:, None] - p + np.arange(p + 1)]  # (n points, p + 1, ...)
+    at = np.einsum("na,na...->n...", values[0], local).reshape(
+        len(breaks) - 1, p + 1, *net.shape[1:]
+    )
+    return breaks, np.einsum("ij,mj...->mi...", _FROM_INSIDE[p], at)
+
+
+#: Per degree p: p + 1 Chebyshev points inside (0, 1), and Bernstein coefficients from the
+#: values there.
+_INSIDE = [0.5 - 0.5 * np.cos(np.pi * (2 * np.arange(p + 1) + 1) / (2 * p + 2)) for p in range(33)]
+_FROM_INSIDE = [np.linalg.inv(_bernstein(x, p)) for p, x in enumerate(_INSIDE)]
+
+
+class Splines:
+    """Many rational B-spline patches and curves (a curve: a patch of v-degree 0) as their
+    Bézier cells, grouped by degrees: points and first derivatives at many points of many
+    of them in a few numpy calls, each end piece continued past its domain (as the kernel
+    extrapolates)."""
+
+    def __init__(self) -> None:
+        self._pending: list[tuple[tuple, tuple]] = []
+        self._groups: dict[tuple, _Group | _Own] = {}
+
+    def _add(self, degree: tuple, member: tuple) -> int:
+        self._pending.append((degree, member))
+        return len(self._pending) - 1
+
+    def add_patch(self, patch: BSplinePatch) -> int:
+        """Add a patch; its number."""
+        p, q = patch.degree
+        knots_u, knots_v = (
+            np.unique(np.clip(k, *d)) for k, d in zip(patch.knots, patch.domain, strict=True)
+        )
+        if (len(knots_u) - 1) * (
+            len(knots_v) - 1
+        ) > _MAX_CELLS:  # too many for a table: its own evaluation
+            return self._add(("own", len(self._pending)), (patch.knots[0], patch))
+        w = np.ones(patch.points.shape[:2]) if patch.weights is None else patch.weights
+        net = np.concatenate([patch.points * w[..., None], w[..., None]], axis=-1)
+        bv, by_v = _to_bezier(patch.knots[1], q, np.swapaxes(net, 0, 1))  # (v cells, q+1, nu, 4)
+        bu, cells = _to_bezier(patch.knots[0], p, np.moveaxis(by_v, 2, 0))
+        return self._add(
+            (p, q), (bu, bv, cells.transpose(0, 2, 1, 3, 4).reshape(-1, p + 1, q + 1, 4))
+        )
+
+    def add_curve(self, curve: Any) -> int:
+        """Add a kernel ``Geom_BSplineCurve``; its number."""
+        n, p = int(curve.NbPoles()), int(curve.Degree())
+        flat = curve.KnotSequence()
+        knots = np.array([flat.Value(i) for i in range(flat.Lower(), flat.Upper() + 1)])
+        poles = np.array([[q.X(), q.Y(), q.Z()] for q in (curve.Pole(i) for i in range(1, n + 1))])
+        w = np.array([curve.Weight(i) for i in range(1, n + 1)])
+        bu, cells = _to_bezier(knots, p, np.hstack([poles * w[:, None], w[:, None]]))
+        return self._add((p, 0), (bu, np.array([0.0, 1.0]), cells[:, :, None, :]))
+
+    def breaks(self, number: int) -> NDArray[np.float64]:
+        """The distinct knots (u) of a spline, its ends included."""
+        return self._pending[number][1][0]
+
+    def freeze(self) -> None:
+        """Gather the splines added into their groups (before ``evaluate``)."""
+        by_degree: dict[tuple, list[int]] = {}
+        for k, (degree, _) in enumerate(self._pending):
+            by_degree.setdefault(degree, []).append(k)
+        self._group_of = np.empty(len(self._pending), dtype=np.intp)
+        self._local = np.empty(len(self._pending), dtype=np.intp)
+        self._order = list(by_degree)
+        for g, (degree, members) in enumerate(by_degree.items()):
+            if degree[0] == "own":
+                self._groups[degree] = _Own(self._pending[members[0]][1][1])
+            else:
+                self._groups[degree] = _Group(degree, [self._pending[k][1] for k in members])
+            self._group_of[members] = g
+            self._local[members] = np.arange(len(members))
+
+    def evaluate(
+        self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64] | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """S, S_u, S_v (each (n, 3)) of spline ``which[i]`` at (u[i], v[i]) (curves: at
+        u[i], S_v zero)."""
+        v = np.zeros_like(u) if v is None else v
+        out = [np.empty((len(u), 3)) for _ in range(3)]
+        group = self._group_of[which]
+        for g in np.unique(group):
+            rows = np.flatnonzero(group == g)
+            parts = self._groups[self._order[g]].evaluate(
+                self._local[which[rows]], u[rows], v[rows]
+            )
+            for o, part in zip(out, parts, strict=True):
+                o[rows] = part
+        return out[0], out[1], out[2]
+
+
+@dataclass
+class Pcurve:
+    """A fitted pcurve: the ``Geom2d_BSplineCurve`` (the edge's parameters), its measured
+    error (the largest 3D distance, at the check points, between S(c(t)) and the face's
+    point nearest C(t)), the largest |S(c(t)) - C(t)| there (the face's own distance from
+    the edge, plus the error) and its number of pieces."""
+
+    curve: Any
+    error: float
+    apart: float
+    pieces: int
+
+
+def _solve(su, sv, w):
+    """(J^T J)^-1 J^T w per row, J = [su sv] (n, 3, 2), lightly regularised (poles)."""
+    a11, a12, a22 = (su * su).sum(1), (su * sv).sum(1), (sv * sv).sum(1)
+    g1, g2 = (su * w).sum(1), (sv * w).sum(1)
+    reg = 1e-14 * (a11 + a22) + 1e-300
+    a11, a22 = a11 + reg, a22 + reg
+    det = a11 * a22 - a12 * a12
+    det[~(det > 0.0)] = np.inf  # no direction free: no step
+    return np.stack([(a22 * g1 - a12 * g2) / det, (a11 * g2 - a12 * g1) / det], -1)
+
+
+def _feet(
+    splines: Splines,
+    surface: NDArray[np.intp],
+    xyz: NDArray[np.float64],
+    uv: NDArray[np.float64],
+    box: tuple[NDArray[np.float64], NDArray[np.float64]],
+    steps: int,
+    small: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Damped Gauss-Newton from ``uv`` to the points of the surfaces ``surface`` nearest
+    ``xyz`` (the end pieces continued past the domain, within ``box``: per point, lowest
+    and highest (u, v); a coordinate whose two are equal is pinned there): one evaluation a
+    step, a step kept where it does not take the
+    point farther (beyond the distance's round-off), else a quarter of it tried.  A point
+    is done when its step moves it (in 3D) by less than ``small`` or its round-off, or when
+    the next step will, by the last two steps' ratio (the convergence rate: linear where
+    the face lies off the point, quadratic on it).
+
+    Returns the parameters and, there, S - xyz, S_u and S_v.
+    """
+    lo, hi = box
+    free = (hi > lo).astype(np.float64)  # a coordinate pinned to a side: lo = hi
+    uv = np.clip(uv, lo, hi)
+    s0, su, sv = splines.evaluate(surface, uv[:, 0], uv[:, 1])
+    r = s0 - xyz
+    f = (r * r).sum(1)
+    floor = np.maximum(small, _ROUND_OFF * np.abs(xyz).max(1))  # the points' round-off
+    m = len(uv)
+    alpha, step, last = np.ones(m), np.zeros((m, 2)), np.zeros(m)
+    fresh = np.ones(m, dtype=bool)
+    act = np.arange(m)
+    for _ in range(steps):
+        if not act.size:
+            break
+        new = act[fresh[act]]
+        if new.size:
+            step[new] = -_solve(su[new] * free[new, :1], sv[new] * free[new, 1:], r[new])
+        s = alpha[act, None] * step[act]
+        trial = np.clip(uv[act] + s, lo[act], hi[act])
+        st, sut, svt = splines.evaluate(surface[act], trial[:, 0], trial[:, 1])
+        rt = st - xyz[act]
+        ft = (rt * rt).sum(1)
+        moved = np.linalg.norm(su[act] * s[:, :1] + sv[act] * s[:, 1:], axis=1)
+        ok = ft <= f[act] + floor[act] * (2.0 * np.sqrt(f[act]) + floor[act])
+        a = act[ok]
+        uv[a], r[a], f[a], su[a], sv[a] = trial[ok], rt[ok], ft[ok], sut[ok], svt[ok]
+        rate = np.divide(moved, last[act], out=np.full(act.size, np.inf), where=last[act] > 0)
+        rate[moved == 0.0] = 0.0
+        done = (moved <= floor[act]) | (ok & (rate < 0.5) & (moved * rate <= floor[act]))
+        done |= alpha[act] < 1e-6
+        last[a] = moved[ok]
+        alpha[a] = np.minimum(1.0, 2.0 * alpha[a])
+        alpha[act[~ok]] *= 0.25
+        fresh[act] = ok
+        act = act[~done]
+    return uv, r, su, sv
+
+
+def one_side(patch: BSplinePatch, uv: NDArray[np.float64], size: float) -> NDArray[np.float64]:
+    """The samples on one side of any seam: where consecutive samples are half the domain or
+    more apart in a direction in which the surface meets itself (the same point at both
+    ends), the samples off the longest run's half moved by the domain's width to its
+    side."""
+    out = uv.copy()
+    for d in (0, 1):
+        lo, hi = patch.domain[d]
+        span, middle = hi - lo, 0.5 * (lo + hi)
+        jump = np.abs(np.diff(out[:, d])) > 0.5 * span
+        if not jump.any():
+            continue
+        run = np.r_[0, np.cumsum(jump)]
+        main = run == np.argmax(np.bincount(run))
+        high = np.mean(out[main, d]) > middle  # the longest run on the high end
+        move = np.flatnonzero(~main & ((out[:, d] < middle) if high else (out[:, d] >= middle)))
+        if not move.size:
+            continue
+        there = out[move].copy()
+        there[:, d] = np.clip(there[:, d] + (span if high else -span), lo, hi)
+        both = patch(np.r_[there[:, 0], out[move, 0]], np.r_[there[:, 1], out[move, 1]])
+        same = np.linalg.norm(both[: move.size] - both[move.size :], axis=1) <= _SAME_POINT * size
+        out[move[same], d] = there[same, d]  # where the surface meets itself
+    return out
+
+
+@dataclass
+class _Trims:
+    """All the trims to fit: per trim its face, its edge curve (its number in the
+    :class:`Splines`), samples (t, one-sided (u, v)) and the box its inversion stays in
+    (lowest and highest (u, v): its face's domain widened by ``_REACH``); per face its
+    surface (number in the :class:`Splines`) and its domain's corners."""
+
+    splines: Splines
+    face: NDArray[np.intp]
+    curve: NDArray[np.intp]
+    samples: list[tuple[NDArray[np.float64], NDArray[np.float64]]]
+    patch: NDArray[np.intp]
+    lo: NDArray[np.float64]
+    hi: NDArray[np.float64]
+    reach_lo: NDArray[np.float64]
+    reach_hi: NDArray[np.float64]
+
+    def box(self, trim: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.reach_lo[trim], self.reach_hi[trim]
+
+    def edge(self, trim: NDArray[np.intp], t: NDArray[np.float64]):
+        """C(t) and C'(t) of the trims' edges."""
+        c, dc, _ = self.splines.evaluate(self.curve[trim], t)
+        return c, dc
+
+
+def _sample_feet(trims: _Trims, small: float):
+    """The face's points nearest the edge at the samples of all trims: per sample its trim,
+    t, (u, v) and the speeds |S_u|, |S_v| there.  The samples within ``_NEAR_SIDE`` of a
+    side of the domain (in parameter) again by Newton on the continued surface (the
+    recovered ones stop at the side), the others as recovered (speeds infinite: inside)."""
+    sizes = [len(t) for t, _ in trims.samples]
+    owner = np.repeat(np.arange(len(sizes)), sizes)
+    t = np.concatenate([t for t, _ in trims.samples])
+    uv = np.concatenate([uv for _, uv in trims.samples])
+    face = trims.face[owner]
+    lo, hi = trims.lo[face], trims.hi[face]
+    margin = _NEAR_SIDE * (hi - lo)
+    near = np.flatnonzero(np.any((uv - lo <= margin) | (hi - uv <= margin), axis=1))
+    speed = np.full((len(t), 2), np.inf)
+    if near.size:
+        xyz, _ = trims.edge(owner[near], t[near])
+        surface = trims.patch[face[near]]
+        box = trims.box(owner[near])
+        uv[near], _, su, sv = _feet(
+            trims.splines, surface, xyz, uv[near], box, _STEPS_SAMPLES, small
+        )
+        speed[near] = np.stack([np.linalg.norm(su, axis=1), np.linalg.norm(sv, axis=1)], -1)
+    return owner, t, uv, speed
+
+
+def _brackets(index, owner, t, value, level, along):
+    """Where ``value`` (per sample ``index``, in t order within each trim) crosses zero
+    between consecutive samples of a trim with a nonzero sign: (trim, direction ``along``,
+    the crossed level, t low, t high, first estimate, the two samples), an array each."""
+    nonzero = np.flatnonzero(value != 0.0)
+    i, j = nonzero[:-1], nonzero[1:]
+    cross = (owner[i] == owner[j]) & (value[i] * value[j] < 0)
+    i, j = i[cross], j[cross]
+    w = value[i] / (value[i] - value[j])
+    n = i.size
+    return (
+        owner[i],
+        np.full(n, along),
+        level[i],
+        t[i],
+        t[j],
+        t[i] + w * (t[j] - t[i]),
+        index[i],
+        index[j],
+    )
+
+
+def _cuts(trims: _Trims, patches: list[BSplinePatch], feet, accuracy: float, small: float):
+    """Per trim, the edge parameters where the face's nearest point (``feet``, at the
+    samples: :func:`_sample_feet`) crosses a side of the domain (beyond it, the side's
+    nearest point is the face's: pinned there) or an interior knot line of the face (there
+    it moves less smoothly with t), found by Newton on t (:func:`_locate`); and per trim the
+    sides it runs beyond: (direction, side, where) with ``where`` (t, beyond) > 0 at the
+    samples beyond the side (``None``: all of the trim)."""
+    owner, t, uv, speed = feet
+    uv = uv.copy()
+    index = np.arange(len(t))
+    face = trims.face[owner]
+    by_trim = np.searchsorted(owner, np.arange(len(trims.samples) + 1))
+    free_lo, free_hi = trims.box(owner)
+    lo, hi = free_lo.copy(), free_hi.copy()  # per sample: pinned beyond a side
+    found = []
+    sides: list[list[tuple]] = [[] for _ in trims.samples]
+    for d in (0, 1):
+        for corner, sign in ((trims.lo, -1.0), (trims.hi, 1.0)):
+            end = corner[face, d]
+            beyond = sign * (uv[:, d] - end) * speed[:, d]  # in 3D, > 0: beyond the side
+            state = np.where(beyond > accuracy, 1.0, np.where(beyond < -accuracy, -1.0, 0.0))
+            out = np.zeros(len(sides), dtype=bool)
+            inside = np.zeros(len(sides), dtype=bool)
+            np.logical_or.at(out, owner, state > 0)
+            np.logical_or.at(inside, owner, state < 0)
+            for j in np.flatnonzero(out):
+                rows = slice(by_trim[j], by_trim[j + 1])
+                where = (t[rows], beyond[rows]) if inside[j] else None
+                sides[j].append((d, corner[trims.face[j], d], where))
+                pin = index[rows] if where is None else index[rows][beyond[rows] > 0]
+                lo[pin, d] = hi[pin, d] = end[pin]
+            mixed = np.isin(owner, np.flatnonzero(out & inside))
+            if mixed.any():
+                m = np.flatnonzero(mixed)
+                found.append(_brackets(m, owner[m], t[m], state[m], end[m], d))
+    box = [(free_lo, free_hi)] * len(found)  # sides: located on the continued surface
+    pinned = np.flatnonzero(np.any(lo == hi, axis=1))
+    if pinned.size:  # the pinned samples' nearest points on their sides
+        xyz, _ = trims.edge(owner[pinned], t[pinned])
+        surface = trims.patch[face[pinned]]
+        uv[pinned] = _feet(
+            trims.splines, surface, xyz, uv[pinned], (lo[pinned], hi[pinned]), _STEPS_SAMPLES, small
+        )[0]
+    by_face = np.searchsorted(face, np.arange(len(patches) + 1))  # samples in face order
+    for f, patch in enumerate(patches):  # interior knot lines, crossed transversally
+        mine = index[by_face[f] : by_face[f + 1]]
+        for d in (0, 1):
+            a, b = patch.domain[d]
+            x = uv[mine, d]
+            if not x.size:
+                continue
+            knots = np.unique(np.asarray(patch.knots[d], dtype=float))
+            inner = (knots > max(a + 1e-12 * (b - a), x.min())) & (
+                knots < min(b - 1e-12 * (b - a), x.max())
+            )
+            for k in knots[inner]:
+                value = x - k
+                value[np.abs(value) <= 1e-9 * (b - a)] = 0.0  # along the line: no crossing
+                found.append(_brackets(mine, owner[mine], t[mine], value, np.full(mine.size, k), d))
+                box.append((lo, hi))  # in the pinned samples' boxes
+    cuts = [np.empty(0) for _ in trims.samples]
+    keep = [k for k, x in enumerate(found) if x[0].size]
+    if not keep:
+        return cuts, sides
+    # each crossing in its samples' boxes: where a knot line's crossing and a side's share an
+    # interval between samples, in both (the one off its region an extra cut, harmless)
+    parts = []
+    for k in keep:
+        x = found[k]
+        parts.append((*x, box[k][0][x[6]], box[k][1][x[6]]))
+        moved = np.any(
+            (box[k][0][x[6]] != box[k][0][x[7]]) | (box[k][1][x[6]] != box[k][1][x[7]]), axis=1
+        )
+        if moved.any():
+            parts.append((*(y[moved] for y in x), box[k][0][x[7]][moved], box[k][1][x[7]][moved]))
+    who, along, level, tl, th, tc, i, _, bl, bh = (
+        np.concatenate(x) for x in zip(*parts, strict=True)
+    )
+    w = ((tc - tl) / np.where(th > tl, th - tl, 1.0))[:, None]
+    start = uv[i] + w * (uv[i + 1] - uv[i])
+    located = _locate(trims, who, along, level, tl, th, tc, start, (bl, bh), small)
+    order = np.argsort(who, kind="stable")
+    at = np.searchsorted(who[order], np.arange(len(cuts) + 1))
+    for j in np.unique(who):
+        cuts[j] = located[order[at[j] : at[j + 1]]]
+    return cuts, sides
+
+
+def _locate(trims: _Trims, owner, along, level, tl, th, tc, uv, box, small: float):
+    """Newton on t for the crossings of coordinate ``along`` of the face's nearest point
+    (within ``box``) with ``level``, within [tl, th] (from tc, the nearest point from uv):
+    t <- t - (c_d(t) - level) / c_d'(t), the nearest point's speed c' = (J^T J)^-1 J^T C'(t)
+    (J's columns of the pinned parameters zero)."""
+    surface = trims.patch[trims.face[owner]]
+    rows = np.arange(len(tc))
+    free = (box[1] > box[0]).astype(np.float64)
+    for _ in range(_CROSSING_STEPS):
+        xyz, dxyz = trims.edge(owner, tc)
+        uv, _, su, sv = _feet(trims.splines, surface, xyz, uv, box, _STEPS_CROSSING, small)
+        speed = _solve(su * free[:, :1], sv * free[:, 1:], dxyz)[rows, along]
+        gap = uv[rows, along] - level
+        step = np.divide(-gap, speed, out=np.zeros_like(gap), where=np.abs(speed) > 1e-300)
+        new = np.clip(tc + step, tl, th)
+        moved = np.abs(new - tc)
+        tc = new
+        if np.all(moved <= 1e-14 * np.maximum(np.abs(th - tl), 1e-300)):
+            break
+    return tc
+
+
+def fit_faces(
+    faces: list[tuple[BSplinePatch, list[tuple[Any, NDArray[np.float64], NDArray[np.float64]]]]],
+    size: float,
+) -> list[list[Pcurve]]:
+    """The pcurves of the trims of many faces, all at once.
+
+    Parameters
+    ----------
+    faces : list of (BSplinePatch, list of (curve, t, uv))
+        Per face: its surface (the kernel's, exactly) and its trims: the kernel edge's
+        ``Geom_BSplineCurve`` C(t) (one object per edge: shared by the faces that use it);
+        the trim's samples, edge parameters (increasing, the pcurve's range [t[0], t[-1]])
+        and the face's parameters there (the Newton starts, interpolated).
+    size : float
+        The model's size (the accuracy is ``ACCURACY`` of it).
+
+    Returns
+    -------
+    list of list of Pcurve
+        Per face, in the order of its trims: each a ``Geom2d_BSplineCurve`` of degree
+        ``DEGREE`` with the edge's parameters, inside the domain, its measured error and
+        distance.
+    """
+    splines = Splines()
+    curve_number: dict[int, int] = {}
+    face_of, curve_of, samples = [], [], []
+    patch_number = [splines.add_patch(patch) for patch, _ in faces]
+    for f, (patch, face_trims) in enumerate(faces):
+        for curve, t, uv in face_trims:
+            if id(curve) not in curve_number:
+                curve_number[id(curve)] = splines.add_curve(curve)
+            face_of.append(f)
+            curve_of.append(curve_number[id(curve)])
+            samples.append((np.asarray(t, dtype=float), one_side(patch, uv, size)))
+    splines.freeze()
+    lo = np.array([[p.domain[0][0], p.domain[1][0]] for p, _ in faces])
+    hi = np.array([[p.domain[0][1], p.domain[1][1]] for p, _ in faces])
+    accuracy = ACCURACY * size
+    face = np.array(face_of, dtype=np.intp)
+    reach = _REACH * (hi[face] - lo[face])
+    trims = _Trims(
+        splines, face, np.array(curve_of, dtype=np.intp), samples,
+        np.array(patch_number, dtype=np.intp), lo, hi, lo[face] - reach, hi[face] + reach,
+    )  # fmt: skip
+    small = 1e-3 * accuracy
+    feet = _sample_feet(trims, small)
+    cuts, sides = _cuts(trims, [p for p, _ in faces], feet, accuracy, small)
+    owner, a, b, start, lo_box, hi_box = _pieces(trims, cuts, sides, feet)
+    kept = _refine(trims, owner, a, b, start, lo_box, hi_box, accuracy, small)
+    out = _assemble(trims, kept, accuracy)
+    bounds = np.searchsorted(trims.face, np.arange(len(faces) + 1))
+    return [out[bounds[f] : bounds[f + 1]] for f in range(len(faces))]
+
+
+def _pieces(trims: _Trims, cuts: list[NDArray[np.float64]], sides: list[list[tuple]], feet):
+    """The first pieces between each trim's cuts: (trim, start, end, the Newton starts at
+    their nodes (the samples' nearest points interpolated), the box each stays in: the
+    trim's, pinned to the sides it runs beyond at the piece's middle)."""
+    owner, t, uv, _ = feet
+    bounds = np.searchsorted(owner, np.arange(len(trims.samples) + 1))
+    out: list[list[NDArray]] = [[], [], [], [], [], []]
+    for j, (ts, _) in enumerate(trims.samples):
+        t0, t1 = float(ts[0]), float(ts[-1])
+        breaks = trims.splines.breaks(int(trims.curve[j]))
+        inner = breaks[(breaks > t0) & (breaks < t1)]
+        at = np.unique(np.concatenate([[t0], inner, cuts[j], [t1]]))
+        at = at[(at >= t0) & (at <= t1)]
+        at = at[np.r_[True, np.diff(at) > 1e-11 * (t1 - t0)]]
+        at[-1] = t1
+        a, b = at[:-1], at[1:]
+        nodes = (a[:, None] + (b - a)[:, None] * _NODES).ravel()
+        rows = slice(bounds[j], bounds[j + 1])
+        start = _hermite(nodes, t[rows], uv[rows])
+        lo, hi = trims.box(np.full(len(a), j))
+        lo, hi = lo.copy(), hi.copy()
+        for d, side, where in sides[j]:
+            pin = (
+                np.ones(len(a), dtype=bool)
+                if where is None
+                else np.interp(0.5 * (a + b), *where) > 0
+            )
+            lo[pin, d] = hi[pin, d] = side
+        start = np.clip(start.reshape(-1, DEGREE + 1, 2), lo[:, None], hi[:, None])
+        for x, part in zip(out, (np.full(len(a), j), a, b, start, lo, hi), strict=True):
+            x.append(part)
+    owner, a, b, start, lo, hi = (np.concatenate(x) for x in out)
+    return owner, a, b, start, lo, hi
+
+
+def _hermite(x: NDArray[np.float64], t: NDArray[np.float64], y: NDArray[np.float64]):
+    """The cubic Hermite interpolant of the points ``y`` (n, 2) at the increasing ``t``
+    (slopes by central differences: Catmull-Rom) at ``x``; linear with two points."""
+    if len(t) < 3:
+        return np.stack([np.interp(x, t, y[:, d]) for d in (0, 1)], -1)
+    i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, len(t) - 2)
+    slope = np.empty_like(y)
+    slope[1:-1] = (y[2:] - y[:-2]) / (t[2:] - t[:-2])[:, None]
+    slope[0] = (y[1] - y[0]) / (t[1] - t[0])
+    slope[-1] = (y[-1] - y[-2]) / (t[-1] - t[-2])
+    h = (t[i + 1] - t[i])[:, None]
+    s = (x - t[i])[:, None] / h
+    s2, s3 = s * s, s * s * s
+    return (
+        (2 * s3 - 3 * s2 + 1) * y[i]
+        + (s3 - 2 * s2 + s) * h * slope[i]
+        + (-2 * s3 + 3 * s2) * y[i + 1]
+        + (s3 - s2) * h * slope[i + 1]
+    )
+
+
+def _refine(trims: _Trims, owner, a, b, start, lo, hi, accuracy: float, small: float):
+    """Fit every piece (its nearest points within its box ``lo``, ``hi``), halve those not
+    within the accuracy (their halves started from their polynomials), until all are kept;
+    the kept pieces as arrays (trim, start, end, poles, error, distance, the surface's
+    largest speed at its nodes)."""
+    depth = np.zeros(len(a), dtype=np.intp)
+    parent_error = np.full(len(a), np.inf)
+    count = np.bincount(owner, minlength=len(trims.samples))
+    kept: list[tuple[NDArray, ...]] = []
+    steps = _STEPS_FIRST
+    p = DEGREE
+    while a.size:
+        k = len(a)
+        ts = (a[:, None] + (b - a)[:, None] * _NODES).ravel()
+        tc = (a[:, None] + (b - a)[:, None] * _CHECKS).ravel()
+        xyz, _ = trims.edge(
+            np.concatenate([np.repeat(owner, p + 1), np.repeat(owner, p)]), np.concatenate([ts, tc])
+        )
+        face_n = trims.face[np.repeat(owner, p + 1)]
+        face_c = trims.face[np.repeat(owner, p)]
+        foot, rn, su, sv = _feet(
+            trims.splines,
+            trims.patch[face_n],
+            xyz[: len(ts)],
+            start.reshape(-1, 2),
+            (np.repeat(lo, p + 1, axis=0), np.repeat(hi, p + 1, axis=0)),
+            steps,
+            small,
+        )
+        steps = _STEPS_WARM
+        fn = foot.reshape(k, p + 1, 2)
+        poles = np.einsum("ij,kjd->kid", _TO_POLES, fn)
+        poles[:, 0], poles[:, -1] = fn[:, 0], fn[:, -1]
+        at = np.einsum("ij,kjd->kid", _AT_CHECKS, poles).reshape(-1, 2)
+        box_lo, box_hi = np.repeat(lo, p, axis=0), np.repeat(hi, p, axis=0)
+        at = np.clip(at, box_lo, box_hi)
+        s, s_u, s_v = trims.splines.evaluate(trims.patch[face_c], at[:, 0], at[:, 1])
+        rc = s - xyz[len(ts) :]
+        free = (box_hi > box_lo).astype(np.float64)  # along a side: its parameter along it only
+        step = _solve(s_u * free[:, :1], s_v * free[:, 1:], rc)
+        miss = np.linalg.norm(s_u * step[:, :1] + s_v * step[:, 1:], axis=1)
+        error = miss.reshape(k, p).max(1)
+        apart = np.maximum(
+            np.linalg.norm(rc, axis=1).reshape(k, p).max(1),
+            np.linalg.norm(rn, axis=1).reshape(k, p + 1).max(1),
+        )
+        speed = np.maximum(np.linalg.norm(su, axis=1), np.linalg.norm(sv, axis=1))
+        speed = speed.reshape(k, p + 1).max(1)
+        split = (error > accuracy) & (depth < _MAX_DEPTH) & (error < _STALL * parent_error)
+        for i in np.flatnonzero(split):  # within each trim's budget of pieces
+            if count[owner[i]] < MAX_PIECES:
+                count[owner[i]] += 1
+            else:
+                split[i] = False
+        keep = ~split
+        kept.append(
+            (owner[keep], a[keep], b[keep], poles[keep], error[keep], apart[keep], speed[keep])
+        )
+        mid = 0.5 * (a[split] + b[split])
+        a, b = np.concatenate([a[split], mid]), np.concatenate([mid, b[split]])
+        start = np.concatenate([np.einsum("ij,kjd->kid", h, poles[split]) for h in _AT_HALVES])
+        owner = np.concatenate([owner[split]] * 2)
+        lo, hi = np.concatenate([lo[split]] * 2), np.concatenate([hi[split]] * 2)
+        depth = np.concatenate([depth[split] + 1] * 2)
+        parent_error = np.concatenate([error[split]] * 2)
+    return [np.concatenate(x) for x in zip(*kept, strict=True)]
+
+
+def _assemble(trims: _Trims, kept: list[NDArray], accuracy: float) -> list[Pcurve]:
+    """Each trim's pieces joined into one B-spline, poles clamped into the domain; the
+    distance |S(c(t)) - C(t)| measured again where clamping moved a pole by more than
+    round-off."""
+    owner, a, b, poles, error, apart, speed = kept
+    face = trims.face[owner]
+    clamped = np.clip(poles, trims.lo[face][:, None], trims.hi[face][:, None])
+    span = (trims.hi - trims.lo)[face][:, None]
+    moved = np.flatnonzero(np.any(np.abs(clamped - poles) > 1e-12 * span, axis=(1, 2)))
+    if moved.size:
+        at = np.einsum("ij,kjd->kid", _AT_CHECKS, clamped[moved]).reshape(-1, 2)
+        tc = (a[moved, None] + (b - a)[moved, None] * _CHECKS).ravel()
+        xyz, _ = trims.edge(np.repeat(owner[moved], DEGREE), tc)
+        surface = trims.patch[np.repeat(face[moved], DEGREE)]
+        s, _, _ = trims.splines.evaluate(surface, at[:, 0], at[:, 1])
+        off = np.linalg.norm(s - xyz, axis=1).reshape(-1, DEGREE).max(1)
+        apart[moved] = np.maximum(apart[moved], off)
+    order = np.lexsort((a, owner))
+    owner, a, b, clamped = owner[order], a[order], b[order], clamped[order]
+    error, apart, speed = error[order], apart[order], speed[order]
+    bounds = np.searchsorted(owner, np.arange(len(trims.samples) + 1))
+    out = []
+    for j in range(len(trims.samples)):
+        rows = slice(bounds[j], bounds[j + 1])
+        tolerance = accuracy / max(float(speed[rows].max()), 1e-300)
+        curve, smoothed = _bspline(a[rows], float(b[rows][-1]), clamped[rows], tolerance)
+        extra = accuracy if smoothed else 0.0
+        out.append(
+            Pcurve(
+                curve,
+                float(error[rows].max()) + extra,
+                float(apart[rows].max()) + extra,
+                int(bounds[j + 1] - bounds[j]),
+            )
+        )
+    return out
+
+
+def _bspline(
+    a: NDArray[np.float64], end: float, poles: NDArray[np.float64], tolerance: float
+) -> tuple[Any, bool]:
+    """The pieces starting at ``a`` (in order, the last ending at ``end``) as one
+    ``Geom2d_BSplineCurve``, its interior knots of multiplicity ``DEGREE`` lowered by one
+    (tangent continuous joins) where that moves the pcurve by less than ``tolerance`` (in
+    (u, v)); and whether any was."""
+    p, n = DEGREE, len(a)
+    pts = np.concatenate([poles[0], poles[1:, 1:].reshape(-1, 2)])
+    P = Array1_gp_Pnt2d(1, len(pts))
+    for i, (x, y) in enumerate(pts.tolist()):
+        P.SetValue(i + 1, gp_Pnt2d(x, y))
+    K = Array1_double(1, n + 1)
+    M = Array1_int(1, n + 1)
+    for i, s in enumerate([*a.tolist(), end]):
+        K.SetValue(i + 1, s)
+        M.SetValue(i + 1, p + 1 if i in (0, n) else p)
+    pcurve = Geom2d_BSplineCurve(P, K, M, p, False)
+    smoothed = False
+    for i in range(2, n + 1):  # a corner stays one
+        smoothed |= bool(pcurve.RemoveKnot(i, DEGREE - 1, tolerance))
+    return pcurve, smoothed
