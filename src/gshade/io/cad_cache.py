@@ -106,7 +106,10 @@ _SOURCES = (
     "geometry/revolution.py",
 )
 _OCCT_SOURCES = ("io/cad_occt.py", "io/cad_healing.py", "io/cad_quadrics.py", "io/step_accuracy.py")
-_READER_SOURCES = {"occt": _OCCT_SOURCES, "3dm": ("io/cad_3dm*.py", *_OCCT_SOURCES)}
+_READER_SOURCES = {
+    "occt": _OCCT_SOURCES,
+    "3dm": ("io/cad_3dm*.py", "geometry/bezier_cells.py", *_OCCT_SOURCES),
+}
 #: The modules whose source the kernel's operations depend on, beside the read's, by the
 #: operations' module.
 _OPERATION_SOURCES = {
