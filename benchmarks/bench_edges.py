@@ -42,7 +42,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from gshade.analysis.edge_continuity import edge_report  # noqa: E402
-from gshade.io.cad import read_cad  # noqa: E402
+from gshade.cad import read_cad  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data" / "cad"
 

@@ -84,7 +84,7 @@ def run_gshade(path: Path, samples: int, timeout: float) -> tuple[dict | None, f
 def gshade_midpoints(path: Path) -> dict:
     """(edge, faces) -> arc-length midpoint, on gshade's own reading of the file."""
     try:
-        from gshade.io.cad_occt import read  # in this process: the kernel's shape itself
+        from gshade.cad.occt import read  # in this process: the kernel's shape itself
 
         model = read(path)
         return {

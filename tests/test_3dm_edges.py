@@ -15,7 +15,7 @@ import pytest
 rhino3dm = pytest.importorskip("rhino3dm")
 pytest.importorskip("OCP")
 
-from gshade.io import cad_3dm  # noqa: E402
+from gshade.cad import rhino  # noqa: E402
 
 
 def _write(tmp_path, breps=(), extrusions=(), name="part.3dm"):
@@ -88,7 +88,7 @@ def _image_error(path) -> tuple[float, int]:
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopoDS import TopoDS
 
-    model = cad_3dm.read(path)
+    model = rhino.read(path)
     size = _size(model)
     worst, count = 0.0, 0
     faces = TopExp_Explorer(model.shape, TopAbs_FACE)
@@ -147,7 +147,7 @@ def test_freeform_trims_meet_their_side(tmp_path, make):
     """The caps' freeform trims meet the side within round-off (the samples' cubic
     pcurves parted by 3.2e-6 and 4.8e-7, 3e-7 and 4e-8 of the model)."""
     path = make(tmp_path)
-    size = _size(cad_3dm.read(path))
+    size = _size(rhino.read(path))
     rims = [j for j in _continuity(path) if j["patches"][0] != j["patches"][1]]
     assert len(rims) >= 2  # cap to side, both caps (the corner's side: two faces, a fold)
     for j in rims:
@@ -163,8 +163,8 @@ def test_a_face_along_its_side_traces_its_boundary():
     from OCP.Geom import Geom_BSplineCurve
     from OCP.gp import gp_Pnt
 
+    from gshade.cad import rhino_pcurves as pc
     from gshade.geometry.bspline import BSplinePatch
-    from gshade.io import cad_3dm_pcurves as pc
 
     u = np.linspace(0.0, 1.0, 4)
     points = np.stack(np.meshgrid(u, u, indexing="ij"), -1)

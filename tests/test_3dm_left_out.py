@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gshade.cad import read_cad
+from gshade.cad.mesh import mesh_faces
 from gshade.errors import GshadeError
-from gshade.io.cad import read_cad
-from gshade.io.cad_mesh import mesh_faces
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.io import cad_3dm, cad_3dm_shape  # noqa: E402
+from gshade.cad import rhino, rhino_shape  # noqa: E402
 
 #: Sphere radii and centres, far enough apart; face k is sphere k.
 SPHERES = [(1.0, (0, 0, 0)), (2.0, (10, 0, 0)), (3.0, (0, 20, 0))]
@@ -79,14 +79,14 @@ def test_every_sphere_is_read_when_all_are_drawn(tmp_path):
 def test_a_face_the_reader_cannot_use_is_left_out(tmp_path, monkeypatch):
     """Face 1 failing in the reader is left out (its number kept: the others are 0 and 2),
     and the kernel's shape and mesh hold the others, with their own areas."""
-    real = cad_3dm._brep_face
+    real = rhino._brep_face
 
     def failing(path, part, face, index):
         if index == 1:
             raise GshadeError(f"{path}: face 1: unusable NURBS surface (made to fail)")
         return real(path, part, face, index)
 
-    monkeypatch.setattr(cad_3dm, "_brep_face", failing)
+    monkeypatch.setattr(rhino, "_brep_face", failing)
     model = read_cad(_write(tmp_path / "spheres.3dm"), isolated=False)
     assert [f.index for f in model.faces] == [0, 2]
     assert [f.line() for f in model.left_out] == [
@@ -102,14 +102,14 @@ def test_a_face_the_reader_cannot_use_is_left_out(tmp_path, monkeypatch):
 def test_a_face_the_kernel_cannot_build_is_left_out(tmp_path, monkeypatch):
     """Face 2 failing on the kernel (building it from its surface and trims) is left out of
     the model and of the kernel's shape; faces 0 and 1 mesh."""
-    real = cad_3dm_shape._face
+    real = rhino_shape._face
 
     def failing(cad, *args):
         if cad.index == 2:
             raise RuntimeError("made to fail")
         return real(cad, *args)
 
-    monkeypatch.setattr(cad_3dm_shape, "_face", failing)
+    monkeypatch.setattr(rhino_shape, "_face", failing)
     model = read_cad(_write(tmp_path / "spheres.3dm"), isolated=False)
     assert [f.index for f in model.faces] == [0, 1]
     assert [f.index for f in model.left_out] == [2]

@@ -1,7 +1,7 @@
 """Rhino trims recovered at poles and seams: faces that the kernel's mesher must cover.
 
 Each construction is built with rhino3dm at test time, written to a ``.3dm`` file, read back
-with :func:`gshade.io.cad.read_cad` and meshed with :func:`gshade.io.cad_mesh.mesh_faces`;
+with :func:`gshade.cad.read_cad` and meshed with :func:`gshade.cad.mesh.mesh_faces`;
 the mesh must lie on the exact surface and cover it (its area that of the surface, in closed
 form).  The centres and sizes are ones where the point inversion puts a pole's parameter
 away from the seam (spheres, cones) or a torus's corner on the other seam: the cases that
@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gshade.io.cad import read_cad
-from gshade.io.cad_mesh import mesh_faces
+from gshade.cad import read_cad
+from gshade.cad.mesh import mesh_faces
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.io import cad_3dm, cad_3dm_seams  # noqa: E402
+from gshade.cad import rhino, rhino_seams  # noqa: E402
 
 #: Mesher deflection, relative to the part's size.
 DEFLECTION = 1e-3
@@ -154,13 +154,13 @@ def test_nearly_closed_tube_edges_take_their_ends():
     eps, r, h = 5e-3, 1.0, 2.0
     brep = _revolved(r3.LineCurve(_point((r, 0, 0)), _point((r, 0, h))), (0, 0, 0), 2 * np.pi - eps)
     nurbs = brep.Faces[0].ToNurbsSurface()
-    patch = cad_3dm.nurbs_patch(nurbs)
+    patch = rhino.nurbs_patch(nurbs)
     (u0, u1), (v0, v1) = patch.domain
     assert np.linalg.norm(patch(u0, v0) - patch(u1, v0)) == pytest.approx(r * eps, rel=1e-3)
     assert not nurbs.IsClosed(0)
-    closed = cad_3dm_seams.closed_directions(nurbs, patch)
+    closed = rhino_seams.closed_directions(nurbs, patch)
     assert closed == (True, False)
-    grid = cad_3dm._Grid(patch, patch.domain, closed)
+    grid = rhino._Grid(patch, patch.domain, closed)
     s = np.linspace(0.0, 1.0, 9)
     inside = u0 + 4e-4 * (u1 - u0)
     uv = np.concatenate(
@@ -171,6 +171,6 @@ def test_nearly_closed_tube_edges_take_their_ends():
             np.stack([np.full(9, u0), v1 - (v1 - v0) * s], -1),  # down the low end
         ]
     )
-    cad_3dm_seams.fix_ambiguous(grid, uv, np.full(len(uv), -1), True, [9, 9, 9, 9])
+    rhino_seams.fix_ambiguous(grid, uv, np.full(len(uv), -1), True, [9, 9, 9, 9])
     assert np.all(uv[9:18, 0] == u1) and np.all(uv[27:, 0] == u0)
     assert np.all(uv[1:8, 0] > u0) and np.all(uv[1:8, 0] < u1)  # the others stay

@@ -7,12 +7,12 @@ import sys
 import pytest
 
 from gshade import GshadeError
-from gshade.io.cad import INSTALL, read_cad
+from gshade.cad import INSTALL, read_cad
 
 
 @pytest.mark.parametrize(
     ("name", "module", "library"),
-    [("part.step", "gshade.io.cad_occt", "OCP"), ("part.3dm", "gshade.io.cad_3dm", "rhino3dm")],
+    [("part.step", "gshade.cad.occt", "OCP"), ("part.3dm", "gshade.cad.rhino", "rhino3dm")],
 )
 def test_missing_libraries_name_the_install_command(tmp_path, monkeypatch, name, module, library):
     path = tmp_path / name

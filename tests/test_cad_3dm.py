@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gshade.cad import read_cad
 from gshade.errors import GshadeError
 from gshade.geometry import gaussian_and_mean_curvature
 from gshade.geometry.bspline import BSplinePatch
-from gshade.io.cad import read_cad
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.io import cad_3dm, cad_3dm_shape  # noqa: E402
+from gshade.cad import rhino, rhino_shape  # noqa: E402
 
 
 def _write(tmp_path, name, *geoms, unit=None):
@@ -112,7 +112,7 @@ def test_nurbs_surface_exact(tmp_path, rational):
 
 def test_wrong_padding_or_weights_is_caught(tmp_path):
     s = _nurbs(True)
-    good = cad_3dm.nurbs_patch(s)
+    good = rhino.nurbs_patch(s)
     assert _max_error(good, s) < 1e-12
     U, V = good.knots
     U2 = U.copy()
@@ -188,9 +188,9 @@ def _double_wall() -> object:
 def test_loops_on_the_right_sheet(tmp_path):
     """Every recovered loop point maps back onto its edge, not onto the other wall nearby."""
     brep = _double_wall()
-    model = cad_3dm.read(_write(tmp_path, "wall.3dm", brep))
+    model = rhino.read(_write(tmp_path, "wall.3dm", brep))
     (face,) = model.faces
-    edges = np.concatenate([cad_3dm_shape.edge_points(e)[1] for e in brep.Edges])
+    edges = np.concatenate([rhino_shape.edge_points(e)[1] for e in brep.Edges])
     size = float(np.ptp(edges, axis=0).max())
     assert face.loops
     for loop in face.loops:
@@ -240,13 +240,13 @@ def test_closed_box_shape_is_sewn_and_renders_without_holes(tmp_path):
     pytest.importorskip("OCP")
     from OCP.BRepCheck import BRepCheck_Analyzer
 
-    from gshade.io.cad_occt import _faces
+    from gshade.cad.kernel import shape_faces
 
     box = r3.Box(r3.BoundingBox(r3.Point3d(0, 0, 0), r3.Point3d(1, 2, 3)))
     path = _write(tmp_path, "box.3dm", r3.Brep.CreateFromBox(box))
     model = read_cad(path, isolated=False)  # the kernel's shape here
     assert len(model.faces) == 6 and model.shape is not None
-    faces = _faces(model.shape)
+    faces = shape_faces(model.shape)
     assert len(faces) == 6 and BRepCheck_Analyzer(model.shape).IsValid()
     assert _edge_faces(model.shape) == [2] * 12  # every edge shared by exactly two faces
     # the shape's faces are the model's, in order: the same surface at the same (u, v)

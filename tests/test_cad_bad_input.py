@@ -32,7 +32,7 @@ from OCP.Geom import Geom_Circle, Geom_Plane
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pln, gp_Pnt
 from OCP.TopoDS import TopoDS_Compound, TopoDS_Face
 
-from gshade.io.cad import read_cad
+from gshade.cad import read_cad
 
 from .cad_parts import filleted_box, write_shape
 

@@ -34,10 +34,11 @@ from OCP.TopoDS import TopoDS_Compound
 
 from gshade import GshadeError
 from gshade.app.cli import build_parser, main
-from gshade.io import cad_cache, cad_process
-from gshade.io.cad import read_cad
-from gshade.io.cad_edges import shared_edges
-from gshade.io.cad_mesh import mesh_faces
+from gshade.cad import cache as cad_cache
+from gshade.cad import process as cad_process
+from gshade.cad import read_cad
+from gshade.cad.edges import shared_edges
+from gshade.cad.mesh import mesh_faces
 from gshade.runtime import cache_folder
 
 from .cad_parts import filleted_box, sphere_cap, write_shape
@@ -280,7 +281,7 @@ def _garbage_shape(header, parts):
 
 
 def _no_shape_faces(header, parts):
-    from gshade.io.cad_cache import shape_bytes
+    from gshade.cad.cache import shape_bytes
 
     parts[1] = shape_bytes(sphere_cap())  # a shape, but not this model's
 
@@ -391,7 +392,7 @@ def test_concurrent_writers_leave_a_whole_entry(cache, parts, tmp_path):
     (tmp_path / "answer").write_bytes(entry.answer)
     (tmp_path / "shape").write_bytes(entry.shape)
     code = (
-        "import sys; from pathlib import Path; from gshade.io import cad_cache\n"
+        "import sys; from pathlib import Path; from gshade.cad import cache as cad_cache\n"
         "answer, shape = Path(sys.argv[1]).read_bytes(), Path(sys.argv[2]).read_bytes()\n"
         f"for _ in range(100): cad_cache._write({key!r}, 'model', [answer, shape], "
         f"faces={model.face_count}, names=None)\n"
@@ -509,7 +510,7 @@ def test_the_cache_folder_examples(monkeypatch):
 
 
 #: The kernel process's transport and the cache itself: their source changes no read.
-TRANSPORT = {"io/cad_process.py", "io/cad_zygote.py", "io/cad_cache.py", "runtime/cache_folder.py"}
+TRANSPORT = {"cad/process.py", "cad/zygote.py", "cad/cache.py", "runtime/cache_folder.py"}
 
 
 def _imported(start: str, package: Path, skip: set[str]) -> set[str]:
@@ -540,10 +541,10 @@ def _imported(start: str, package: Path, skip: set[str]) -> set[str]:
 @pytest.mark.parametrize(
     ("reader", "modules"),
     [
-        ("occt", ["io/cad_occt.py"]),
-        ("3dm", ["io/cad_3dm.py"]),
-        ("occt", ["io/cad_mesh.py", "io/cad_edges.py"]),
-        ("3dm", ["io/cad_mesh.py", "io/cad_edges.py"]),
+        ("occt", ["cad/occt.py"]),
+        ("3dm", ["cad/rhino.py"]),
+        ("occt", ["cad/mesh.py", "cad/edges.py"]),
+        ("3dm", ["cad/mesh.py", "cad/edges.py"]),
     ],
 )
 def test_the_key_holds_the_source_of_every_module_a_read_or_answer_depends_on(reader, modules):
@@ -553,7 +554,7 @@ def test_the_key_holds_the_source_of_every_module_a_read_or_answer_depends_on(re
     for module in modules:
         patterns += cad_cache._OPERATION_SOURCES.get(f"gshade.{module[:-3].replace('/', '.')}", ())
     keyed = {p.relative_to(package).as_posix() for g in patterns for p in package.glob(g)}
-    other = {"occt": {"io/cad_3dm.py"}, "3dm": set()}[reader]  # cad.read_cad's other reader
+    other = {"occt": {"cad/rhino.py"}, "3dm": set()}[reader]  # cad.read_cad's other reader
     needed = set().union(*(_imported(m, package, other) for m in modules))
     assert needed - keyed == set()
 
@@ -561,7 +562,7 @@ def test_the_key_holds_the_source_of_every_module_a_read_or_answer_depends_on(re
 def test_the_command_line_starts_no_kernel_for_a_cached_file(cache, parts, monkeypatch):
     """The kernel's process is started ahead (while gshade loads) only for a file whose
     read is not cached: a cached one may need no kernel at all."""
-    from gshade.io import cad_zygote
+    from gshade.cad import zygote as cad_zygote
 
     started: list[int] = []
     monkeypatch.setattr(cad_zygote, "prestart", lambda: started.append(1))

@@ -29,10 +29,10 @@ from OCP.gp import gp_Pnt
 from OCP.GProp import GProp_GProps
 from OCP.TopoDS import TopoDS_Compound, TopoDS_Face
 
+from gshade.cad import read_cad
+from gshade.cad.kernel import shape_faces
+from gshade.cad.mesh import mesh_faces
 from gshade.errors import GshadeError
-from gshade.io.cad import read_cad
-from gshade.io.cad_healing import shape_faces
-from gshade.io.cad_mesh import mesh_faces
 from gshade.io.image import read_exr
 
 from .cad_parts import filleted_box, write_shape
@@ -345,7 +345,7 @@ def test_a_face_the_mesher_leaves_empty_is_meshed_alone_at_another_deflection(
     box's face it is, 10 x 20)."""
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
 
-    from gshade.io import cad_mesh
+    from gshade.cad import mesh as cad_mesh
 
     box = write_shape(BRepPrimAPI_MakeBox(10, 20, 30).Shape(), tmp_path / "b.brep")
     model = read_cad(box, isolated=False)  # meshed here, where the patch applies

@@ -17,10 +17,10 @@ from OCP.BRepTools import BRepTools
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 from OCP.GProp import GProp_GProps
 
+from gshade.cad import CadModel, read_cad
+from gshade.cad.kernel import shape_faces
+from gshade.cad.mesh import FaceMesh, mesh_faces
 from gshade.errors import GshadeError
-from gshade.io.cad import CadModel, read_cad
-from gshade.io.cad_mesh import FaceMesh, mesh_faces
-from gshade.io.cad_occt import _faces
 
 from .cad_parts import filleted_box
 
@@ -175,7 +175,7 @@ def test_shape_kept(box):
     the kernel's NURBS conversion: the patch's parameters are the arcs' along angles)."""
     model = read_cad(box[0].path, isolated=False)  # the kernel's shape here
     assert model.shape is not None
-    surfaces = [BRep_Tool.Surface_s(f) for f in _faces(model.shape)]
+    surfaces = [BRep_Tool.Surface_s(f) for f in shape_faces(model.shape)]
     assert len(surfaces) == len(model.faces)
     rng = np.random.default_rng(3)
     worst = 0.0

@@ -16,28 +16,17 @@ from OCP.BRepBuilderAPI import (
 from OCP.collections import Array1_double, Array1_int, Array2_double, Array2_gp_Pnt
 from OCP.Geom import Geom_BSplineSurface
 from OCP.gp import gp_Pnt, gp_Vec
-from OCP.TopAbs import TopAbs_FACE
-from OCP.TopExp import TopExp_Explorer
-from OCP.TopoDS import TopoDS
 
+from gshade.cad import occt, read_cad
+from gshade.cad.kernel import shape_faces
 from gshade.errors import GshadeError
 from gshade.geometry import gaussian_and_mean_curvature
-from gshade.io import cad_occt
-from gshade.io.cad import read_cad
 
 from .cad_parts import filleted_box, write_shape
 
 R = 2.0
 SIZE = (10.0, 20.0, 30.0)
 DIAGONAL = float(np.linalg.norm(SIZE))
-
-
-def _faces(shape):
-    out, explorer = [], TopExp_Explorer(shape, TopAbs_FACE)
-    while explorer.More():
-        out.append(TopoDS.Face(explorer.Current()))
-        explorer.Next()
-    return out
 
 
 def make_rounded():
@@ -74,9 +63,9 @@ def max_difference(model, shape, samples=6, seed=0):
     """Largest |patch - kernel| over D0..D2 at random (u, v), relative to the model size,
     against the converted faces (all) and the original faces (those parametrised alike)."""
     rng = np.random.default_rng(seed)
-    converted = _faces(BRepBuilderAPI_NurbsConvert(shape, True).Shape())
+    converted = shape_faces(BRepBuilderAPI_NurbsConvert(shape, True).Shape())
     worst = 0.0
-    for face, original, conv in zip(model.faces, _faces(shape), converted, strict=True):
+    for face, original, conv in zip(model.faces, shape_faces(shape), converted, strict=True):
         adaptors = [BRepAdaptor_Surface(conv)]
         if face.kind in SAME_PARAMETERS:
             adaptors.append(BRepAdaptor_Surface(original))
@@ -229,14 +218,14 @@ def test_bad_files(tmp_path, rounded):
         read_cad(missing)
     _one_line(exc, missing)
     with pytest.raises(GshadeError) as exc:
-        cad_occt.read(tmp_path)
+        occt.read(tmp_path)
     assert "expected" in str(exc.value)
     assert sorted(before) == sorted(p.name for p in tmp_path.iterdir())
 
 
 def test_step_faces_match_the_kernel_reading_the_same_file(rounded, tmp_path):
     path = write_shape(rounded, tmp_path / "r.step")
-    shape, unit = cad_occt._read_shape(path, ".step")
+    shape, unit = occt._read_shape(path, ".step")
     assert unit == "mm"
     assert max_difference(read_cad(path), shape) < 1e-9
 
@@ -244,7 +233,7 @@ def test_step_faces_match_the_kernel_reading_the_same_file(rounded, tmp_path):
 def test_a_step_files_declared_accuracy(rounded, tmp_path):
     """The global uncertainty a STEP file declares, in mm: the kernel's writer declares
     1e-7 mm; an inch file's 1e-5 is 2.54e-4 mm; a file without one declares nothing."""
-    from gshade.io.step_accuracy import step_uncertainty
+    from gshade.cad.step_accuracy import step_uncertainty
 
     model = read_cad(write_shape(rounded, tmp_path / "r.step"))
     assert model.precision == pytest.approx(1e-7)

@@ -1,4 +1,4 @@
-"""The CAD kernel in a process of its own (gshade.io.cad_process): a file that crashes the
+"""The CAD kernel in a process of its own (gshade.cad.process): a file that crashes the
 kernel, makes it loop or exhausts its memory is one line naming the file, and this process
 goes on; results come back through an allow-list; SIGTERM is honoured while the kernel loops.
 
@@ -25,10 +25,11 @@ pytest.importorskip("OCP")
 
 from gshade import GshadeError, limits
 from gshade.app.cli import main
-from gshade.io import cad_process, cad_zygote
-from gshade.io.cad import read_cad
-from gshade.io.cad_edges import shared_edges
-from gshade.io.cad_mesh import mesh_faces
+from gshade.cad import process as cad_process
+from gshade.cad import read_cad
+from gshade.cad import zygote as cad_zygote
+from gshade.cad.edges import shared_edges
+from gshade.cad.mesh import mesh_faces
 
 from .cad_parts import bspline_sheet, filleted_box, write_shape
 

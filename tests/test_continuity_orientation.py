@@ -21,7 +21,7 @@ from OCP.TopoDS import TopoDS_Shell
 
 from gshade.analysis.edge_continuity import edge_report
 from gshade.app.cli import main
-from gshade.io.cad import read_cad
+from gshade.cad import read_cad
 
 from . import kernel_oracle as oracle
 from .cad_parts import split_bspline_face

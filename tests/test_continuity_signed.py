@@ -37,9 +37,9 @@ from OCP.TopoDS import TopoDS_Compound
 
 from gshade.analysis.continuity import Tolerances, continuity_report
 from gshade.analysis.edge_continuity import edge_report
+from gshade.cad import read_cad
 from gshade.geometry.bezier import BezierPatch
 from gshade.geometry.differential import normal_curvature, unit_normal
-from gshade.io.cad import read_cad
 
 from .cad_parts import filleted_box
 

@@ -27,8 +27,8 @@ from OCP.Geom import Geom_BSplineSurface
 from OCP.gp import gp_Pnt
 
 from gshade.analysis.edge_continuity import edge_report, inside_pieces
+from gshade.cad import read_cad
 from gshade.geometry.bspline import BSplinePatch
-from gshade.io.cad import read_cad
 
 from . import kernel_oracle as oracle
 

@@ -20,8 +20,8 @@ from gshade.analysis.continuity import Tolerances
 from gshade.analysis.edge_continuity import edge_report
 from gshade.analysis.junction_lines import CLASS_COLOURS
 from gshade.app.cli import main
-from gshade.io.cad import read_cad
-from gshade.io.cad_edges import shared_edges
+from gshade.cad import read_cad
+from gshade.cad.edges import shared_edges
 from gshade.rendering import render
 from gshade.scene import load_scene
 

@@ -56,12 +56,12 @@ def test_the_samples_limit_is_stated_once():
 def test_cad_edges_refuse_bad_samples_before_the_kernel(samples, monkeypatch):
     """--samples 0 / -5 on a CAD part was a Dr.Jit traceback, 100000 a MemoryError: the
     edges' samples are now checked before the kernel is asked for any edge."""
-    import gshade.io.cad_edges
+    import gshade.cad.edges
 
     def never(*args, **kwargs):
         raise AssertionError("the kernel was asked for edges")
 
-    monkeypatch.setattr(gshade.io.cad_edges, "shared_edges", never)
+    monkeypatch.setattr(gshade.cad.edges, "shared_edges", never)
     model = SimpleNamespace(bounds=None, faces=[], precision=0.0)  # never looked at
     with pytest.raises(GshadeError, match=rf"^samples: expected 1 to 4096, got {samples}$"):
         edge_continuity.edge_report(model, samples=samples)
@@ -88,7 +88,7 @@ def test_the_edges_are_measured_in_bounded_chunks(monkeypatch):
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
     from OCP.BRepTools import BRepTools
 
-    from gshade.io.cad import read_cad
+    from gshade.cad import read_cad
 
     folder = Path(os.environ.get("TMPDIR", "/tmp"))
     path = folder / f"gshade-chunks-{os.getpid()}.brep"

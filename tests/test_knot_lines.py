@@ -348,7 +348,7 @@ def test_only_the_part_inside_the_trim_is_measured(tmp_path):
     sampled on its part y <= 20 - X only (the points, checked in space against the cut,
     reach it), and its curvature jump, growing with y, is below the whole face's."""
     from gshade.analysis.knot_lines import trimmed_along
-    from gshade.io.cad import read_cad
+    from gshade.cad import read_cad
 
     cad_parts = _ocp()
     cut = cad_parts.write_shape(_triangle_cut(_face(_sheet())), tmp_path / "cut.brep")

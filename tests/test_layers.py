@@ -18,6 +18,7 @@ LAYERS = [
     ("errors", "limits", "runtime"),
     ("geometry",),
     ("io",),
+    ("cad",),
     ("shape",),
     ("display",),
     ("scene",),
@@ -27,6 +28,9 @@ LAYERS = [
     ("app",),
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}
+
+#: Modules allowed to import from a higher layer: re-exports kept for one version.
+RE_EXPORTS = {"io/cad.py": {"cad"}}  # gshade.io.cad, the names of gshade.cad (0.9 only)
 
 
 def imported_packages(path: Path) -> set[str]:
@@ -66,5 +70,73 @@ def test_every_package_has_a_layer():
 @pytest.mark.parametrize("path", PACKAGED, ids=lambda p: str(p.relative_to(SOURCE)))
 def test_imports_only_from_lower_layers(path):
     own = path.relative_to(SOURCE).parts[0].removesuffix(".py")
-    upward = sorted(p for p in imported_packages(path) if RANK[p] > RANK[own])
+    allowed = RE_EXPORTS.get(path.relative_to(SOURCE).as_posix(), set())
+    upward = sorted(p for p in imported_packages(path) if RANK[p] > RANK[own] and p not in allowed)
     assert not upward, f"{path.relative_to(SOURCE)} ({own}) imports from {upward}"
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(SOURCE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path, top_level_only: bool) -> list[tuple[str, list[str]]]:
+    """(module imported, names imported from it) for each gshade import of a module; with
+    ``top_level_only``, the imports run when it is imported (not those inside functions)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    nodes = tree.body if top_level_only else list(ast.walk(tree))
+    package = _module_name(path).split(".")
+    if path.name != "__init__.py":
+        package = package[:-1]
+    out = []
+    for node in nodes:
+        if isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - (node.level - 1)] if node.level else []
+            module = ".".join(base + (node.module.split(".") if node.module else []))
+            if module.split(".")[0] == "gshade":
+                out.append((module, [a.name for a in node.names]))
+        elif isinstance(node, ast.Import):
+            out.extend((a.name, []) for a in node.names if a.name.split(".")[0] == "gshade")
+    return out
+
+
+ALL_MODULES = sorted(SOURCE.rglob("*.py"))
+
+
+def test_no_private_names_across_modules():
+    """A module's private names (``_name``) are its own: none is imported elsewhere."""
+    found = []
+    for path in ALL_MODULES:
+        for module, names in _imports(path, top_level_only=False):
+            private = [n for n in names if n.startswith("_") and not n.startswith("__")]
+            if private:
+                found.append(f"{path.relative_to(SOURCE)}: {module} {private}")
+    assert not found, found
+
+
+def test_the_cad_package_imports_without_a_cycle():
+    """The modules of gshade.cad import each other (when imported) in one direction only."""
+    modules = {_module_name(p): p for p in (SOURCE / "cad").glob("*.py")}
+    graph = {
+        name: {m for m, names in _imports(path, top_level_only=True) for m in _targets(m, names)}
+        & set(modules)
+        for name, path in modules.items()
+    }
+    graph["gshade.cad"] -= set(modules)  # the package's re-exports: what it is made of
+    done: set[str] = set()
+
+    def visit(name: str, trail: tuple[str, ...]) -> None:
+        assert name not in trail, " -> ".join((*trail, name))
+        if name in done:
+            return
+        for other in sorted(graph[name]):
+            visit(other, (*trail, name))
+        done.add(name)
+
+    for name in sorted(graph):
+        visit(name, ())
+
+
+def _targets(module: str, names: list[str]) -> list[str]:
+    """The modules an import names: ``from package import module`` names the module."""
+    return [module, *(f"{module}.{n}" for n in names)]

@@ -297,7 +297,6 @@ def test_a_cad_render_says_its_patch_channel_numbers_faces(tmp_path):
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 
-
     writer = STEPControl_Writer()
     writer.Transfer(BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Shape(), STEPControl_AsIs)
     writer.Write(str(tmp_path / "box.step"))

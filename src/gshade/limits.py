@@ -199,7 +199,7 @@ def memory_limit() -> int:
     return memory_budget()[0]
 
 
-#: CAD files (:mod:`gshade.io.cad_process`): the wall-clock seconds one kernel call (reading
+#: CAD files (:mod:`gshade.cad.process`): the wall-clock seconds one kernel call (reading
 #: a file, meshing it) may take by default (``GSHADE_CAD_TIMEOUT``), and the address space a
 #: file's reading may take beyond the kernel's own: the base, plus so much per byte of the
 #: file (measured: the kernel holds 20-150 bytes per byte of a STEP or IGES file it read).

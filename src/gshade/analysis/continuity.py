@@ -86,7 +86,7 @@ class Junction:
     """A measured junction: two patches' sides, or (``edge`` set) a B-rep edge of a CAD
     model between two faces (``patches`` the face numbers; no sides; ``orientation``
     ``"consistent"`` or ``"inconsistent"``, whether the faces' orientations agree along the
-    edge, :attr:`gshade.io.cad_edges.CadEdge.consistent`), or (``knot`` set) an interior
+    edge, :attr:`gshade.cad.edges.CadEdge.consistent`), or (``knot`` set) an interior
     knot line of one B-spline patch or face (``patches`` its number twice; no sides;
     :mod:`gshade.analysis.knot_lines`)."""
 

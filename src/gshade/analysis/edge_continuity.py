@@ -1,6 +1,6 @@
 """Continuity along the B-rep edges of CAD models, measured, and of scenes mixing them.
 
-Every edge shared by two faces (:func:`gshade.io.cad_edges.shared_edges`: seams, poles and
+Every edge shared by two faces (:func:`gshade.cad.edges.shared_edges`: seams, poles and
 free edges are no junctions) is sampled at the same edge parameters on both faces'
 parameter curves, and at each pair of points both faces' exact derivatives give the four
 measures of :mod:`gshade.analysis.continuity` (gap, normal angle, normal-curvature jump,
@@ -9,7 +9,7 @@ is G0 with its angle.
 
 A valid B-rep's faces meet within each edge's own tolerance, not exactly: each face's
 points lie within the kernel's tolerance of the edge (or within the distance accuracy the
-file declares, :attr:`gshade.io.cad.CadModel.precision`, where that is larger), so an edge's
+file declares, :attr:`gshade.cad.CadModel.precision`, where that is larger), so an edge's
 G0 tolerance is the larger of the given one and twice that.
 
 Each face is measured by its own one-sided derivatives from inside it: an edge that lies on
@@ -18,7 +18,7 @@ face that ends on a knot, or whose pcurve runs a tolerance past one), is evaluat
 polynomial piece on the side where the face lies (:func:`inside_spans`), continued where a
 point lies a sliver beyond it.  Each pair of faces also says whether the faces'
 orientations agree along the edge (``orientation``: ``consistent`` or ``inconsistent``,
-from :attr:`gshade.io.cad_edges.CadEdge.consistent`).
+from :attr:`gshade.cad.edges.CadEdge.consistent`).
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def edge_report(
 
     Parameters
     ----------
-    model : gshade.io.cad.CadModel
+    model : gshade.cad.CadModel
         A model read with its kernel shape (STEP, IGES, BREP).
     faces : list of int, optional
         The face numbers whose shared edges are measured.
@@ -94,13 +94,13 @@ def edge_report(
         One per edge and pair of faces, ``edge`` its number, ``patches`` the face numbers;
         ``max_at``'s ``t`` is the fraction along the edge as sampled, (k + 1/2) / samples
         (the kernel's edge parameter t0 + t (t1 - t0)), ``uv`` the first face's patch's.
-    edges : list of gshade.io.cad_edges.CadEdge
+    edges : list of gshade.cad.edges.CadEdge
         The sampled edges, in the same order.
 
     Notes
     -----
     Normals are the faces' outward normals (p_u x p_v turned on a reversed face,
-    :attr:`gshade.io.cad.CadFace.reversed`), so the angle runs from 0 to 180 degrees and a
+    :attr:`gshade.cad.CadFace.reversed`), so the angle runs from 0 to 180 degrees and a
     fold is G0; ``orientation`` says whether the two faces' orientations agree along the
     edge (a fold has consistent ones; faces that continue each other with opposite outward
     normals, inconsistent ones).  Each face is evaluated where its pcurve says, also a
@@ -108,7 +108,7 @@ def edge_report(
     (:func:`gshade.analysis.junction_measures.side_derivatives`), and along a knot line
     (within the edge's tolerance) by the piece on the face's side (:func:`inside_spans`).
     """
-    from ..io.cad_edges import shared_edges
+    from ..cad.edges import shared_edges
 
     samples = validate_samples(samples)
     lo, hi = model.bounds
@@ -330,7 +330,7 @@ def inside_spans(
     uv : ndarray (N, 2)
         The points, in the patch's parameters.
     inward : ndarray (N, 2)
-        The directions into the face there (:attr:`gshade.io.cad_edges.CadEdge.inward`;
+        The directions into the face there (:attr:`gshade.cad.edges.CadEdge.inward`;
         only the signs of the components matter).
     reach : ndarray (N, 2)
         Per point and parameter, how far from a knot (in that parameter) the point counts
@@ -519,8 +519,8 @@ def unmeasured_edges(scene) -> list[dict]:
     """The B-rep edges between a face that a ``cad`` surface of the scene renders and one it
     leaves out (:attr:`gshade.scene.model.CadFaces.left_out`), whose continuity is not
     measured: ``{"file", "edge", "faces": [face, left-out face], "why"}`` each, ``why`` the
-    left-out face's line (:meth:`gshade.io.cad.LeftOutFace.line`)."""
-    from ..io.cad_edges import edges_to_left_out
+    left-out face's line (:meth:`gshade.cad.LeftOutFace.line`)."""
+    from ..cad.edges import edges_to_left_out
 
     out: list[dict] = []
     for surface in scene.surfaces:
@@ -541,7 +541,7 @@ def unmeasured_edges(scene) -> list[dict]:
 
 def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine]:
     """The measured edges' parameter curves in the scene patches' (u, v), densely."""
-    from ..io.cad_edges import CadEdge, shared_edges
+    from ..cad.edges import CadEdge, shared_edges
 
     place = {face: start + k for k, face in enumerate(cad.faces)}
     dense: dict[tuple[int | None, tuple[int, int]], CadEdge] = {

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry.bspline import BSplinePatch
-from ..geometry.differential import IRREGULAR_TOL, _cross, _dot, solve_first_form
+from ..geometry.differential import IRREGULAR_TOL, cross_arrays, dot_arrays, solve_first_form
 from ..geometry.patch import Patch, TensorProductPatch, homogeneous
 from ..geometry.regularity import toward_interior
 from ..shape import evaluate
@@ -149,7 +149,7 @@ def side_derivatives(
         d *= factor2[:, :, None, None]
         factor, su, sv = factor * factor2, su2, sv2
     with np.errstate(all="ignore"):
-        cross = np.sqrt(_dot(*(2 * [_cross(d[1, 0], d[0, 1])])))
+        cross = np.sqrt(dot_arrays(*(2 * [cross_arrays(d[1, 0], d[0, 1])])))
     irregular = ~(cross > IRREGULAR_TOL)
     if irregular.any():
         step = toward_interior(patch, u[irregular], v[irregular]) * _OFFSET
@@ -241,8 +241,8 @@ def side_geometry(d: NDArray, error: NDArray, orientation: NDArray | float = 1.0
     or -1 per point, or one number) turns p_u x p_v into the oriented (outward) normal."""
     orient = np.asarray(orientation, dtype=np.float64)
     with np.errstate(all="ignore"):
-        N = _cross(d[1, 0], d[0, 1])
-        length = np.sqrt(_dot(N, N))
+        N = cross_arrays(d[1, 0], d[0, 1])
+        length = np.sqrt(dot_arrays(N, N))
     length = np.where(length > 0, length, 1.0)
     n = N / length[..., None] * np.broadcast_to(orient, length.shape)[..., None]
     mean, gauss, H, K = _curvature_gradients(d)
@@ -295,7 +295,7 @@ def side_round_off(d: NDArray, error: NDArray, kappa: NDArray, slope: NDArray) -
     """
     with np.errstate(all="ignore"):
         pu, pv = d[1, 0], d[0, 1]
-        E, F, G = _dot(pu, pu), _dot(pu, pv), _dot(pv, pv)
+        E, F, G = dot_arrays(pu, pu), dot_arrays(pu, pv), dot_arrays(pv, pv)
         s2 = 0.5 * (E + G) - np.sqrt(0.25 * (E - G) ** 2 + F * F)
         s = np.sqrt(np.maximum(s2, np.finfo(np.float64).tiny))
         e = [np.maximum.reduce([error[i, k - i] for i in range(k + 1)]) for k in range(4)]
@@ -321,17 +321,17 @@ def shape_operator_jump(side_i: SideGeometry, side_j: SideGeometry, along: NDArr
     frames = []
     for side in (side_i, side_j):
         d, n = side.d, side.n
-        e1 = along - _dot(along, n)[..., None] * n
-        length = np.sqrt(_dot(e1, e1))
+        e1 = along - dot_arrays(along, n)[..., None] * n
+        length = np.sqrt(dot_arrays(e1, e1))
         e1 = e1 / np.where(length > 0, length, 1.0)[..., None]
-        e2 = _cross(n, e1)
+        e2 = cross_arrays(n, e1)
         pu, pv = d[1, 0], d[0, 1]
-        E, F, G = _dot(pu, pu), _dot(pu, pv), _dot(pv, pv)
+        E, F, G = dot_arrays(pu, pu), dot_arrays(pu, pv), dot_arrays(pv, pv)
         det = E * G - F * F
         det = np.where(det > 0, det, 1.0)
-        L, M, N = _dot(d[2, 0], n), _dot(d[1, 1], n), _dot(d[0, 2], n)
-        a1, b1 = solve_first_form(E, F, G, det, _dot(pu, e1), _dot(pv, e1))
-        a2, b2 = solve_first_form(E, F, G, det, _dot(pu, e2), _dot(pv, e2))
+        L, M, N = dot_arrays(d[2, 0], n), dot_arrays(d[1, 1], n), dot_arrays(d[0, 2], n)
+        a1, b1 = solve_first_form(E, F, G, det, dot_arrays(pu, e1), dot_arrays(pv, e1))
+        a2, b2 = solve_first_form(E, F, G, det, dot_arrays(pu, e2), dot_arrays(pv, e2))
         w11 = L * a1 * a1 + 2 * M * a1 * b1 + N * b1 * b1
         w22 = L * a2 * a2 + 2 * M * a2 * b2 + N * b2 * b2
         w12 = L * a1 * a2 + M * (a1 * b2 + a2 * b1) + N * b1 * b2
@@ -375,7 +375,9 @@ def compare_sides(side_i: SideGeometry, side_j: SideGeometry, along: NDArray) ->
     ni, nj = side_i.n, side_j.n
     gap = np.linalg.norm(di[0, 0] - dj[0, 0], axis=-1)
     # atan2 of |cross| and dot: accurate for tiny angles, and 0 to 180 degrees
-    angle = np.degrees(np.arctan2(np.linalg.norm(_cross(ni, nj), axis=-1), _dot(ni, nj)))
+    angle = np.degrees(
+        np.arctan2(np.linalg.norm(cross_arrays(ni, nj), axis=-1), dot_arrays(ni, nj))
+    )
     length = np.linalg.norm(along, axis=-1, keepdims=True)
     if not (length > 0).all():  # no tangent (a degenerate sample): any tangent-plane frame
         along = np.where(length > 0, along, di[1, 0] + di[0, 1])

@@ -238,7 +238,7 @@ def patch_knot_lines(patches, *, samples: int, tolerances: Tolerances) -> list[J
 
 def _inside_loops(loops: list[NDArray], uv: NDArray) -> NDArray[np.bool_]:
     """Whether each point (n, 2) lies in the trimmed region: inside an odd number of the
-    face's loops (the outer loop and its holes; as :func:`gshade.io.cad.trimmed_points`)."""
+    face's loops (the outer loop and its holes; as :func:`gshade.cad.trimmed_points`)."""
     from matplotlib.path import Path as Polygon
 
     around = np.zeros(len(uv), dtype=int)

@@ -371,19 +371,19 @@ def _run(args: argparse.Namespace) -> int:
 
 def _prestart_cad_kernel(args: argparse.Namespace) -> None:
     """Given a CAD file to read, start the kernel's zygote now: it loads the kernel's
-    libraries while this process loads its own (:func:`gshade.io.cad_zygote.prestart`);
-    not for files whose reads are cached (:func:`gshade.io.cad_cache.cached`: the kernel
+    libraries while this process loads its own (:func:`gshade.cad.zygote.prestart`);
+    not for files whose reads are cached (:func:`gshade.cad.cache.cached`: the kernel
     may not be needed at all)."""
-    from ..io.cad import CAD_EXTENSIONS
+    from ..cad import CAD_EXTENSIONS
 
     given = [getattr(args, "scene", None), *(getattr(args, "scenes", None) or [])]
     cad = [p for p in given if isinstance(p, str) and Path(p).suffix.lower() in CAD_EXTENSIONS]
     if cad:
-        from ..io.cad_cache import cached
+        from ..cad.cache import cached
 
         if all(cached(p) for p in cad):
             return
-        from ..io.cad_zygote import prestart
+        from ..cad.zygote import prestart
 
         prestart()
 

@@ -463,7 +463,7 @@ def batch(args: argparse.Namespace) -> int:
     validate_batch_options(
         args.jobs, args.timeout, args.scheduler
     )  # before anything is read or made
-    from ..io.cad_process import kernel_time_limit
+    from ..cad.process import kernel_time_limit
 
     with kernel_time_limit(args.timeout):  # a CAD file read to plan takes no longer than a job
         jobs = plan_jobs(expand_scenes(args.scenes), parse_sweeps(args.sweep))

@@ -428,12 +428,12 @@ def colour_map(
     above = int(np.count_nonzero(ok & (t > 1)))
     t = np.clip(np.where(ok, t, 0.0), 0.0, 1.0)
     # matplotlib's maps are sRGB; the renderer works in linear RGB
-    rgb = _srgb_to_linear(colours(t)[..., :3])
+    rgb = srgb_to_linear(colours(t)[..., :3])
     rgb[~ok] = UNDEFINED
     return ColourMapped(rgb, (lo, hi), below, above, int(np.count_nonzero(~ok)))
 
 
-def _srgb_to_linear(c: NDArray) -> NDArray:
+def srgb_to_linear(c: NDArray) -> NDArray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 

@@ -6,7 +6,7 @@ values at p + 1 Chebyshev points inside each interval: exact to round-off, Piegl
 §5.6 by interpolation rather than knot insertion), the cells of all splines of one degree
 pair laid end to end.  A point's interval is found in one ``searchsorted`` over the
 intervals of every spline at once (each spline's interior knots as keys in (i, i + 1)), so
-no call loops over the splines: what :mod:`gshade.io.cad_3dm_pcurves` needs, thousands of
+no call loops over the splines: what :mod:`gshade.cad.rhino_pcurves` needs, thousands of
 faces' Newton steps at a time.  The end pieces are continued past the domain (as the kernel
 extrapolates).  :mod:`gshade.geometry.spline_batches` evaluates patches of one degree by
 Cox–de Boor, to any order, with a span search per patch.

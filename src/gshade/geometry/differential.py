@@ -194,7 +194,7 @@ def _xyz(a: NDArray) -> tuple[NDArray, NDArray, NDArray]:
     return a[..., 0], a[..., 1], a[..., 2]
 
 
-def _cross(a: NDArray, b: NDArray) -> NDArray:
+def cross_arrays(a: NDArray, b: NDArray) -> NDArray:
     """:func:`cross` of (..., 3) arrays into one (..., 3) array, written in place: on large
     arrays the generic form's temporaries (one per product, then a stack) cost more."""
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
@@ -209,7 +209,7 @@ def _cross(a: NDArray, b: NDArray) -> NDArray:
     return out
 
 
-def _dot(a: NDArray, b: NDArray) -> NDArray:
+def dot_arrays(a: NDArray, b: NDArray) -> NDArray:
     """:func:`dot` of (..., 3) arrays."""
     return dot(_xyz(a), _xyz(b))
 
@@ -231,8 +231,8 @@ def irregular_mask(d: ArrayLike, tol: float = IRREGULAR_TOL) -> NDArray[np.bool_
     """
     d = np.asarray(d)
     _order_of(d, 1, "the regularity test")
-    N = _cross(d[1, 0], d[0, 1])
-    return np.sqrt(_dot(N, N)) <= tol * derivative_scale(d) ** 2
+    N = cross_arrays(d[1, 0], d[0, 1])
+    return np.sqrt(dot_arrays(N, N)) <= tol * derivative_scale(d) ** 2
 
 
 class Normal(NamedTuple):
@@ -267,8 +267,8 @@ def unit_normal(
     d = np.asarray(d)
     _order_of(d, 1, "the normal")
     pu, pv = d[1, 0], d[0, 1]
-    N = _cross(pu, pv)
-    length = np.sqrt(_dot(N, N))
+    N = cross_arrays(pu, pv)
+    length = np.sqrt(dot_arrays(N, N))
     scale2 = derivative_scale(d) ** 2
     regular = length > tol * scale2
     if not regular.all():
@@ -284,30 +284,30 @@ def unit_normal(
         take = lambda i, j: d[i, j][irr]  # noqa: E731
         terms = []
         if order >= 2:
-            Nu = _cross(take(2, 0), take(0, 1)) + _cross(take(1, 0), take(1, 1))
-            Nv = _cross(take(1, 1), take(0, 1)) + _cross(take(1, 0), take(0, 2))
+            Nu = cross_arrays(take(2, 0), take(0, 1)) + cross_arrays(take(1, 0), take(1, 1))
+            Nv = cross_arrays(take(1, 1), take(0, 1)) + cross_arrays(take(1, 0), take(0, 2))
             terms.append(a[:, None] * Nu + b[:, None] * Nv)
         if order >= 3:
             Nuu = (
-                _cross(take(3, 0), take(0, 1))
-                + 2 * _cross(take(2, 0), take(1, 1))
-                + _cross(take(1, 0), take(2, 1))
+                cross_arrays(take(3, 0), take(0, 1))
+                + 2 * cross_arrays(take(2, 0), take(1, 1))
+                + cross_arrays(take(1, 0), take(2, 1))
             )
             Nuv = (
-                _cross(take(2, 1), take(0, 1))
-                + _cross(take(2, 0), take(0, 2))
-                + _cross(take(1, 0), take(1, 2))
+                cross_arrays(take(2, 1), take(0, 1))
+                + cross_arrays(take(2, 0), take(0, 2))
+                + cross_arrays(take(1, 0), take(1, 2))
             )
             Nvv = (
-                _cross(take(1, 2), take(0, 1))
-                + 2 * _cross(take(1, 1), take(0, 2))
-                + _cross(take(1, 0), take(0, 3))
+                cross_arrays(take(1, 2), take(0, 1))
+                + 2 * cross_arrays(take(1, 1), take(0, 2))
+                + cross_arrays(take(1, 0), take(0, 3))
             )
             terms.append(
                 (a * a)[:, None] * Nuu + (2 * a * b)[:, None] * Nuv + (b * b)[:, None] * Nvv
             )
         for term in terms:
-            tl = np.sqrt(_dot(term, term))
+            tl = np.sqrt(dot_arrays(term, term))
             use = (fixed_len <= tol * scale2) & (tl > tol * scale2)
             fixed[use] = term[use]
             fixed_len[use] = tl[use]
@@ -424,13 +424,13 @@ def principal_curvatures(d: ArrayLike) -> PrincipalCurvatures:
     du = np.where(first, a1, a2)
     dv = np.where(first, b1, b2)
     e1 = du[..., None] * pu + dv[..., None] * pv
-    length = np.sqrt(_dot(e1, e1))
+    length = np.sqrt(dot_arrays(e1, e1))
     scale = np.sqrt(E) * (np.abs(k1) + np.abs(k2) + 1e-300) * np.sqrt(E + G)
     umbilic = ~(length > 1e-10 * scale)
     e1 = np.where(umbilic[..., None], pu, e1)
-    length = np.sqrt(_dot(e1, e1))
+    length = np.sqrt(dot_arrays(e1, e1))
     e1 = e1 / np.where(length > 0, length, 1.0)[..., None]
-    e2 = _cross(n, e1)
+    e2 = cross_arrays(n, e1)
     return PrincipalCurvatures(k1, k2, e1, e2)
 
 

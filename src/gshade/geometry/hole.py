@@ -93,7 +93,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import SurfaceDataError
 from .bezier import BezierPatch
 from .catmull_clark import NotRegular, net_index, refine, regular_patch
-from .quad_mesh import MeshTopology, _Names, validate_mesh
+from .quad_mesh import MeshTopology, MessageNames, validate_mesh
 
 __all__ = ["Hole", "extraordinary_vertices", "find_holes", "hole_around"]
 
@@ -161,7 +161,7 @@ class Hole:
         return self.corners[0::2]
 
 
-def extraordinary_vertices(topology: MeshTopology, *, names: _Names | None = None) -> NDArray:
+def extraordinary_vertices(topology: MeshTopology, *, names: MessageNames | None = None) -> NDArray:
     """The interior vertices of valence other than 4, in index order.
 
     Parameters
@@ -180,7 +180,7 @@ def extraordinary_vertices(topology: MeshTopology, *, names: _Names | None = Non
         For an extraordinary vertex on the mesh boundary (in 3 or more faces, on an open
         edge): no n-sided hole can be cut around it.
     """
-    names = names or _Names(None, None)
+    names = names or MessageNames(None, None)
     count, bnd = topology.face_count, topology.boundary_vertex
     on_boundary = np.nonzero(bnd & (count >= 3))[0]
     if on_boundary.size:
@@ -336,7 +336,7 @@ def find_holes(
     SurfaceDataError
         For an invalid mesh, or an extraordinary vertex on the mesh boundary (named).
     """
-    names = _Names(source, face_lines)
+    names = MessageNames(source, face_lines)
     P, F = validate_mesh(vertices, faces, source=source, face_lines=face_lines)
     topo = MeshTopology(F, len(P))
     evs = extraordinary_vertices(topo, names=names)

@@ -84,7 +84,7 @@ class MeshTopology:
         return out
 
 
-class _Names:
+class MessageNames:
     """How messages name faces and vertices: OBJ numbering (1-based, with lines) or 0-based."""
 
     def __init__(self, source: str | None, face_lines: Sequence[int] | None) -> None:
@@ -140,7 +140,7 @@ def validate_mesh(
         used twice in the same direction (inconsistent orientation), a vertex whose faces
         form several fans (non-manifold), an interior vertex of valence 2.
     """
-    names = _Names(source, face_lines)
+    names = MessageNames(source, face_lines)
     try:
         V = np.asarray(vertices, dtype=np.float64)
     except (TypeError, ValueError):
@@ -217,7 +217,7 @@ def validate_mesh(
     return V, F
 
 
-def _validate_fans(topo: MeshTopology, names: _Names) -> None:
+def _validate_fans(topo: MeshTopology, names: MessageNames) -> None:
     """Every vertex's faces must form one fan: a disk (interior) or a half-disk."""
     used = np.nonzero(topo.face_count > 0)[0]
     n_h = len(topo.origin)

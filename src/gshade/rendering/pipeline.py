@@ -297,7 +297,7 @@ def _mixed_mesh(scene, settings, framing, resolution: int, where: str, texels: i
             unmeshed.extend((surface.cad.model.path, face) for face in lost)
             meshed.extend((surface.cad.model.path, line) for line in said)
         except GshadeError as exc:
-            from ..io.cad import in_scene
+            from ..cad import in_scene
 
             raise in_scene(exc, surface.source, scene.path, surface.cad.model.path) from None
     mesh = join_meshes(meshes, resolution)

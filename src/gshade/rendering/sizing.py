@@ -112,7 +112,7 @@ def extent_points(scene) -> NDArray:
     grid = np.linspace(0.0, 1.0, 17)
     if not any(s.cad is not None for s in scene.surfaces):
         return grid_derivatives(scene.patches, grid)[:, 0, 0].reshape(-1, 3)
-    from ..io.cad import trimmed_points
+    from ..cad import trimmed_points
 
     points = []
     for surface in scene.surfaces:

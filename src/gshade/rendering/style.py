@@ -116,10 +116,10 @@ def display_style(
     if shape.display != "stripes":
         import matplotlib
 
-        from ..display.colour import _srgb_to_linear
+        from ..display.colour import srgb_to_linear
 
         colormap = validate_colormap(shape.colormap or ("coolwarm" if signed else "viridis"))
-        lut = _srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
+        lut = srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
     return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
 
 

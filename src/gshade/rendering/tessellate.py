@@ -155,7 +155,7 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
 
 def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, list, list[str]]:
     """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.model.CadFaces`) as a
-    triangle mesh from the kernel's mesher (:func:`gshade.io.cad_mesh.mesh_faces`), within
+    triangle mesh from the kernel's mesher (:func:`gshade.cad.mesh.mesh_faces`), within
     ``deflection`` (model units) of the faces, but no finer than :data:`MIN_FACE_DEFLECTION`
     of the model's diagonal (nor the kernel's :data:`KERNEL_CONFUSION`).
 
@@ -163,18 +163,18 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
     faces in ``cad.swapped``): the vertices' params are the kernel's (u, v) normalised to the
     face's box ((v, u) on a swapped face), their normals the exact unit normals of the patch
     there, and their patch index the face's place in ``cad.faces``.  Also returned: the
-    faces the mesher left without triangles (:class:`gshade.io.cad.LeftOutFace`; on a
+    faces the mesher left without triangles (:class:`gshade.cad.LeftOutFace`; on a
     ``strict`` surface they are a GshadeError instead) and the mesher's notes (faces meshed
     at another deflection).
     """
-    from ..io.cad_mesh import mesh_faces
+    from ..cad.mesh import mesh_faces
 
     lo, hi = cad.model.bounds
     diagonal = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
     floor = MIN_FACE_DEFLECTION * diagonal if np.isfinite(diagonal) else 0.0
     m = mesh_faces(cad.model, max(deflection, floor, 2 * KERNEL_CONFUSION), faces=cad.faces)
     if m.left_out and cad.strict:
-        from ..io.cad import strict_refusal
+        from ..cad import strict_refusal
 
         raise strict_refusal(cad.model.path, m.left_out)
     place = {face: k for k, face in enumerate(cad.faces)}

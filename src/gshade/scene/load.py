@@ -231,7 +231,7 @@ def load_scene(
     GshadeError
         One line naming the file, the table and key, what was expected and what was found.
     """
-    from ..io.cad import CAD_EXTENSIONS
+    from ..cad import CAD_EXTENSIONS
     from ..io.files import require_regular_file
 
     path = Path(path)

@@ -187,8 +187,8 @@ def over_box(face: Any) -> Any:
     ),
 )
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
+    from ..cad import LeftOutFace, in_scene, read_cad, strict_refusal
     from ..geometry.regularity import degenerate_patch
-    from ..io.cad import LeftOutFace, in_scene, read_cad, strict_refusal
 
     name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()

@@ -42,10 +42,10 @@ CAMERA_TYPES = ("perspective", "orthographic")
 @dataclass(frozen=True)
 class CadFaces:
     """What the render meshes a ``cad`` surface from: the model read
-    (:class:`gshade.io.cad.CadModel`, with the kernel's shape), the face numbers rendered
+    (:class:`gshade.cad.CadModel`, with the kernel's shape), the face numbers rendered
     (one patch each, in order) and, per face, whether its patch has u and v swapped (a
     reversed face, so that p_u x p_v points outward); the faces of those chosen that are
-    left out (:class:`gshade.io.cad.LeftOutFace`, by the reader or the scene) and whether
+    left out (:class:`gshade.cad.LeftOutFace`, by the reader or the scene) and whether
     the surface is ``strict`` (a face left out is an error, also one the mesher leaves)."""
 
     model: Any = field(repr=False)

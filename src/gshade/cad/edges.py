@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from .cad import CadModel
-from .cad_process import kernel_operation
+from .model import CadModel
+from .process import kernel_operation
 
 __all__ = ["CadEdge", "edges_to_left_out", "shared_edges"]
 
@@ -53,7 +53,7 @@ class CadEdge:
         where the face lies (the pcurve's tangent turned a quarter; not of unit length;
         zero where unknown): the face's material is left of its boundary run as the face
         runs it, seen from its outward normal.  In the kernel's parameters; a patch's
-        parameters (:meth:`gshade.io.cad.CadFace.to_patch`) increase with them, so the
+        parameters (:meth:`gshade.cad.CadFace.to_patch`) increase with them, so the
         signs of the components hold there too.
     consistent : bool or None
         Whether the two faces' orientations agree across the edge: their boundaries run

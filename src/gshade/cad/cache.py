@@ -2,15 +2,15 @@
 
 Reading a CAD file (the kernel's parse, healing and NURBS conversion, gshade's faces) takes
 seconds: 4.4 s for a 305-face STEP part.  A batch, a sweep or a check renders one file
-many times, so :func:`gshade.io.cad.read_cad` keeps what a read gives:
+many times, so :func:`gshade.cad.read_cad` keeps what a read gives:
 
 - **on disk**, in ``cad`` under gshade's cache folder (:mod:`gshade.runtime.cache_folder`:
   ``$GSHADE_CACHE_DIR``, else ``$XDG_CACHE_HOME/gshade`` or ``~/.cache/gshade``;
   ``GSHADE_CACHE_DIR=off`` or ``--no-cache``: nothing on disk), an entry ``KEY.model`` a
   model: the kernel process's answer (the faces, left-out faces and notes: the pickled
-  :class:`~gshade.io.cad.CadModel`) and the kernel's shape as read, healed and converted
+  :class:`~gshade.cad.CadModel`) and the kernel's shape as read, healed and converted
   (Open CASCADE's binary B-rep, ``BinTools``).  The kernel's operations on the model (the
-  mesh, the edges: answers of :func:`~gshade.io.cad_process.kernel_operation`) are kept
+  mesh, the edges: answers of :func:`~gshade.cad.process.kernel_operation`) are kept
   beside it (:class:`Answers`: ``KEY.answer``).  A hit gives back the model without the
   kernel; its kernel process is started only for an operation whose answer is not kept,
   and then given the cached shape (:func:`restored_model`, in milliseconds, in its own
@@ -27,7 +27,7 @@ answer's key adds the source of its operation's module, the mesher's or the edge
 the kernel's versions (numpy, the installed cadquery-ocp and rhino3dm).  An entry is trusted
 only whole: a regular file (not a link) of bounded size, its header naming the same key,
 each part of the size and SHA-256 the header gives, the model unpickled through the kernel
-answers' allow-list (:func:`gshade.io.cad_process.allowed_answer`, never a plain
+answers' allow-list (:func:`gshade.cad.process.allowed_answer`, never a plain
 ``pickle.load``), its face count the header's and the shape's.  Anything else is a miss,
 read afresh and written anew.  Entries are written whole (:func:`~gshade.runtime.cache_folder.
 write_entry`: concurrent batch workers each rename a whole file into place).  The folder
@@ -55,8 +55,9 @@ from typing import Any
 from ..errors import GshadeError
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.cache_folder import cache_folder, read_entry, write_entry
-from .cad import CAD_EXTENSIONS, CadModel
-from .cad_process import allowed_answer
+from .model import CadModel
+from .process import allowed_answer
+from .readers import CAD_EXTENSIONS
 
 __all__ = [
     "CACHE_BYTES",
@@ -90,8 +91,9 @@ _STALE_SECONDS = 3600.0
 #: reader's, and each reader's own (tests/test_cad_cache.py checks that these hold what
 #: the readers import).
 _SOURCES = (
-    "io/cad.py",
-    "io/cad_cache.py",
+    "cad/model.py",
+    "cad/readers.py",
+    "cad/cache.py",
     "io/files.py",
     "errors.py",
     "limits.py",
@@ -105,16 +107,22 @@ _SOURCES = (
     "geometry/rational.py",
     "geometry/revolution.py",
 )
-_OCCT_SOURCES = ("io/cad_occt.py", "io/cad_healing.py", "io/cad_quadrics.py", "io/step_accuracy.py")
+_OCCT_SOURCES = (
+    "cad/occt.py",
+    "cad/kernel.py",
+    "cad/healing.py",
+    "cad/quadrics.py",
+    "cad/step_accuracy.py",
+)
 _READER_SOURCES = {
     "occt": _OCCT_SOURCES,
-    "3dm": ("io/cad_3dm*.py", "geometry/bezier_cells.py", *_OCCT_SOURCES),
+    "3dm": ("cad/rhino*.py", "geometry/bezier_cells.py", *_OCCT_SOURCES),
 }
 #: The modules whose source the kernel's operations depend on, beside the read's, by the
 #: operations' module.
 _OPERATION_SOURCES = {
-    "gshade.io.cad_mesh": ("io/cad_mesh.py", "geometry/spline_batches.py"),
-    "gshade.io.cad_edges": ("io/cad_edges.py",),
+    "gshade.cad.mesh": ("cad/mesh.py", "geometry/spline_batches.py"),
+    "gshade.cad.edges": ("cad/edges.py",),
 }
 
 
@@ -386,7 +394,7 @@ def store_model(
 class Answers:
     """The kernel's answers to operations on one cached model (``KEY.answer`` entries,
     their key from the model's and the operation's name and arguments): what
-    :class:`~gshade.io.cad_process.KernelProcess` asks before it asks the kernel."""
+    :class:`~gshade.cad.process.KernelProcess` asks before it asks the kernel."""
 
     def __init__(self, key: str) -> None:
         self.key = key
@@ -446,7 +454,7 @@ def restored_model(answer: bytes, shape: bytes, path: str) -> CadModel:
     from OCP.BinTools import BinTools
     from OCP.TopoDS import TopoDS_Shape
 
-    from .cad_healing import shape_faces
+    from .kernel import shape_faces
 
     kind, model = allowed_answer(answer)
     if kind != "ok" or not isinstance(model, CadModel):
@@ -469,7 +477,7 @@ _live_lock = threading.Lock()
 
 def live_model(key: str, path: str | os.PathLike) -> CadModel | None:
     """A model of the same read that this process still uses (its kernel process running):
-    a new :class:`~gshade.io.cad.CadModel` with the same faces and kernel process; None
+    a new :class:`~gshade.cad.CadModel` with the same faces and kernel process; None
     when there is none."""
     with _live_lock:
         found = _live.get((key, str(path), os.getpid()))

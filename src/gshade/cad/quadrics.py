@@ -20,7 +20,7 @@ face's parameter box, each angle runs along the exact rational arc
 :func:`gshade.geometry.revolution.arc` and each length along a line (degree 1); the
 surface is their tensor product (P_ij from the arcs' points, weights w_i w_j; Piegl &
 Tiller, 8.5), exact to round-off.  The patch's parameter equals the kernel's along lengths
-and at the arcs' knots; :meth:`gshade.io.cad.CadFace.to_patch` maps the rest exactly.
+and at the arcs' knots; :meth:`gshade.cad.CadFace.to_patch` maps the rest exactly.
 """
 
 from __future__ import annotations

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GshadeError
+from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
-from .files import read_bytes
 
 __all__ = ["step_uncertainty"]
 

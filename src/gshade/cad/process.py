@@ -6,14 +6,14 @@ crash the process (SIGSEGV), loop for minutes without returning to Python (so th
 SIGTERM handler, which is Python, never runs), or allocate gigabytes for a file of a
 kilobyte.  So every kernel call on a model runs in a child process of its own, one per
 model, started when the model is read and ended when the model is dropped (forked from a
-process that has the kernel's libraries loaded: :mod:`gshade.io.cad_zygote`):
+process that has the kernel's libraries loaded: :mod:`gshade.cad.zygote`):
 
-- **reading** (:func:`gshade.io.cad.read_cad`) in the child; the faces come back (exact
+- **reading** (:func:`gshade.cad.read_cad`) in the child; the faces come back (exact
   patches, boxes, loops: plain arrays), the kernel's shape stays in the child;
 - **operations** on the model's shape (meshing, the edges' parameter curves): functions
   marked with :func:`kernel_operation` run in the child on its model when the model's
   ``shape`` is a :class:`KernelProcess`, and in this process when it is the kernel's shape;
-- **a cached read** (:mod:`gshade.io.cad_cache`): the child is given the model and the
+- **a cached read** (:mod:`gshade.cad.cache`): the child is given the model and the
   kernel's shape as a read kept them ("load"), and is asked for the shape after a read
   ("keep"); the answers to operations are looked up in the cache first (``answers``).
 
@@ -74,10 +74,10 @@ _POLL = 0.25
 #: Functions the child may be asked to run: "module:name" -> the function on the model.
 _OPERATIONS: dict[str, Callable[..., Any]] = {}
 #: Modules whose marked functions the child may import to find them.
-_OPERATION_MODULES = ("gshade.io.cad", "gshade.io.cad_mesh", "gshade.io.cad_edges")
+_OPERATION_MODULES = ("gshade.cad.model", "gshade.cad.mesh", "gshade.cad.edges")
 #: What a child loads before its bounds are set, beside the file's reader (the zygote loads
-#: them, and the readers, once for all its children: :mod:`gshade.io.cad_zygote`).
-CHILD_MODULES = ("numpy", "matplotlib.path", *_OPERATION_MODULES, "gshade.io.cad_cache")
+#: them, and the readers, once for all its children: :mod:`gshade.cad.zygote`).
+CHILD_MODULES = ("numpy", "matplotlib.path", *_OPERATION_MODULES, "gshade.cad.cache")
 
 #: What native code's exceptions say when an allocation (or a library's mapping) failed.
 _OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
@@ -140,7 +140,7 @@ def kernel_operation(doing: str) -> Callable[[F], F]:
 
 class AnswerStore(Protocol):
     """Where a :class:`KernelProcess` looks for its operations' answers before it asks the
-    child, and keeps them (:class:`gshade.io.cad_cache.Answers`): the child's answer
+    child, and keeps them (:class:`gshade.cad.cache.Answers`): the child's answer
     messages, as they came."""
 
     def get(self, operation: str, args: tuple, kwargs: dict) -> bytes | None: ...
@@ -175,7 +175,7 @@ class KernelProcess:
             self._start()
 
     def _start(self) -> None:
-        from .cad_zygote import start_child
+        from .zygote import start_child
 
         log = tempfile.TemporaryFile()
         try:
@@ -190,7 +190,7 @@ class KernelProcess:
     def later(self, prepare: Callable[[KernelProcess], None]) -> None:
         """Start the child only when it is first needed (a call that ``answers`` does not
         hold): then ``prepare(self)`` gives it its model (a cached read:
-        :mod:`gshade.io.cad_cache`), and may :meth:`restart` it."""
+        :mod:`gshade.cad.cache`), and may :meth:`restart` it."""
         self._prepare = prepare
 
     @property
@@ -278,7 +278,7 @@ class KernelProcess:
         memory: int | None = None,
     ) -> tuple[Any, bytes]:
         """:meth:`call`, always asking the child: its result, and the child's answer
-        message that gave it (for :mod:`gshade.io.cad_cache`)."""
+        message that gave it (for :mod:`gshade.cad.cache`)."""
         from ..limits import gigabytes
 
         child = self._child
@@ -465,11 +465,11 @@ class _Results(pickle.Unpickler):
             ("numpy._core.multiarray", "scalar"),
             ("numpy.core.numeric", "_frombuffer"),
             ("numpy._core.numeric", "_frombuffer"),
-            ("gshade.io.cad", "CadFace"),
-            ("gshade.io.cad", "CadModel"),
-            ("gshade.io.cad", "LeftOutFace"),
-            ("gshade.io.cad_mesh", "FaceMesh"),
-            ("gshade.io.cad_edges", "CadEdge"),
+            ("gshade.cad.model", "CadFace"),
+            ("gshade.cad.model", "CadModel"),
+            ("gshade.cad.model", "LeftOutFace"),
+            ("gshade.cad.mesh", "FaceMesh"),
+            ("gshade.cad.edges", "CadEdge"),
             ("gshade.geometry.bspline", "BSplinePatch"),
             ("gshade.geometry.patch", "BSplineBasis"),
         }
@@ -491,7 +491,7 @@ class _Results(pickle.Unpickler):
 # --- the child -------------------------------------------------------------------------
 
 
-def _die_with_parent(parent: int) -> None:
+def die_with_parent(parent: int) -> None:
     """Be killed when the parent ends (Linux), even while deep in the kernel."""
     if sys.platform.startswith("linux"):
         with contextlib.suppress(OSError, AttributeError):
@@ -526,11 +526,11 @@ def _bound(memory: int, seconds: float) -> None:
             resource.setrlimit(which, (soft, hard))
 
 
-def _serve(parent: int) -> None:
+def serve(parent: int) -> None:
     """Answer the parent's requests on the inherited stdin/stdout until it closes them."""
     import importlib
 
-    _die_with_parent(parent)
+    die_with_parent(parent)
     requests = os.fdopen(os.dup(0), "rb")
     answers = os.fdopen(os.dup(1), "wb")
     # the kernel prints banners and warnings: away from the answers, into the log
@@ -548,7 +548,7 @@ def _serve(parent: int) -> None:
         )
         try:
             if operation == "read":
-                from .cad import read_cad, reader_module
+                from .readers import read_cad, reader_module
 
                 path, sew, tolerance = args
                 reader_module(path)  # the libraries are loaded outside the bounds
@@ -560,8 +560,8 @@ def _serve(parent: int) -> None:
 
                 answer: tuple[str, Any] = ("ok", replace(model, shape=None))
             elif operation == "load":  # a cached read: the model and its shape's bytes
-                from .cad import reader_module
-                from .cad_cache import restored_model
+                from .cache import restored_model
+                from .readers import reader_module
 
                 cached, shape, path = args
                 model = None
@@ -573,7 +573,7 @@ def _serve(parent: int) -> None:
                 model = restored_model(cached, shape, path)
                 answer = ("ok", model.face_count)
             elif operation == "keep":  # the model's shape, for the cache
-                from .cad_cache import shape_bytes
+                from .cache import shape_bytes
 
                 if model is None or model.shape is None:
                     raise GshadeError("no model here to keep")
@@ -605,11 +605,11 @@ def _serve(parent: int) -> None:
         answers.flush()
 
 
-if __name__ == "__main__":  # the child: python -m gshade.io.cad_process PARENT_PID
+if __name__ == "__main__":  # the child: python -m gshade.cad.process PARENT_PID
     import numpy as np
 
-    from gshade.io import cad_process  # the module, not this __main__ copy of it
+    from gshade.cad import process as cad_process  # the module, not this __main__ copy
 
     np.seterr(all="ignore")
-    cad_process._serve(int(sys.argv[1]))
+    cad_process.serve(int(sys.argv[1]))
     os._exit(0)

@@ -12,8 +12,8 @@ the surface moves fast, and then Newton lands on a nearby sheet, the other wall 
 damped Gauss-Newton over all the points of a face at once, points left far from the surface
 tried again from their neighbours' parameters along the loop.  Where the surface meets itself
 (seams of closed or nearly closed directions, poles) each trim is put on the end that its
-loop's sense asks for (:mod:`gshade.io.cad_3dm_seams`).  Singular trims at poles are the
-segment between their neighbours.  The kernel's shape: :mod:`gshade.io.cad_3dm_shape`.
+loop's sense asks for (:mod:`gshade.cad.rhino_seams`).  Singular trims at poles are the
+segment between their neighbours.  The kernel's shape: :mod:`gshade.cad.rhino_shape`.
 """
 
 from __future__ import annotations
@@ -28,11 +28,11 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
+from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
-from . import cad_3dm_seams as seams
-from . import cad_3dm_shape as sh
-from .cad import CadFace, CadModel, LeftOutFace, no_usable_face
-from .files import read_bytes
+from . import rhino_seams as seams
+from . import rhino_shape as sh
+from .model import CadFace, CadModel, LeftOutFace, no_usable_face
 
 __all__ = ["read"]
 
@@ -414,7 +414,7 @@ def _grid_parameters(patch: BSplinePatch, d: int, lo: float, hi: float) -> NDArr
 
 class _Grid:
     """A patch sampled over ``box`` (per knot span), for starting points of the inversion;
-    its domain, closed directions and seams' widths (:func:`.cad_3dm_seams.seam_widths`)."""
+    its domain, closed directions and seams' widths (:func:`.rhino_seams.seam_widths`)."""
 
     def __init__(self, patch: BSplinePatch, box, closed: tuple[bool, bool]):
         self.patch = patch

@@ -1,6 +1,6 @@
 """Seams and poles of a Rhino face: choosing among parameters that name the same point.
 
-A trim pulled back into (u, v) by point inversion (:mod:`gshade.io.cad_3dm`) is ambiguous
+A trim pulled back into (u, v) by point inversion (:mod:`gshade.cad.rhino`) is ambiguous
 where the surface meets itself: on the seam of a closed direction, u = u0 and u = u1 are the
 same points, and at a pole (a sphere's, a cone's apex) every u is.  Newton lands on either
 end, or anywhere along a pole; the kernel's face then needs each trim on the end that its

@@ -7,7 +7,7 @@ missing parameter or 3D curves, small edges, gaps and self-intersections, their 
 orientation, missing seams, the faces' and shells' orientation) runs on the whole shape, so
 that an edge it repairs is repaired in both faces that share it.  Its result is kept when it
 leaves fewer faces invalid; what it changed is said a line a face.  The faces still invalid
-are left out by the reader (:class:`gshade.io.cad.LeftOutFace`), the rest are rendered.
+are left out by the reader (:class:`gshade.cad.LeftOutFace`), the rest are rendered.
 """
 
 from __future__ import annotations
@@ -19,13 +19,14 @@ from OCP.BRep import BRep_Tool
 from OCP.BRepCheck import BRepCheck_Analyzer, BRepCheck_Face, BRepCheck_Status, BRepCheck_Wire
 from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
 from OCP.ShapeFix import ShapeFix_Shape
-from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_WIRE
+from OCP.TopAbs import TopAbs_EDGE, TopAbs_WIRE
 from OCP.TopExp import TopExp_Explorer
 from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Shape
 
 from ..runtime.native import captured_output
+from .kernel import shape_faces
 
-__all__ = ["HEALING", "Healing", "heal", "invalid_faces", "shape_faces"]
+__all__ = ["HEALING", "Healing", "heal", "invalid_faces"]
 
 #: What was tried on a face that is still invalid, as the warnings say it.
 HEALING = "the kernel's healing (ShapeFix_Shape)"
@@ -60,16 +61,6 @@ class Healing:
     faces: list
     invalid: dict[int, str] = field(default_factory=dict)
     changes: list[str] = field(default_factory=list)
-
-
-def shape_faces(shape: TopoDS_Shape) -> list:
-    """The shape's faces in the kernel's traversal order."""
-    out = []
-    explorer = TopExp_Explorer(shape, TopAbs_FACE)
-    while explorer.More():
-        out.append(TopoDS.Face(explorer.Current()))
-        explorer.Next()
-    return out
 
 
 def invalid_faces(shape: TopoDS_Shape, faces: list | None = None) -> dict[int, str]:

@@ -2,7 +2,7 @@
 
 rhino3dm gives each Brep's faces (exact NURBS surfaces), edges (exact 3D NURBS curves),
 vertices and loops of trims (edge index, sense, end vertices), but no 2D trimming curves.
-:mod:`gshade.io.cad_3dm` recovers each trim in the face's (u, v) by point inversion, at the
+:mod:`gshade.cad.rhino` recovers each trim in the face's (u, v) by point inversion, at the
 edge curve's own parameters t_k; here the kernel's shape is assembled from those pieces,
 with the file's topology, so that it needs no sewing:
 
@@ -12,7 +12,7 @@ with the file's topology, so that it needs no sewing:
   exact NURBS curve C(t) (or, where openNURBS's NURBS form does not match the edge's
   parametrisation within 1e-9 of its size, a cubic interpolating the edge's samples);
 - on every face that uses an edge, a pcurve c(t) that traces the face's point nearest C(t)
-  to 1e-12 of the model (:mod:`gshade.io.cad_3dm_pcurves`, all faces' trims at once, started
+  to 1e-12 of the model (:mod:`gshade.cad.rhino_pcurves`, all faces' trims at once, started
   from the recovered (u_k, v_k)), two of them on a seam; where that fit fails, the cubic
   B-spline that interpolates the (u_k, v_k) at the same t_k (``Geom2dAPI_Interpolate``; a
   polyline if that fails); singular trims at poles become degenerated edges on the segment
@@ -69,8 +69,9 @@ from OCP.TopoDS import (
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..runtime.native import captured_output
-from . import cad_3dm_pcurves as pc
-from .cad import CadFace, LeftOutFace
+from . import rhino_pcurves as pc
+from .kernel import exception_text, shape_faces
+from .model import CadFace, LeftOutFace
 
 __all__ = [
     "BrepPart",
@@ -152,7 +153,7 @@ def build_shape(
     -------
     shape, built, left_out
         The compound; the numbers of its faces, in its order; the faces the kernel could not
-        build (:class:`gshade.io.cad.LeftOutFace`), left out of it.
+        build (:class:`gshade.cad.LeftOutFace`), left out of it.
 
     Raises
     ------
@@ -181,7 +182,9 @@ def build_shape(
             try:
                 face = _free_face(by_number[part], tol)
             except Exception as exc:
-                left_out.append(LeftOutFace(part, f"the kernel failed ({_why(exc)})", _BUILDING))
+                left_out.append(
+                    LeftOutFace(part, f"the kernel failed ({exception_text(exc)})", _BUILDING)
+                )
                 continue
             builder.Add(compound, face)
             built.append(face)
@@ -201,10 +204,11 @@ def build_shape(
             BRepLib.SameParameter_s(compound, tol, False)
             BRepLib.UpdateTolerances_s(compound, False)
     except Exception as exc:
-        raise GshadeError(f"{path}: the kernel could not fit the trims ({_why(exc)})") from None
-    from .cad_occt import _faces
+        raise GshadeError(
+            f"{path}: the kernel could not fit the trims ({exception_text(exc)})"
+        ) from None
 
-    order = _faces(compound)
+    order = shape_faces(compound)
     if len(order) != len(built) or not all(a.IsSame(b) for a, b in zip(order, built, strict=True)):
         raise GshadeError(f"{path}: the kernel's shape lost the order of the faces")
     return compound, numbers, left_out
@@ -212,11 +216,6 @@ def build_shape(
 
 #: What was tried on a face the kernel could not build.
 _BUILDING = "building it on the kernel from its surface and trims"
-
-
-def _why(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
 
 
 def _knots(full: NDArray[np.float64]) -> tuple[Any, Any]:
@@ -377,7 +376,7 @@ class _BrepFaces:
 
     def finish(self, fitted: dict[int, Any]) -> tuple[list[tuple[int, Any]], list[LeftOutFace]]:
         """The faces, (number, face) each, on the pcurves ``fitted`` (by ``id`` of the trim:
-        :class:`.cad_3dm_pcurves.Pcurve`; the others the samples' cubics); and those the
+        :class:`.rhino_pcurves.Pcurve`; the others the samples' cubics); and those the
         kernel could not build, left out.  A fitted edge's tolerance is the largest distance
         measured between its pcurves' images and its curve (no SameParameter refit)."""
         apart: dict[int, float] = {}  # the edge's measured |S(c(t)) - C(t)|
@@ -420,11 +419,11 @@ class _BrepFaces:
 def _left_out(index: int, exc: Exception) -> LeftOutFace:
     if isinstance(exc, GshadeError):
         return LeftOutFace(index, str(exc), _BUILDING)
-    return LeftOutFace(index, f"the kernel failed ({_why(exc)})", _BUILDING)
+    return LeftOutFace(index, f"the kernel failed ({exception_text(exc)})", _BUILDING)
 
 
 def _fit(jobs: list[tuple[Any, list[tuple[Trim, Any]]]], size: float) -> dict[int, Any]:
-    """The pcurves of the jobs' trims (:func:`.cad_3dm_pcurves.fit_faces`: all faces at
+    """The pcurves of the jobs' trims (:func:`.rhino_pcurves.fit_faces`: all faces at
     once; where that fails, face by face; a face the fit cannot do is left to the samples'
     cubics), by ``id`` of the trim."""
     out: dict[int, Any] = {}

@@ -1,6 +1,6 @@
 """Pcurves for Rhino edges that trace the edge on the face to round-off.
 
-rhino3dm gives no 2D trimming curves; :mod:`gshade.io.cad_3dm` recovers each trim's (u, v)
+rhino3dm gives no 2D trimming curves; :mod:`gshade.cad.rhino` recovers each trim's (u, v)
 at samples of the edge.  A cubic interpolating those samples strays from the edge between
 them, and the more so where the edge has a corner (a joined curve: interior knots of full
 multiplicity) or the face a knot line; two faces' pcurves then part by far more than the

@@ -2,8 +2,8 @@
 libraries loaded already.
 
 A new Python process takes 0.6-0.9 s to load Open CASCADE, openNURBS and numpy, and every
-model is read in a process of its own (:mod:`gshade.io.cad_process`).  So the first model
-read starts a *zygote* (``python -m gshade.io.cad_zygote``) that loads them once and then,
+model is read in a process of its own (:mod:`gshade.cad.process`).  So the first model
+read starts a *zygote* (``python -m gshade.cad.zygote``) that loads them once and then,
 on request, forks a child per model (in milliseconds), handing it the pipes this process
 talks to it through (``SCM_RIGHTS`` over a Unix socket).  The children are the zygote's: it
 reaps them when asked, and :class:`Forked` gives them the face of a
@@ -38,7 +38,7 @@ _lock = threading.Lock()
 
 
 def start_child(log: Any) -> Any:
-    """A child process serving :func:`gshade.io.cad_process._serve` on its stdin/stdout,
+    """A child process serving :func:`gshade.cad.process.serve` on its stdin/stdout,
     its stderr into ``log`` (a file): forked from the zygote, else started on its own."""
     zygote = _zygote()
     if zygote is not None:
@@ -47,7 +47,7 @@ def start_child(log: Any) -> Any:
         except (OSError, ValueError):
             _forget(zygote)
     return subprocess.Popen(
-        [sys.executable, "-m", "gshade.io.cad_process", str(os.getpid())],
+        [sys.executable, "-m", "gshade.cad.process", str(os.getpid())],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=log,
@@ -93,7 +93,7 @@ class _Zygote:
                         [
                             sys.executable,
                             "-m",
-                            "gshade.io.cad_zygote",
+                            "gshade.cad.zygote",
                             str(os.getpid()),
                             str(theirs.fileno()),
                         ],
@@ -206,12 +206,12 @@ class Forked:
 
 def _preload() -> None:
     """Load what the children use, once: the readers of every CAD format,
-    :data:`gshade.io.cad_process.CHILD_MODULES` and the kernel's binary shape format (of a
-    cached read: :mod:`gshade.io.cad_cache`); what is not installed is left out."""
+    :data:`gshade.cad.process.CHILD_MODULES` and the kernel's binary shape format (of a
+    cached read: :mod:`gshade.cad.cache`); what is not installed is left out."""
     import importlib
 
-    from .cad import CAD_EXTENSIONS, reader_module
-    from .cad_process import CHILD_MODULES
+    from .process import CHILD_MODULES
+    from .readers import CAD_EXTENSIONS, reader_module
 
     for module in CHILD_MODULES:
         with contextlib.suppress(Exception):
@@ -224,9 +224,9 @@ def _preload() -> None:
 
 
 def _zygote_main(parent: int, fd: int) -> None:
-    from gshade.io import cad_process
+    from gshade.cad import process as cad_process
 
-    cad_process._die_with_parent(parent)
+    cad_process.die_with_parent(parent)
     link = socket.socket(fileno=fd)
     _preload()
     link.send(b"ready")
@@ -248,7 +248,7 @@ def _zygote_main(parent: int, fd: int) -> None:
                     for source in fds:
                         if source > 2:
                             os.close(source)
-                    cad_process._serve(me)
+                    cad_process.serve(me)
                 finally:
                     os._exit(0)
             for source in fds:
@@ -269,10 +269,10 @@ def _zygote_main(parent: int, fd: int) -> None:
             link.send(b"?")
 
 
-if __name__ == "__main__":  # python -m gshade.io.cad_zygote PARENT_PID SOCKET_FD
+if __name__ == "__main__":  # python -m gshade.cad.zygote PARENT_PID SOCKET_FD
     import numpy as np
 
-    from gshade.io import cad_zygote  # the module, not this __main__ copy of it
+    from gshade.cad import zygote as cad_zygote  # the module, not this __main__ copy
 
     np.seterr(all="ignore")
     cad_zygote._zygote_main(int(sys.argv[1]), int(sys.argv[2]))

@@ -2,7 +2,7 @@
 
 The kernel meshes the model's NURBS-converted shape (``CadModel.shape``) with
 ``BRepMesh_IncrementalMesh``: its nodes carry the converted faces' parameters (u, v), which
-are those of each :class:`~gshade.io.cad.CadFace`'s exact patch, and the nodes on an edge
+are those of each :class:`~gshade.cad.CadFace`'s exact patch, and the nodes on an edge
 shared by two faces are the same (bit-identical) in both.  Each face gets its own vertices:
 
 - interior nodes are placed at the exact surface point S(u, v) of the face's patch (the
@@ -27,8 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from .cad import CadModel, LeftOutFace
-from .cad_process import kernel_operation
+from .model import CadModel, LeftOutFace
+from .process import kernel_operation
 
 __all__ = ["FaceMesh", "mesh_faces"]
 
@@ -102,7 +102,7 @@ def mesh_faces(
         One line naming the file: no kernel shape, bad parameters, a face number out of
         range.
     """
-    from .cad_occt import _faces, _why
+    from .kernel import exception_text, shape_faces
 
     path = model.path
     if model.shape is None:
@@ -113,7 +113,7 @@ def mesh_faces(
         raise GshadeError(f"angle: expected a positive number of radians, got {angle!r}")
     shape: Any = model.shape
     numbers = model.kernel_numbers()
-    in_shape = _faces(shape)
+    in_shape = shape_faces(shape)
     if len(in_shape) != len(numbers):
         raise GshadeError(
             f"{path}: the kernel's shape has {len(in_shape)} faces for {len(numbers)}"
@@ -135,7 +135,9 @@ def mesh_faces(
             try:
                 _mesh(kernel_faces, [i], deflection, angle)
             except Exception as exc:
-                left_out[i] = LeftOutFace(i, f"the kernel's mesher failed ({_why(exc)})", MESHING)
+                left_out[i] = LeftOutFace(
+                    i, f"the kernel's mesher failed ({exception_text(exc)})", MESHING
+                )
     notes = []
     for i in chosen:  # a face the mesher left empty: alone, at other deflections
         if i not in left_out and not _triangles(kernel_faces[i]):
@@ -154,7 +156,7 @@ def mesh_faces(
         except GshadeError as exc:
             left_out[i] = LeftOutFace(i, str(exc), MESHING)
         except Exception as exc:
-            left_out[i] = LeftOutFace(i, f"the kernel failed ({_why(exc)})", MESHING)
+            left_out[i] = LeftOutFace(i, f"the kernel failed ({exception_text(exc)})", MESHING)
     # every face's nodes on its exact surface at once, at the node's own (u, v), past the
     # domain too (a trim straying by a tolerance): the end pieces continued, as the kernel
     # evaluates (and the edge measures); points and speeds
@@ -251,7 +253,7 @@ def _mesh(kernel_faces: dict, chosen: list[int], deflection: float, angle: float
 
 def _face_nodes(face: Any, cad: Any) -> tuple:
     """One face's triangulation: its nodes (n, 3), their uv in the face's patch's parameters
-    (:meth:`gshade.io.cad.CadFace.to_patch`), its triangles (m, 3, oriented with the face)
+    (:meth:`gshade.cad.CadFace.to_patch`), its triangles (m, 3, oriented with the face)
     and which nodes lie on its boundary."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_REVERSED

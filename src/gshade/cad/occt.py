@@ -37,12 +37,13 @@ from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
+from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
-from .cad import CadFace, CadModel, LeftOutFace, arc_map, faces_bounds, no_usable_face, usable
-from .cad_healing import HEALING, heal, shape_faces
-from .cad_quadrics import analytic_patch, builds
-from .files import read_bytes
+from .healing import HEALING, heal
+from .kernel import exception_text, shape_faces
+from .model import CadFace, CadModel, LeftOutFace, arc_map, faces_bounds, no_usable_face, usable
+from .quadrics import analytic_patch, builds
 from .step_accuracy import step_uncertainty
 
 __all__ = ["LOOP_TOLERANCE", "read"]
@@ -70,7 +71,7 @@ _NAMES |= {".igs": "an IGES file", ".brep": "a BREP file"}
 
 
 def read(path: str | Path, sew: bool | None = None, tolerance: float | None = None) -> CadModel:
-    """Read a STEP, IGES or BREP file into exact faces (see :func:`gshade.io.cad.read_cad`).
+    """Read a STEP, IGES or BREP file into exact faces (see :func:`gshade.cad.read_cad`).
 
     Raises
     ------
@@ -83,7 +84,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         raise GshadeError(f"{path}: expected a STEP, IGES or BREP file, got {ext or '(none)'!r}")
     _check_file(path, ext)
     shape, unit = _read_shape(path, ext)
-    faces = _faces(shape)
+    faces = shape_faces(shape)
     if not faces:
         raise GshadeError(
             f"{path}: holds no surfaces (only wireframe, point or mesh entities, or nothing)"
@@ -114,7 +115,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         converted, nurbs = shape, faces
     else:
         converted = _converted(shape, path)
-        nurbs = _faces(converted)
+        nurbs = shape_faces(converted)
     if len(nurbs) != len(faces):
         raise GshadeError(f"{path}: the NURBS conversion gave {len(nurbs)} faces for {len(faces)}")
     out = []
@@ -127,7 +128,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             left_out[index] = LeftOutFace(index, str(exc), "reading its surface and trims")
         except Exception as exc:
             left_out[index] = LeftOutFace(
-                index, f"the kernel failed ({_why(exc)})", "reading its surface and trims"
+                index, f"the kernel failed ({exception_text(exc)})", "reading its surface and trims"
             )
     if not out:
         raise no_usable_face(path, [left_out[i] for i in sorted(left_out)])
@@ -142,12 +143,6 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         left_out=[left_out[i] for i in sorted(left_out)],
         notes=healing.changes,
     )
-
-
-def _why(exc: BaseException) -> str:
-    """An OCP exception in a few words (they often carry no message)."""
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
 
 
 def _check_file(path: Path, ext: str) -> None:
@@ -198,7 +193,9 @@ def _read_shape(path: Path, ext: str) -> tuple[TopoDS_Shape, str]:
     except GshadeError:
         raise
     except Exception as exc:
-        raise GshadeError(f"{path}: the kernel could not read the file ({_why(exc)})") from None
+        raise GshadeError(
+            f"{path}: the kernel could not read the file ({exception_text(exc)})"
+        ) from None
     return _nonempty(shape, path, ""), "mm"
 
 
@@ -211,9 +208,6 @@ def _nonempty(shape: TopoDS_Shape | None, path: Path, said: str) -> TopoDS_Shape
     if shape.IsNull():
         raise GshadeError(f"{path}: holds no shapes the kernel can transfer")
     return shape
-
-
-_faces = shape_faces  # the shape's faces in the kernel's traversal order
 
 
 def _has_free_faces(shape: TopoDS_Shape) -> bool:
@@ -240,7 +234,7 @@ def _sew(shape: TopoDS_Shape, path: Path, tolerance: float) -> TopoDS_Shape:
             sewing.Perform()
             sewn = sewing.SewedShape()
     except Exception as exc:
-        raise GshadeError(f"{path}: sewing the faces failed ({_why(exc)})") from None
+        raise GshadeError(f"{path}: sewing the faces failed ({exception_text(exc)})") from None
     return shape if sewn.IsNull() else sewn
 
 
@@ -254,7 +248,9 @@ def _rough_bounds(
         BRepBndLib.Add_s(shape, box, False)
         lo, hi = box.CornerMin(), box.CornerMax()
     except Exception as exc:
-        raise GshadeError(f"{path}: the kernel could not bound the model ({_why(exc)})") from None
+        raise GshadeError(
+            f"{path}: the kernel could not bound the model ({exception_text(exc)})"
+        ) from None
     return np.array([lo.X(), lo.Y(), lo.Z()]), np.array([hi.X(), hi.Y(), hi.Z()])
 
 
@@ -306,14 +302,14 @@ def _converted(shape: TopoDS_Shape, path: Path) -> TopoDS_Shape:
             return BRepBuilderAPI_NurbsConvert(shape, True).Shape()
     except Exception as exc:
         raise GshadeError(
-            f"{path}: the kernel could not convert the faces to NURBS ({_why(exc)})"
+            f"{path}: the kernel could not convert the faces to NURBS ({exception_text(exc)})"
         ) from None
 
 
 def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
     """One face: its kind (from the original), patch, box and loops (from the converted,
     or, with ``own``, from the original itself (``conv``): then planes and quadrics are built by
-    :func:`gshade.io.cad_quadrics.analytic_patch`, B-spline and Bezier surfaces taken as
+    :func:`gshade.cad.quadrics.analytic_patch`, B-spline and Bezier surfaces taken as
     they are)."""
     kind = _kind(face)
     u0, u1, v0, v1 = BRepTools.UVBounds_s(conv)

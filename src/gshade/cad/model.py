@@ -1,0 +1,247 @@
+"""CAD models (STEP, IGES, BREP, Rhino 3dm) as exact faces: the data model.
+
+A model is a list of faces, each an exact NURBS surface (the kernel's own B-spline form, or
+the exact rational form of a plane, cylinder, cone, sphere, torus, surface of revolution or
+extrusion) with the parameter box of its trimmed region and its trimming loops.  The readers
+(:mod:`gshade.cad.readers`, by file extension) make them: :mod:`gshade.cad.occt` (Open
+CASCADE through cadquery-ocp: ``.step .stp .iges .igs .brep``) and :mod:`gshade.cad.rhino`
+(openNURBS through rhino3dm: ``.3dm``); both are an optional dependency
+(``pip install "gshade[cad]"``).
+"""
+
+from __future__ import annotations
+
+import bisect
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import GshadeError
+from ..geometry.bspline import BSplinePatch
+
+__all__ = [
+    "CadFace",
+    "CadModel",
+    "LeftOutFace",
+    "arc_map",
+    "faces_bounds",
+    "no_usable_face",
+    "strict_refusal",
+    "trimmed_points",
+    "usable",
+]
+
+
+@dataclass
+class CadFace:
+    """One face of a model, exact.
+
+    Attributes
+    ----------
+    index : int
+        The face's number in the model (0-based, in the kernel's traversal order).
+    kind : str
+        The kernel's surface type: ``"bspline"``, ``"bezier"``, ``"plane"``, ``"cylinder"``,
+        ``"cone"``, ``"sphere"``, ``"torus"``, ``"revolution"``, ``"extrusion"``,
+        ``"offset"``, ``"other"``.
+    patch : BSplinePatch
+        The surface in NURBS form over its whole knot domain; the face uses ``box`` of it.
+    box : ((u0, u1), (v0, v1))
+        The parameter box of the face (its trimming loops lie inside).
+    reversed : bool
+        True when the face's outward normal is -(p_u x p_v) (a ``TopAbs_REVERSED`` face).
+    exact : bool
+        True when ``patch`` is the surface itself; False for an approximation within
+        ``error`` (model units).
+    error : float
+        The largest distance between ``patch`` and the kernel's surface (0 when exact).
+    loops : list of ndarray (n, 2)
+        Trimming loops in (u, v), the outer loop first, then the holes; each closed polyline
+        (last point = first) within ``loop_tolerance`` of the exact trimming curve.
+    loop_tolerance : float
+        How far (in parameter units) the loops' polylines may lie from the exact curves.
+    trimmed : bool
+        False when the face is its whole parameter box.
+    arcs : ((a0, a1) or None, (b0, b1) or None)
+        Per parameter, the angle range when the kernel's parameter is an angle (cylinders,
+        cones, spheres, tori read without the kernel's NURBS conversion) and ``patch`` runs
+        along it as :func:`gshade.geometry.revolution.arc`; None when the kernel's parameter
+        is the patch's.  :meth:`to_patch` maps the kernel's (u, v) (its mesh, its trimming
+        curves) to the patch's.
+    """
+
+    index: int
+    kind: str
+    patch: BSplinePatch
+    box: tuple[tuple[float, float], tuple[float, float]]
+    reversed: bool = False
+    exact: bool = True
+    error: float = 0.0
+    loops: list[NDArray[np.float64]] = field(default_factory=list)
+    loop_tolerance: float = 0.0
+    trimmed: bool = False
+    arcs: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
+
+    def to_patch(self, uv: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The patch's parameters (n, 2) of the kernel's (u, v) (n, 2) (:func:`arc_map`)."""
+        return arc_map(uv, self.arcs)
+
+    @property
+    def inner_loops(self) -> int:
+        """The number of holes (loops after the outer one)."""
+        return max(len(self.loops) - 1, 0)
+
+
+@dataclass(frozen=True)
+class LeftOutFace:
+    """A face of a model that is not rendered: its number (as ``gshade info`` lists the
+    model's faces), what is wrong with it and what was tried.
+
+    Examples
+    --------
+    >>> LeftOutFace(3, "a trimming wire intersects itself", "the kernel's healing").line()
+    "face 3 left out: a trimming wire intersects itself (tried: the kernel's healing)"
+    """
+
+    index: int
+    why: str
+    tried: str
+
+    def line(self) -> str:
+        """The one line said about the face: ``face N left out: WHY (tried: TRIED)``."""
+        return f"face {self.index} left out: {self.why} (tried: {self.tried})"
+
+
+def no_usable_face(path: str | os.PathLike, left_out: list[LeftOutFace]) -> GshadeError:
+    """The error of a model whose faces are all left out (``left_out``, in order)."""
+    return GshadeError(f"{path}: no usable face ({len(left_out)} left out; {left_out[0].line()})")
+
+
+def strict_refusal(path: str | os.PathLike, left_out: list[LeftOutFace]) -> GshadeError:
+    """The error of a strict ``cad`` surface that leaves faces out (``left_out``, in
+    order): the first one named, the others counted."""
+    more = f", and {len(left_out) - 1} more faces" if len(left_out) > 1 else ""
+    return GshadeError(f"{path}: {left_out[0].line()}{more} (strict: every face must be rendered)")
+
+
+@dataclass
+class CadModel:
+    """A CAD file's faces, its length unit (e.g. ``"mm"``) and bounding box (lo, hi) (of
+    the trimmed faces, sampled: :func:`faces_bounds`).
+
+    ``faces`` are the faces gshade renders, in the file's order, each with its number
+    (``CadFace.index``); ``left_out`` the faces it cannot use (still invalid after the
+    kernel's healing, or failing to convert or evaluate: :class:`LeftOutFace`), and
+    ``notes`` what the reader changed or passed over, a line each (the kernel's healing,
+    sewing undone, objects hidden in Rhino).  ``shape`` is the kernel's
+    shape, whose faces are all of them, face ``i`` the ``i``-th (STEP, IGES, BREP: as read and
+    healed, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
+    rebuilt from the file's B-rep), or the :class:`~gshade.cad.process.KernelProcess`
+    that holds it (a model read ``isolated``); ``kernel_faces`` the numbers of the shape's
+    faces in its order where it lacks some (a .3dm face the kernel could not build), None
+    where face ``i`` is its ``i``-th (:meth:`kernel_numbers`).  ``precision`` is the distance
+    accuracy the file declares (a STEP file's global uncertainty, model units; 0 where none is
+    declared).
+    """
+
+    path: Path
+    faces: list[CadFace]
+    unit: str
+    bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
+    shape: object | None = None
+    precision: float = 0.0
+    left_out: list[LeftOutFace] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    kernel_faces: tuple[int, ...] | None = None
+
+    def kernel_numbers(self) -> tuple[int, ...]:
+        """The face numbers of the kernel shape's faces, in its order."""
+        if self.kernel_faces is not None:
+            return self.kernel_faces
+        return tuple(range(self.face_count))
+
+    @property
+    def face_count(self) -> int:
+        """The number of faces in the file (rendered and left out)."""
+        return len(self.faces) + len(self.left_out)
+
+    def face(self, index: int) -> CadFace:
+        """The face numbered ``index`` (a KeyError when it is left out or out of range);
+        ``faces`` are in the order of their numbers."""
+        k = bisect.bisect_left(self.faces, index, key=lambda face: face.index)
+        if k < len(self.faces) and self.faces[k].index == index:
+            return self.faces[k]
+        raise KeyError(index)
+
+    def reason_left_out(self, index: int) -> LeftOutFace | None:
+        """The face ``index``'s :class:`LeftOutFace`, or None when it is rendered."""
+        return next((f for f in self.left_out if f.index == index), None)
+
+
+def arc_map(
+    uv: NDArray[np.float64],
+    arcs: tuple[tuple[float, float] | None, tuple[float, float] | None],
+) -> NDArray[np.float64]:
+    """Kernel parameters (n, 2) as a patch's whose parameters run along exact rational arcs
+    (``arcs``: per parameter its angle range, or None where the kernel's parameter is the
+    patch's): exact, the same point of the surface
+    (:func:`gshade.geometry.revolution.arc_parameters` along angles)."""
+    if arcs == (None, None):
+        return uv
+    from ..geometry.revolution import arc_parameters
+
+    out = np.array(uv, dtype=np.float64)
+    for d, span in enumerate(arcs):
+        if span is not None:
+            out[:, d] = arc_parameters(out[:, d], *span)
+    return out
+
+
+def trimmed_points(
+    face: CadFace, n: int = 17, loop_points: int | None = None
+) -> NDArray[np.float64]:
+    """Points (m, 3) of a face's trimmed region, standing for its extent: the points of its
+    loops (at most ``loop_points`` a loop, default 4 n; all with 0) and of the n x n grid of
+    its box that lie inside them (an odd number of loops around; the box's grid for a face
+    without loops)."""
+    from matplotlib.path import Path as Polygon
+
+    (u0, u1), (v0, v1) = face.box
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    grid = np.stack([u.ravel(), v.ravel()], -1)
+    if face.loops:
+        around = sum(Polygon(loop).contains_points(grid).astype(int) for loop in face.loops)
+        most = 4 * n if loop_points is None else loop_points
+        edges = [loop[:: max(1, len(loop) // most)] if most else loop for loop in face.loops]
+        grid = np.concatenate([grid[np.asarray(around) % 2 == 1], *edges])
+    (a0, a1), (b0, b1) = face.patch.domain
+    return np.asarray(
+        face.patch(np.clip(grid[:, 0], a0, a1), np.clip(grid[:, 1], b0, b1)), float
+    ).reshape(-1, 3)
+
+
+def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The bounding box (lo, hi) of the faces' trimmed regions, from their
+    :func:`trimmed_points` (points on the exact surfaces: tight up to the sampling)."""
+    points = np.concatenate([trimmed_points(face, 65, 0) for face in faces])
+    return points.min(axis=0), points.max(axis=0)
+
+
+def usable(face: CadFace, n: int = 5) -> CadFace:
+    """The face, checked to evaluate to finite points and first derivatives at an n x n
+    grid of its box; a GshadeError saying what does not (the reader leaves it out)."""
+    (u0, u1), (v0, v1) = face.box
+    if not all(np.isfinite(x) for x in (u0, u1, v0, v1)) or u1 <= u0 or v1 <= v0:
+        raise GshadeError(f"its parameter box {face.box} is empty or not finite")
+    (a0, a1), (b0, b1) = face.patch.domain
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    with np.errstate(all="ignore"):
+        d = np.asarray(
+            face.patch.derivatives(np.clip(u.ravel(), a0, a1), np.clip(v.ravel(), b0, b1), 1)
+        )
+    if not np.isfinite(d).all():
+        raise GshadeError("its surface does not evaluate to finite points (NaN or infinity)")
+    return face
