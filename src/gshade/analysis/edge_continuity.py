@@ -559,12 +559,8 @@ def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine
 
 
 def scene_diagonal(scene) -> float:
-    """The scene's size: CAD models' bounding boxes and the other patches' 9 x 9 grids."""
-    points = []
-    for surface in scene.surfaces:
-        if surface.cad is not None:
-            points.extend(surface.cad.model.bounds)
-        else:
-            points.extend(p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in surface.patches)
-    pts = np.vstack([np.atleast_2d(p) for p in points])
+    """The scene's size: the diagonal of its surfaces' size points
+    (:meth:`gshade.scene.bodies.SurfaceBody.size_points`: CAD models' bounding boxes, the
+    other patches' 9 x 9 grids)."""
+    pts = np.vstack([s.body.size_points(s.patches) for s in scene.surfaces])
     return float(np.linalg.norm(np.ptp(pts, axis=0)))

@@ -122,8 +122,8 @@ def info(args: argparse.Namespace) -> int:
             kinds[label] = kinds.get(label, 0) + 1
         summary = ", ".join(f"{n} x {label}" for label, n in kinds.items())
         say(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
-        if surface.cad is not None:
-            _print_cad_faces(surface.cad)
+        for line in surface.body.info_lines():
+            say(f"    {line}")
     points = []
     irregular = []
     for index, patch in enumerate(scene.patches):
@@ -149,34 +149,6 @@ def info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_cad_faces(cad) -> None:
-    """A CAD model's unit and bounding box, and per face chosen: its surface kind, exact or
-    approximated (with the error), degrees, rational, trimmed, inner loops; or why it is
-    left out."""
-    model = cad.model
-    lo, hi = model.bounds
-    lost = f" ({len(model.left_out)} left out)" if model.left_out else ""
-    say(
-        f"    model: {model.face_count} faces{lost}, unit {model.unit}, bounding box "
-        f"[{', '.join(f'{x:.6g}' for x in lo)}] .. [{', '.join(f'{x:.6g}' for x in hi)}]"
-    )
-    say(f"    {'face':>5}  {'kind':<10}  {'exact':<16}  degree   rational  trimmed  holes")
-    left_out = {face.index: face for face in cad.left_out}
-    for i in sorted([*cad.faces, *left_out]):
-        if i in left_out:
-            face = left_out[i]
-            say(f"    {i:>5}  left out: {face.why} (tried: {face.tried})")
-            continue
-        face = model.face(i)
-        exact = "exact" if face.exact else f"approx {face.error:.2g} {model.unit}"
-        degree = f"{face.patch.degree[0]}x{face.patch.degree[1]}"
-        say(
-            f"    {i:>5}  {face.kind:<10}  {exact:<16}  {degree:<7}  "
-            f"{'yes' if face.patch.rational else 'no':<8}  "
-            f"{'yes' if face.trimmed else 'no':<7}  {face.inner_loops}"
-        )
-
-
 def _parse_pair(text: str) -> tuple[int, str, int, str]:
     """'0:u1,1:u0' -> (0, 'u1', 1, 'u0')."""
     try:
@@ -193,9 +165,8 @@ def continuity(args: argparse.Namespace) -> int:
     """``gshade continuity``: every junction's measurements and class, as a table or JSON."""
     import json
 
-    import numpy as np
-
     from ..analysis.continuity import Tolerances, continuity_report, validate_samples
+    from ..analysis.edge_continuity import scene_diagonal
     from ..scene import load_scene
 
     validate_samples(args.samples)  # before the scene (and a CAD file) is read
@@ -204,15 +175,8 @@ def continuity(args: argparse.Namespace) -> int:
     patches = list(scene.patches)
     cad = any(s.cad is not None for s in scene.surfaces)
     unmeasured: list[dict] = []
-    if cad:
-        from ..analysis.edge_continuity import scene_diagonal
-
-        diagonal = scene_diagonal(scene)
-    else:
-        pts = np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
-        diagonal = float(np.linalg.norm(np.ptp(pts, axis=0)))
     tol = Tolerances.for_size(
-        diagonal, g0=args.tol_g0, g1=args.tol_g1, g2=args.tol_g2, g3=args.tol_g3
+        scene_diagonal(scene), g0=args.tol_g0, g1=args.tol_g1, g2=args.tol_g2, g3=args.tol_g3
     )
     pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
     if cad and pairs:

@@ -94,10 +94,8 @@ def render(scene, **overrides) -> RenderedImage:
     functions, mapped = shape_functions(scene.shape)
     tex = shape_textures(scene.patches, atlas, functions)
     region = None
-    if any(s.cad is not None for s in scene.surfaces):  # ranges from the trimmed regions
-        trimmed = np.concatenate(
-            [np.full(len(s.patches), s.cad is not None) for s in scene.surfaces]
-        )
+    trimmed = np.concatenate([np.full(len(s.patches), s.body.trimmed) for s in scene.surfaces])
+    if trimmed.any():  # ranges from the trimmed regions
         region = trimmed_region(atlas, mesh.patch, mesh.params, trimmed)
     style = display_style(scene.shape, mapped, tex, region)
     lap("textures")
@@ -222,12 +220,21 @@ def _exact_functions(scene, settings, functions) -> dict:
 
 
 def _length_unit(scene) -> str:
-    """The scene's length unit: its CAD models' (all one, e.g. ``"mm"``) when every surface
-    is a CAD model's, else ``"length"`` (control points carry no unit)."""
-    units = {s.cad.model.unit if s.cad is not None else None for s in scene.surfaces}
-    if len(units) == 1 and None not in units and "unknown" not in units:
+    """The scene's length unit: its surfaces' (all one, e.g. ``"mm"``,
+    :attr:`gshade.scene.bodies.SurfaceBody.length_unit`), else ``"length"`` (control
+    points carry no unit)."""
+    units = {s.body.length_unit for s in scene.surfaces}
+    if len(units) == 1 and None not in units:
         return str(units.pop())
     return "length"
+
+
+def _patch_label(scene) -> str:
+    """What the ``patch`` channel numbers: the surfaces' own word for a patch
+    (:attr:`gshade.scene.bodies.SurfaceBody.patch_label`) where they all have one,
+    ``"face"`` on CAD models), else ``"patch"``."""
+    labels = {s.body.patch_label for s in scene.surfaces}
+    return labels.pop() if len(labels) == 1 else "patch"
 
 
 #: Points per B-rep edge drawn as a junction line.
@@ -311,15 +318,15 @@ def cad_notes(scene, meshed=()) -> list:
     """What the readers of the scene's CAD models noted (``CadModel.notes``: the healing,
     sewing undone, objects passed over) and ``meshed``, the mesher's notes: (model path,
     line) each, a model's once."""
-    models = {s.cad.model.path: s.cad.model for s in scene.surfaces if s.cad is not None}
-    return [(path, line) for path, model in models.items() for line in model.notes] + list(meshed)
+    said = dict.fromkeys(note for s in scene.surfaces for note in s.body.notes())  # once
+    return list(said) + list(meshed)
 
 
 def left_out_faces(scene, unmeshed=()) -> list:
     """The CAD faces a render of ``scene`` leaves out, (model path, LeftOutFace) each in
     order: those the scene's ``cad`` surfaces left out (:attr:`CadFaces.left_out`) and
     ``unmeshed``, those the mesher left without triangles."""
-    found = [(s.cad.model.path, face) for s in scene.surfaces if s.cad for face in s.cad.left_out]
+    found = [pair for s in scene.surfaces for pair in s.body.left_out_lines()]
     return sorted([*found, *unmeshed], key=lambda pf: (str(pf[0]), pf[1].index))
 
 
@@ -353,7 +360,7 @@ def _metadata(
             sort_keys=True,
         ),
         "legend": legend_text,
-        "patch_channel": "face" if all(s.cad is not None for s in scene.surfaces) else "patch",
+        "patch_channel": _patch_label(scene),
         "length_unit": _length_unit(scene),
     }
 

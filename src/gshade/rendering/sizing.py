@@ -16,7 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry.patch_groups import grid_derivatives
 from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_budget, render_memory
 from .atlas import BLOCK
 from .camera import View, frame_view
@@ -92,36 +91,17 @@ def frame(scene, settings, where: str) -> Framing:
 
 
 def _patch_extents(scene):
-    """Per patch, a grid of points (a, b, 3) standing for the extent its tile covers: its
-    control net (a grid of its surface if it has none); for a CAD face, a 9 x 9 grid of the
-    surface over its box (the rational arcs' control points lie off the surface, overstating
-    it)."""
+    """Per patch, a grid of points (a, b, 3) standing for the extent its tile covers
+    (:meth:`gshade.scene.bodies.SurfaceBody.tile_extents`)."""
     for surface in scene.surfaces:
-        for p in surface.patches:
-            points = getattr(p, "points", None)
-            if surface.cad is None and points is not None and np.ndim(points) == 3:
-                yield np.asarray(points)
-            else:
-                n = 9 if surface.cad is not None else 5
-                yield np.asarray(p(*p.parameter_grid(n, n))).reshape(n, n, 3)
+        yield from surface.body.tile_extents(surface.patches)
 
 
 def extent_points(scene) -> NDArray:
-    """Points standing for the surfaces' extent: each patch's 17 x 17 grid, and for CAD
-    faces, which use part of their patch's box, the points of the trimmed region."""
-    grid = np.linspace(0.0, 1.0, 17)
-    if not any(s.cad is not None for s in scene.surfaces):
-        return grid_derivatives(scene.patches, grid)[:, 0, 0].reshape(-1, 3)
-    from ..cad import trimmed_points
-
-    points = []
-    for surface in scene.surfaces:
-        if surface.cad is None:
-            points.append(grid_derivatives(surface.patches, grid)[:, 0, 0].reshape(-1, 3))
-        else:
-            model = surface.cad.model
-            points.extend(trimmed_points(model.face(i)) for i in surface.cad.faces)
-    return np.concatenate(points)
+    """Points standing for the surfaces' extent
+    (:meth:`gshade.scene.bodies.SurfaceBody.extent_points`: a patch's 17 x 17 grid, a CAD
+    face's trimmed region)."""
+    return np.concatenate([s.body.extent_points(s.patches) for s in scene.surfaces])
 
 
 def _nearest_distance(view: View, lo: NDArray, hi: NDArray) -> float:

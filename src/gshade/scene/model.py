@@ -16,6 +16,7 @@ from ..geometry import Patch
 from ..limits import MIN_DIRECTION
 from ..runtime.variant import VARIANTS
 from ..shape.functions import SHAPE_FUNCTIONS
+from .bodies import PATCHES, CadFaces, SurfaceBody
 
 __all__ = [
     "CAMERA_TYPES",
@@ -40,34 +41,25 @@ CAMERA_TYPES = ("perspective", "orthographic")
 
 
 @dataclass(frozen=True)
-class CadFaces:
-    """What the render meshes a ``cad`` surface from: the model read
-    (:class:`gshade.cad.CadModel`, with the kernel's shape), the face numbers rendered
-    (one patch each, in order) and, per face, whether its patch has u and v swapped (a
-    reversed face, so that p_u x p_v points outward); the faces of those chosen that are
-    left out (:class:`gshade.cad.LeftOutFace`, by the reader or the scene) and whether
-    the surface is ``strict`` (a face left out is an error, also one the mesher leaves)."""
-
-    model: Any = field(repr=False)
-    faces: tuple[int, ...]
-    swapped: tuple[bool, ...]
-    left_out: tuple[Any, ...] = ()
-    strict: bool = False
-
-
-@dataclass(frozen=True)
 class Surface:
     """One ``[[surface]]``: its type, its patches and where it was defined.
 
     ``source`` is the location used in messages, e.g. ``scene.toml: [[surface]] 1 (newell)``.
     ``cad`` is set for the ``cad`` type only (None otherwise): its patches are the faces'
     untrimmed boxes, and the render meshes the trimmed faces from it instead of the grid.
+    ``body`` says what the patches stand for, whatever the type.
     """
 
     kind: str
     patches: tuple[Patch, ...] = field(repr=False)
     source: str
     cad: CadFaces | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def body(self) -> SurfaceBody:
+        """What the patches stand for (:mod:`gshade.scene.bodies`): the CAD model's faces
+        (``cad``), else patches exact over their domains."""
+        return PATCHES if self.cad is None else self.cad
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,192 @@
+"""What a surface's patches stand for: its *body*, one protocol that every kind of surface
+implements, so that sizing, the header, ``info`` and the analyses ask it rather than branch
+on kinds.
+
+Two bodies:
+
+- :data:`PATCHES`, patches exact over their whole domains (Bézier, B-spline, Coons,
+  subdivision, hole fillings …): their extent is their surface, they carry no unit, each
+  is a *patch*;
+- :class:`CadFaces`, the faces of a CAD model (:class:`gshade.cad.CadModel`), one patch
+  each over the face's box: their extent is the trimmed region, their unit the model's,
+  each is a *face*, and the model's reader may have noted things and left faces out.
+
+A body answers for the patches of its surface (``patches``, in order).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry import Patch
+from ..geometry.patch_groups import grid_derivatives
+
+__all__ = ["PATCHES", "CadFaces", "PatchBody", "SurfaceBody"]
+
+#: Per side, the samples of a patch's parameter grid standing for its extent.
+EXTENT_GRID = 17
+
+
+class SurfaceBody(Protocol):
+    """What a surface's patches stand for (see the module)."""
+
+    @property
+    def patch_label(self) -> str:
+        """What one patch is called in messages, tables and the EXR header
+        (``patch_channel``)."""
+        ...
+
+    @property
+    def trimmed(self) -> bool:
+        """Whether the patches overstate the surface (trimmed faces): a texture's automatic
+        range is then taken over the trimmed region only."""
+        ...
+
+    @property
+    def length_unit(self) -> str | None:
+        """The unit of the patches' coordinates (``"mm"`` …), None where none is known."""
+        ...
+
+    def extent_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
+        """Points (n, 3) standing for the surface's extent (the camera frames them)."""
+        ...
+
+    def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
+        """Per patch, a grid of points (a, b, 3) standing for what its texture tile covers."""
+        ...
+
+    def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
+        """Points (n, 3) whose box is the surface's size (its continuity tolerances')."""
+        ...
+
+    def notes(self) -> list[tuple[Any, str]]:
+        """What the reader noted: (file, line) each."""
+        ...
+
+    def left_out_lines(self) -> list[tuple[Any, Any]]:
+        """What is left out of the render: (file, :class:`gshade.cad.LeftOutFace`) each."""
+        ...
+
+    def info_lines(self) -> list[str]:
+        """What ``gshade info`` says of the body beyond its patches, a line each."""
+        ...
+
+
+@dataclass(frozen=True)
+class PatchBody:
+    """Patches exact over their whole domains (see the module)."""
+
+    patch_label: str = "patch"
+    trimmed: bool = False
+
+    @property
+    def length_unit(self) -> str | None:
+        return None
+
+    def extent_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
+        grid = np.linspace(0.0, 1.0, EXTENT_GRID)
+        return grid_derivatives(list(patches), grid)[:, 0, 0].reshape(-1, 3)
+
+    def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
+        """A patch's control net (its convex hull holds the patch), or a 5 x 5 grid of its
+        surface where it has none."""
+        for p in patches:
+            points = getattr(p, "points", None)
+            if points is not None and np.ndim(points) == 3:
+                yield np.asarray(points)
+            else:
+                yield np.asarray(p(*p.parameter_grid(5, 5))).reshape(5, 5, 3)
+
+    def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
+        return np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+
+    def notes(self) -> list[tuple[Any, str]]:
+        return []
+
+    def left_out_lines(self) -> list[tuple[Any, Any]]:
+        return []
+
+    def info_lines(self) -> list[str]:
+        return []
+
+
+#: The body of every surface that is not a CAD model's.
+PATCHES = PatchBody()
+
+
+@dataclass(frozen=True)
+class CadFaces:
+    """What a ``cad`` surface renders: the model read (:class:`gshade.cad.CadModel`, with
+    the kernel's shape), the face numbers rendered (one patch each, in order) and, per face,
+    whether its patch has u and v swapped (a reversed face, so that p_u x p_v points
+    outward); the faces of those chosen that are left out (:class:`gshade.cad.LeftOutFace`,
+    by the reader or the scene) and whether the surface is ``strict`` (a face left out is an
+    error, also one the mesher leaves).  Its patches are the faces' untrimmed boxes."""
+
+    model: Any = field(repr=False)
+    faces: tuple[int, ...]
+    swapped: tuple[bool, ...]
+    left_out: tuple[Any, ...] = ()
+    strict: bool = False
+    patch_label: str = field(default="face", init=False)
+    trimmed: bool = field(default=True, init=False)
+
+    @property
+    def length_unit(self) -> str | None:
+        unit = self.model.unit
+        return None if unit in (None, "unknown") else str(unit)
+
+    def extent_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
+        """The points of the faces' trimmed regions (:func:`gshade.cad.trimmed_points`)."""
+        from ..cad import trimmed_points
+
+        return np.concatenate([trimmed_points(self.model.face(i)) for i in self.faces])
+
+    def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
+        """A 9 x 9 grid of each face's surface over its box (the rational arcs' control
+        points lie off the surface, overstating it)."""
+        for p in patches:
+            yield np.asarray(p(*p.parameter_grid(9, 9))).reshape(9, 9, 3)
+
+    def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
+        """The corners of the model's bounding box."""
+        return np.atleast_2d(np.asarray(self.model.bounds, dtype=np.float64))
+
+    def notes(self) -> list[tuple[Any, str]]:
+        return [(self.model.path, line) for line in self.model.notes]
+
+    def left_out_lines(self) -> list[tuple[Any, Any]]:
+        return [(self.model.path, face) for face in self.left_out]
+
+    def info_lines(self) -> list[str]:
+        """The model's unit and bounding box, and per face chosen: its surface kind, exact
+        or approximated (with the error), degrees, rational, trimmed, inner loops; or why
+        it is left out."""
+        model = self.model
+        lo, hi = model.bounds
+        lost = f" ({len(model.left_out)} left out)" if model.left_out else ""
+        lines = [
+            f"model: {model.face_count} faces{lost}, unit {model.unit}, bounding box "
+            f"[{', '.join(f'{x:.6g}' for x in lo)}] .. [{', '.join(f'{x:.6g}' for x in hi)}]",
+            f"{'face':>5}  {'kind':<10}  {'exact':<16}  degree   rational  trimmed  holes",
+        ]
+        left_out = {face.index: face for face in self.left_out}
+        for i in sorted([*self.faces, *left_out]):
+            if i in left_out:
+                face = left_out[i]
+                lines.append(f"{i:>5}  left out: {face.why} (tried: {face.tried})")
+                continue
+            face = model.face(i)
+            exact = "exact" if face.exact else f"approx {face.error:.2g} {model.unit}"
+            degree = f"{face.patch.degree[0]}x{face.patch.degree[1]}"
+            lines.append(
+                f"{i:>5}  {face.kind:<10}  {exact:<16}  {degree:<7}  "
+                f"{'yes' if face.patch.rational else 'no':<8}  "
+                f"{'yes' if face.trimmed else 'no':<7}  {face.inner_loops}"
+            )
+        return lines
