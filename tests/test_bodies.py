@@ -57,13 +57,19 @@ def test_a_cad_model_stands_for_its_trimmed_faces(tmp_path):
     assert all(" plane " in line for line in lines[2:])
 
 
-def test_sizing_asks_the_body():
-    """Sizing (the frame, the tiles) has no branch on a surface's kind."""
-    source = Path(gshade.__file__).parent / "rendering" / "sizing.py"
+@pytest.mark.parametrize(
+    "module",
+    [
+        "rendering/sizing.py",
+        "rendering/pipeline.py",
+        "rendering/surface_meshes.py",
+        "app/commands.py",
+    ],
+)
+def test_the_pipeline_asks_the_body(module):
+    """Sizing, the pipeline, the meshing and the commands have no branch on a surface's
+    kind: they ask its body (or a registry by body)."""
+    source = Path(gshade.__file__).parent / module
     tree = ast.parse(source.read_text(encoding="utf-8"))
-    kinds = [
-        n.lineno
-        for n in ast.walk(tree)
-        if isinstance(n, ast.Attribute) and n.attr in ("cad", "kind")
-    ]
-    assert not kinds, f"sizing.py reads a surface's kind at lines {kinds}"
+    kinds = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Attribute) and n.attr == "cad"]
+    assert not kinds, f"{module} reads a surface's cad at lines {kinds}"

@@ -21,7 +21,7 @@ from types import SimpleNamespace
 import pytest
 
 from gshade import GshadeError
-from gshade.analysis import edge_continuity
+from gshade.analysis import edge_continuity, scene_junctions
 from gshade.analysis.continuity import MAX_SAMPLES, continuity_report, validate_samples
 from gshade.app.cli import main
 from gshade.geometry import sphere
@@ -68,7 +68,7 @@ def test_cad_edges_refuse_bad_samples_before_the_kernel(samples, monkeypatch):
     cad = SimpleNamespace(cad=SimpleNamespace(model=model, faces=[0]), patches=[], source="x")
     scene = SimpleNamespace(surfaces=[cad], patches=[])
     with pytest.raises(GshadeError, match=rf"^samples: expected 1 to 4096, got {samples}$"):
-        edge_continuity.scene_continuity(scene, samples=samples, tolerances=object())
+        scene_junctions.scene_continuity(scene, samples=samples, tolerances=object())
     with pytest.raises(GshadeError, match=rf"^samples: expected 1 to 4096, got {samples}$"):
         continuity_report([sphere(1.0)], samples=samples)
 

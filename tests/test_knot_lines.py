@@ -308,7 +308,7 @@ def _sheet():
 
 
 def _knot_lines(path: Path) -> dict[float, object]:
-    from gshade.analysis.edge_continuity import scene_continuity
+    from gshade.analysis.scene_junctions import scene_continuity
     from gshade.scene import load_scene
 
     report, _ = scene_continuity(load_scene(path))

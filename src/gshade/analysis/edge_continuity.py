@@ -30,11 +30,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
 from ..geometry.knots import find_spans
 from ..geometry.patch import Patch
-from .continuity import Junction, Tolerances, classify, continuity_report, validate_samples
+from .continuity import Junction, Tolerances, classify, validate_samples
 from .junction_measures import (
     SideGeometry,
     centred,
@@ -44,16 +43,12 @@ from .junction_measures import (
     side_derivatives,
     side_geometry,
 )
-from .knot_lines import cad_knot_lines
 
 __all__ = [
     "EdgeLine",
     "edge_report",
     "inside_pieces",
     "inside_spans",
-    "scene_continuity",
-    "scene_diagonal",
-    "unmeasured_edges",
 ]
 
 
@@ -462,105 +457,3 @@ def _rescaled(d: NDArray, error: NDArray, old: tuple, new: tuple) -> tuple[NDArr
     power = np.arange(d.shape[0])
     factor = (old[0] / new[0]) ** power[:, None] * (old[1] / new[1]) ** power[None, :]
     return d * factor[:, :, None, None], error * factor[:, :, None]
-
-
-def scene_continuity(
-    scene,
-    *,
-    samples: int = 32,
-    tolerances: Tolerances | None = None,
-    lines: int = 0,
-) -> tuple[list[Junction], list[EdgeLine]]:
-    """The continuity report of a scene: the junctions of its patches (not CAD faces), with
-    their knot lines, and the B-rep edges of each ``cad`` surface, then its faces' knot
-    lines (:mod:`gshade.analysis.knot_lines`: numbered and drawn like the edges).
-
-    Patch junctions number the scene's patches; edge rows the faces of their model.  With
-    ``lines`` > 0, each edge also comes as an :class:`EdgeLine` with its parameter curves
-    sampled at ``lines`` points, for drawing.  ``samples`` is checked once, before any
-    junction or edge is sampled (:func:`~gshade.analysis.continuity.validate_samples`).
-    """
-    samples = validate_samples(samples)
-    surfaces = scene.surfaces
-    tol = tolerances or Tolerances.for_size(scene_diagonal(scene))
-    starts = np.cumsum([0] + [len(s.patches) for s in surfaces])
-    grid = [
-        i
-        for s, a in zip(surfaces, starts, strict=False)
-        if s.cad is None
-        for i in range(a, a + len(s.patches))
-    ]
-    out: list[Junction] = []
-    drawn: list[EdgeLine] = []
-    if grid:
-        patches = [scene.patches[i] for i in grid]
-        for j in continuity_report(patches, samples=samples, tolerances=tol):
-            out.append(replace(j, patches=(grid[j.patches[0]], grid[j.patches[1]])))
-    for surface, start in zip(surfaces, starts, strict=False):
-        if surface.cad is None:
-            continue
-        cad = surface.cad
-        try:
-            report, _ = edge_report(cad.model, list(cad.faces), samples=samples, tolerances=tol)
-            if lines:
-                drawn.extend(_lines(cad, int(start), report, lines))
-            knots, knot_lines = cad_knot_lines(
-                cad, int(start), samples=samples, tolerances=tol, lines=lines
-            )
-            report = report + knots
-            drawn.extend(knot_lines)
-        except GshadeError as exc:
-            raise GshadeError(f"{surface.source}: {exc}") from None
-        out.extend(report)
-    return out, drawn
-
-
-def unmeasured_edges(scene) -> list[dict]:
-    """The B-rep edges between a face that a ``cad`` surface of the scene renders and one it
-    leaves out (:attr:`gshade.scene.model.CadFaces.left_out`), whose continuity is not
-    measured: ``{"file", "edge", "faces": [face, left-out face], "why"}`` each, ``why`` the
-    left-out face's line (:meth:`gshade.cad.LeftOutFace.line`)."""
-    from ..cad.edges import edges_to_left_out
-
-    out: list[dict] = []
-    for surface in scene.surfaces:
-        cad = surface.cad
-        if cad is None or not cad.left_out:
-            continue
-        lost = {face.index: face for face in cad.left_out}
-        try:
-            edges = edges_to_left_out(cad.model, list(cad.faces), list(lost))
-        except GshadeError as exc:
-            raise GshadeError(f"{surface.source}: {exc}") from None
-        out.extend(
-            {"file": cad.model.path.name, "edge": e, "faces": [i, j], "why": lost[j].line()}
-            for e, i, j in edges
-        )
-    return out
-
-
-def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine]:
-    """The measured edges' parameter curves in the scene patches' (u, v), densely."""
-    from ..cad.edges import CadEdge, shared_edges
-
-    place = {face: start + k for k, face in enumerate(cad.faces)}
-    dense: dict[tuple[int | None, tuple[int, int]], CadEdge] = {
-        (e.index, e.faces): e for e in shared_edges(cad.model, lines, list(cad.faces))
-    }
-    out = []
-    for j in report:
-        edge = dense[(j.edge, j.patches)]
-        curves = []
-        for face, uv in zip(edge.faces, edge.uv, strict=True):
-            k = place[face]
-            curves.append((k, uv[:, ::-1] if cad.swapped[k - start] else uv))
-        out.append(EdgeLine(j.cls, curves))
-    return out
-
-
-def scene_diagonal(scene) -> float:
-    """The scene's size: the diagonal of its surfaces' size points
-    (:meth:`gshade.scene.bodies.SurfaceBody.size_points`: CAD models' bounding boxes, the
-    other patches' 9 x 9 grids)."""
-    pts = np.vstack([s.body.size_points(s.patches) for s in scene.surfaces])
-    return float(np.linalg.norm(np.ptp(pts, axis=0)))

@@ -80,7 +80,7 @@ def draw_junctions(
     width : float
         Line width in pixels (half of it on each side of the edge).
     edges : list of EdgeLine, optional
-        B-rep edges (:func:`gshade.analysis.edge_continuity.scene_continuity`): each drawn
+        B-rep edges (:func:`gshade.analysis.scene_junctions.scene_continuity`): each drawn
         along its parameter curves on its faces' pixels, at the pixel distance
         |J^-1 (c - (u, v))| to the nearest point c of the curve, J = d(u, v)/d(pixel) from
         the ``u`` and ``v`` channels; the junctions with ``edge`` set are drawn this way.

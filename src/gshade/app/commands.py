@@ -166,29 +166,26 @@ def continuity(args: argparse.Namespace) -> int:
     import json
 
     from ..analysis.continuity import Tolerances, continuity_report, validate_samples
-    from ..analysis.edge_continuity import scene_diagonal
+    from ..analysis.scene_junctions import scene_continuity, scene_diagonal, unmeasured_edges
     from ..scene import load_scene
 
     validate_samples(args.samples)  # before the scene (and a CAD file) is read
     scene = load_scene(args.scene, _scene_overrides(args), strict=args.strict)
     _tell(*_cad_notes(scene))
     patches = list(scene.patches)
-    cad = any(s.cad is not None for s in scene.surfaces)
     unmeasured: list[dict] = []
     tol = Tolerances.for_size(
         scene_diagonal(scene), g0=args.tol_g0, g1=args.tol_g1, g2=args.tol_g2, g3=args.tol_g3
     )
     pairs = [_parse_pair(text) for text in args.pair] if args.pair else None
-    if cad and pairs:
+    if pairs and any(s.body.patch_label != "patch" for s in scene.surfaces):
         raise GshadeError("--pair: names patch sides; a CAD scene's junctions are B-rep edges")
     try:
-        if cad:
-            from ..analysis.edge_continuity import scene_continuity, unmeasured_edges
-
+        if pairs:
+            report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
+        else:
             report, _ = scene_continuity(scene, samples=args.samples, tolerances=tol)
             unmeasured = unmeasured_edges(scene)
-        else:
-            report = continuity_report(patches, samples=args.samples, tolerances=tol, pairs=pairs)
     except GshadeError as exc:  # about a parameter (a flag), or about the scene's surfaces
         if parameter(str(exc)) is not None:
             raise

@@ -48,7 +48,8 @@ from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_sizes, validate_memory
 from .style import display_style, legend, shape_functions, trimmed_region
 from .supersampling import discontinuous_pixels, silhouette_pixels
-from .tessellate import TriangleMesh, join_meshes, tessellate, tessellate_faces
+from .surface_meshes import mesh_parts, planned_vertices
+from .tessellate import join_meshes
 from .textures import shape_textures
 
 __all__ = ["render"]
@@ -244,74 +245,30 @@ EDGE_LINE_POINTS = 256
 def _measure_junctions(scene, where: str):
     """The continuity report of the patches' junctions (:mod:`gshade.analysis.continuity`)
     and of the CAD surfaces' B-rep edges, with the edges' lines to draw (None without)."""
-    from ..analysis.continuity import continuity_report
-    from ..analysis.edge_continuity import scene_continuity
+    from ..analysis.scene_junctions import scene_continuity
 
     try:
-        if any(s.cad is not None for s in scene.surfaces):
-            return scene_continuity(scene, lines=EDGE_LINE_POINTS)
-        return continuity_report(list(scene.patches)), None
+        return scene_continuity(scene, lines=EDGE_LINE_POINTS)
     except GshadeError as exc:
         raise GshadeError(f"{where}: {exc}") from None
 
 
 def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
-    """The tessellation and the atlas layout, within the memory limit."""
-    patches = scene.patches
+    """The tessellation (each surface by its body's mesher,
+    :mod:`gshade.rendering.surface_meshes`) and the atlas layout, within the memory limit;
+    and what the meshers said: the faces left without triangles, (model path, LeftOutFace)
+    each, and their notes, (model path, line) each."""
     atlas = Atlas.for_tiles(tile_sizes(scene, framing))
-    if any(s.cad is not None for s in scene.surfaces):
-        mixed, said = _mixed_mesh(scene, settings, framing, resolution, where, atlas.texels)
-        return mixed, atlas, said
-    validate_memory(where, settings, len(patches) * resolution**2, atlas.texels)
-    mesh: TriangleMesh = tessellate(patches, resolution)
-    if len(mesh.faces) == 0:
-        raise GshadeError(
-            f"{where}: [render] tessellation: {resolution} vertices per patch side leave no "
-            "triangle (the patches collapse at that resolution); expected a larger value"
-        )
-    return mesh, atlas, ([], [])
-
-
-def _mixed_mesh(scene, settings, framing, resolution: int, where: str, texels: int):
-    """The mesh of a scene with ``cad`` surfaces: their trimmed faces from the kernel's mesher
-    within the chord tolerance, the other surfaces' patches on the common grid; and what the
-    mesher said: the faces it left without triangles, (model path, LeftOutFace) each, and
-    its notes, (model path, line) each."""
-    patches = scene.patches
-    grid: list[int] = []
-    cad = []  # (surface, its patches' global indices)
-    start = 0
-    for surface in scene.surfaces:
-        indices = list(range(start, start + len(surface.patches)))
-        if surface.cad is None:
-            grid.extend(indices)
-        else:
-            cad.append((surface, np.array(indices, dtype=np.int32)))
-        start += len(surface.patches)
-    validate_memory(where, settings, len(grid) * resolution**2, texels)
-    meshes = []
-    if grid:
-        meshes.append(
-            (tessellate([patches[i] for i in grid], resolution), np.array(grid, dtype=np.int32))
-        )
+    validate_memory(where, settings, planned_vertices(scene, resolution), atlas.texels)
     deflection = chord_tolerance(scene, settings, framing)
-    unmeshed: list = []
-    meshed: list = []
-    for surface, index in cad:
-        try:
-            faces, lost, said = tessellate_faces(surface.cad, surface.patches, deflection)
-            meshes.append((faces, index))
-            unmeshed.extend((surface.cad.model.path, face) for face in lost)
-            meshed.extend((surface.cad.model.path, line) for line in said)
-        except GshadeError as exc:
-            from ..cad import in_scene
-
-            raise in_scene(exc, surface.source, scene.path, surface.cad.model.path) from None
-    mesh = join_meshes(meshes, resolution)
-    validate_memory(where, settings, len(mesh.positions), texels)
+    parts = mesh_parts(scene, resolution, deflection, where)
+    mesh = join_meshes([(part.mesh, part.index) for part in parts], resolution)
+    validate_memory(where, settings, len(mesh.positions), atlas.texels)
     if len(mesh.faces) == 0:
         raise GshadeError(f"{where}: the tessellation left no triangle")
-    return mesh, (unmeshed, meshed)
+    lost = [pair for part in parts for pair in part.lost]
+    said = [pair for part in parts for pair in part.said]
+    return mesh, atlas, (lost, said)
 
 
 def cad_notes(scene, meshed=()) -> list:
