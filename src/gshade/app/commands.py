@@ -105,9 +105,9 @@ def _cad_notes(scene) -> tuple[list[str], list[str]]:
 
 def info(args: argparse.Namespace) -> int:
     """``gshade info``: the surfaces, patch count, bounding box and irregular points."""
-    import numpy as np
 
     from ..geometry import irregular_mask
+    from ..rendering.sizing import extent_points
     from ..scene import load_scene
 
     scene = load_scene(args.scene, _scene_overrides(args), strict=args.strict)
@@ -124,21 +124,25 @@ def info(args: argparse.Namespace) -> int:
         say(f"  surface {k} ({surface.kind}, {surface.source}): {summary}")
         for line in surface.body.info_lines():
             say(f"    {line}")
-    points = []
     irregular = []
-    for index, patch in enumerate(scene.patches):
-        u, v = patch.parameter_grid(17, 17)
-        d = patch.derivatives(u, v, 1)
-        points.append(d[0, 0].reshape(-1, 3))
-        mask = irregular_mask(d)
-        if mask.any():
-            sides = (("u0", mask[0]), ("u1", mask[-1]), ("v0", mask[:, 0]), ("v1", mask[:, -1]))
-            edges = [name for name, sel in sides if sel.all()]
-            where = ", ".join(f"collapsed edge {e}" for e in edges)
-            irregular.append(f"patch {index}: " + (where or f"{int(mask.sum())} sample points"))
-    pts = np.concatenate(points)
+    index = 0
+    for surface in scene.surfaces:
+        for patch in surface.patches:
+            u, v = patch.parameter_grid(17, 17)
+            mask = irregular_mask(patch.derivatives(u, v, 1))
+            if mask.any():
+                sides = (("u0", mask[0]), ("u1", mask[-1]), ("v0", mask[:, 0]), ("v1", mask[:, -1]))
+                edges = [name for name, sel in sides if sel.all()]
+                where = ", ".join(f"collapsed edge {e}" for e in edges)
+                label = surface.body.patch_label
+                irregular.append(
+                    f"{label} {index}: " + (where or f"{int(mask.sum())} sample points")
+                )
+            index += 1
+    # the extent the camera frames (a CAD face's trimmed region, not its patch's box)
+    pts = extent_points(scene)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    say(f"  patches: {len(points)}")
+    say(f"  patches: {index}")
     say(
         f"  bounding box: [{', '.join(f'{x:.6g}' for x in lo)}] .. "
         f"[{', '.join(f'{x:.6g}' for x in hi)}]"
