@@ -210,17 +210,23 @@ def trimmed_points(
     from matplotlib.path import Path as Polygon
 
     (u0, u1), (v0, v1) = face.box
-    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
-    grid = np.stack([u.ravel(), v.ravel()], -1)
-    if face.loops:
-        around = sum(Polygon(loop).contains_points(grid).astype(int) for loop in face.loops)
-        most = 4 * n if loop_points is None else loop_points
-        edges = [loop[:: max(1, len(loop) // most)] if most else loop for loop in face.loops]
-        grid = np.concatenate([grid[np.asarray(around) % 2 == 1], *edges])
     (a0, a1), (b0, b1) = face.patch.domain
-    return np.asarray(
-        face.patch(np.clip(grid[:, 0], a0, a1), np.clip(grid[:, 1], b0, b1)), float
-    ).reshape(-1, 3)
+    us, vs = np.linspace(u0, u1, n), np.linspace(v0, v1, n)
+    # the box's grid on the surface at once (the grid algorithm: a basis per axis)
+    surface = face.patch.derivatives_grid(np.clip(us, a0, a1), np.clip(vs, b0, b1))[0, 0]
+    points = np.asarray(surface, dtype=np.float64).reshape(-1, 3)
+    if not face.loops:
+        return points
+    u, v = np.meshgrid(us, vs, indexing="ij")
+    grid = np.stack([u.ravel(), v.ravel()], -1)
+    around = sum(Polygon(loop).contains_points(grid).astype(int) for loop in face.loops)
+    most = 4 * n if loop_points is None else loop_points
+    edges = np.concatenate(
+        [loop[:: max(1, len(loop) // most)] if most else loop for loop in face.loops]
+    )
+    on_loops = face.patch(np.clip(edges[:, 0], a0, a1), np.clip(edges[:, 1], b0, b1))
+    inside = points[np.asarray(around) % 2 == 1]
+    return np.concatenate([inside, np.asarray(on_loops, dtype=np.float64).reshape(-1, 3)])
 
 
 def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -237,11 +243,10 @@ def usable(face: CadFace, n: int = 5) -> CadFace:
     if not all(np.isfinite(x) for x in (u0, u1, v0, v1)) or u1 <= u0 or v1 <= v0:
         raise GshadeError(f"its parameter box {face.box} is empty or not finite")
     (a0, a1), (b0, b1) = face.patch.domain
-    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    us = np.clip(np.linspace(u0, u1, n), a0, a1)
+    vs = np.clip(np.linspace(v0, v1, n), b0, b1)
     with np.errstate(all="ignore"):
-        d = np.asarray(
-            face.patch.derivatives(np.clip(u.ravel(), a0, a1), np.clip(v.ravel(), b0, b1), 1)
-        )
+        d = np.asarray(face.patch.derivatives_grid(us, vs, 1))
     if not np.isfinite(d).all():
         raise GshadeError("its surface does not evaluate to finite points (NaN or infinity)")
     return face
