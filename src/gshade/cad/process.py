@@ -77,7 +77,13 @@ _OPERATIONS: dict[str, Callable[..., Any]] = {}
 _OPERATION_MODULES = ("gshade.cad.model", "gshade.cad.mesh", "gshade.cad.edges")
 #: What a child loads before its bounds are set, beside the file's reader (the zygote loads
 #: them, and the readers, once for all its children: :mod:`gshade.cad.zygote`).
-CHILD_MODULES = ("numpy", "matplotlib.path", *_OPERATION_MODULES, "gshade.cad.cache")
+CHILD_MODULES = (
+    "numpy",
+    "matplotlib.path",
+    *_OPERATION_MODULES,
+    "gshade.cad.readers",
+    "gshade.cad.cache",
+)
 
 #: What native code's exceptions say when an allocation (or a library's mapping) failed.
 _OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
