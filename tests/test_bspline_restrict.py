@@ -298,7 +298,9 @@ def test_a_box_past_the_domain_continues_the_end_pieces(data, p, q, rational, se
         for j in range(3 - i):
             scale = size / (wu**i * wv**j)
             err = np.abs(got[i, j] - want[i, j]).max() / scale
-            assert err < 1e-9, f"d{i}{j}: {err:.3g}"
+            # round-off only: re-blossomed poles of a rational piece over a short span
+            # (1e-3 of the domain) carry ~1e-9 into its second derivatives
+            assert err < 1e-8, f"d{i}{j}: {err:.3g}"
 
 
 def test_a_box_past_the_domain_is_refused_unless_asked():

@@ -146,51 +146,58 @@ def basis_functions_in_spans(
     at once)."""
     p = degree
     N = t.shape[0]
-    left = np.empty((N, p + 1))
-    right = np.empty((N, p + 1))
-    ndu = np.empty((N, p + 1, p + 1))
-    ndu[:, 0, 0] = 1.0
+    # points last: every step below is one contiguous sweep over the N points
+    left = np.empty((p + 1, N))
+    right = np.empty((p + 1, N))
+    ndu = np.empty((p + 1, p + 1, N))
+    ndu[0, 0] = 1.0
+    saved = np.empty(N)
+    temp = np.empty(N)
     for j in range(1, p + 1):
-        left[:, j] = t - knots[spans + 1 - j]
-        right[:, j] = knots[spans + j] - t
-        saved = np.zeros(N)
+        np.subtract(t, knots[spans + 1 - j], out=left[j])
+        np.subtract(knots[spans + j], t, out=right[j])
+        saved[:] = 0.0
         for r in range(j):
             # lower triangle: knot differences
-            ndu[:, j, r] = right[:, r + 1] + left[:, j - r]
-            temp = ndu[:, r, j - 1] / ndu[:, j, r]
+            np.add(right[r + 1], left[j - r], out=ndu[j, r])
+            np.divide(ndu[r, j - 1], ndu[j, r], out=temp)
             # upper triangle: basis functions
-            ndu[:, r, j] = saved + right[:, r + 1] * temp
-            saved = left[:, j - r] * temp
-        ndu[:, j, j] = saved
-    ders = np.zeros((order + 1, N, p + 1))
-    ders[0] = ndu[:, :, p]
+            np.multiply(right[r + 1], temp, out=ndu[r, j])
+            ndu[r, j] += saved
+            np.multiply(left[j - r], temp, out=saved)
+        ndu[j, j] = saved
+    # points last here too; handed out as (order + 1, N, p + 1) (a view: its N axis stays
+    # the contiguous one, as products along it want)
+    ders = np.zeros((order + 1, p + 1, N))
+    ders[0] = ndu[:, p]
     if order == 0:
-        return ders
-    a = np.empty((2, N, p + 1))
+        return ders.transpose(0, 2, 1)
+    a = np.empty((2, p + 1, N))
+    d = np.empty(N)
     for r in range(p + 1):
         s1, s2 = 0, 1
-        a[0, :, 0] = 1.0
+        a[0, 0] = 1.0
         for k in range(1, min(order, p) + 1):
-            d = np.zeros(N)
+            d[:] = 0.0
             rk, pk = r - k, p - k
             if r >= k:
-                a[s2, :, 0] = a[s1, :, 0] / ndu[:, pk + 1, rk]
-                d = a[s2, :, 0] * ndu[:, rk, pk]
+                np.divide(a[s1, 0], ndu[pk + 1, rk], out=a[s2, 0])
+                np.multiply(a[s2, 0], ndu[rk, pk], out=d)
             j1 = 1 if rk >= -1 else -rk
             j2 = k - 1 if r - 1 <= pk else p - r
             for j in range(j1, j2 + 1):
-                a[s2, :, j] = (a[s1, :, j] - a[s1, :, j - 1]) / ndu[:, pk + 1, rk + j]
-                d = d + a[s2, :, j] * ndu[:, rk + j, pk]
+                a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
+                d += a[s2, j] * ndu[rk + j, pk]
             if r <= pk:
-                a[s2, :, k] = -a[s1, :, k - 1] / ndu[:, pk + 1, r]
-                d = d + a[s2, :, k] * ndu[:, r, pk]
-            ders[k, :, r] = d
+                a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
+                d += a[s2, k] * ndu[r, pk]
+            ders[k, r] = d
             s1, s2 = s2, s1
     factor = float(p)
     for k in range(1, min(order, p) + 1):
         ders[k] *= factor
         factor *= p - k
-    return ders
+    return ders.transpose(0, 2, 1)
 
 
 def basis_matrix(knots: NDArray, degree: int, t: NDArray, order: int = 0) -> NDArray:
