@@ -6,6 +6,7 @@ the curve or surface (Kiciak, A.3; Piegl & Tiller, ch. 5).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from typing import Any
 
@@ -15,7 +16,14 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import GshadeError, show
 from .bezier import BezierCurve, BezierPatch
 from .knots import domain, insert_knot, refine_to_bezier, validate_knots
-from .patch import BasisCurve, BSplineBasis, TensorProductPatch, validate_points, validate_weights
+from .patch import (
+    BasisCurve,
+    BSplineBasis,
+    TensorProductPatch,
+    homogeneous,
+    validate_points,
+    validate_weights,
+)
 
 __all__ = ["BSplineCurve", "BSplinePatch"]
 
@@ -256,6 +264,15 @@ class BSplinePatch(TensorProductPatch):
         V, h = _over(V, q, np.swapaxes(h, 0, 1), v0, v1)
         P, w = _split(np.swapaxes(h, 0, 1), self.rational)
         return BSplinePatch(P, self.degree, (U, V), w)  # its domain: U_p = u0, ... exactly
+
+    def translated(self, offset: ArrayLike) -> BSplinePatch:
+        """The patch moved by ``offset`` (the points P + offset; the same knots, degrees
+        and weights, not validated again: a rational patch's weights keep
+        sum w B (P + o) / sum w B = p + o)."""
+        moved = copy.copy(self)
+        moved.points = np.asarray(self.points, dtype=np.float64) + np.asarray(offset, float)
+        moved._net = homogeneous(moved.points, self.weights)
+        return moved
 
     def bezier_patches(self) -> list[list[BezierPatch]]:
         """Bézier extraction: ``out[a][b]`` is the piece over the a-th u-span and b-th v-span,

@@ -13,7 +13,7 @@ parameters) deviates from the surface by at most h^2 / 8 (|p_ss| + 2 |p_st| + |p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -213,7 +213,17 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
 def join_meshes(
     meshes: list[tuple[TriangleMesh, NDArray[np.int32]]], resolution: int
 ) -> TriangleMesh:
-    """One mesh of several, each with the global patch index of each of its patches."""
+    """One mesh of several, each with the global patch index of each of its patches (one
+    whose patches are the scene's, in order, as it is: no copy)."""
+    if len(meshes) == 1:
+        mesh, global_index = meshes[0]
+        if np.array_equal(global_index, np.arange(len(global_index))):
+            return replace(
+                mesh,
+                patch=mesh.patch.astype(np.int32, copy=False),
+                faces=mesh.faces.astype(np.int32, copy=False),
+                resolution=resolution,
+            )
     offset = 0
     parts = []
     for mesh, global_index in meshes:
