@@ -58,8 +58,9 @@ def exact_channels(
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
     d = np.empty((2, 2, hit.size, 3))
+    by_patch = np.argsort(patch_index, kind="stable")  # a patch's hits in few blocks
     for block in range(0, hit.size, BLOCK):  # in blocks: the steps' temporaries stay small
-        at = slice(block, block + BLOCK)
+        at = by_patch[block : block + BLOCK]
         rays = view.pixel_rays(hit[at] // W, hit[at] % W)
         u[at], v[at], d[:, :, at], _ = surface_hits(patches, patch_index[at], u[at], v[at], *rays)
     slipped = _slipped_through(A, hit, H, W)

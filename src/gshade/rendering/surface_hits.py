@@ -27,6 +27,7 @@ from ..geometry import BezierPatch, Patch
 from ..geometry.patch_groups import bezier_groups, domain_spans
 from ..geometry.spline_batches import batch_derivatives
 from ..runtime.backend import NUMPY, drjit_ops
+from ..runtime.drjit_arrays import drjit_array
 from ..shape.kernels import backend
 from .newton import newton_step, ray_residual
 
@@ -42,7 +43,7 @@ def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1):
     """``steps`` float64 Newton steps on points of patches evaluated by ``derivatives(u, v)``
     (derivatives of order <= 1, (2, 2, N, 3)), each point's parameters kept within
     [lo, hi] (N, 2); returns (u, v, derivatives (2, 2, N, 3), settled)."""
-    d = derivatives(u, v)
+    start = d = derivatives(u, v)
     scale = np.linalg.norm(d[0, 0] - origin, axis=1)
     uu, vv = u, v
     for step in range(steps):
@@ -56,8 +57,8 @@ def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1):
     d = derivatives(uu, vv)
     residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
     settled = residual <= SETTLED * np.maximum(scale, 1e-300)
-    if not settled.all():  # those keep their start values: evaluate them there
-        d[:, :, ~settled] = derivatives(u, v)[:, :, ~settled]
+    if not settled.all():  # those keep their start values and derivatives
+        d[:, :, ~settled] = start[:, :, ~settled]
     return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
 
 
@@ -87,15 +88,15 @@ def _newton_bezier_drjit(patches: list[BezierPatch], local, u, v, origin, direct
     ops = drjit_ops(fused=False)  # products written out, as the numpy path's
     m, n = patches[0].degree
     stride = (m + 1) * (n + 1) * 3
-    nets = Float64(np.concatenate([p.points.ravel() for p in patches]))
+    nets = drjit_array(Float64, np.concatenate([p.points.ravel() for p in patches]))
     lo = np.array([[p.domain[0][0], p.domain[1][0]] for p in patches])
     span = domain_spans(patches)
-    base = UInt32(local.astype(np.uint32) * stride)
-    su, sv = Float64(span[local, 0]), Float64(span[local, 1])
-    ou, ov = Float64(lo[local, 0]), Float64(lo[local, 1])
-    o = Array3f64(*(Float64(np.ascontiguousarray(origin[:, c])) for c in range(3)))
-    w = Array3f64(*(Float64(np.ascontiguousarray(direction[:, c])) for c in range(3)))
-    u0, v0 = Float64(u), Float64(v)
+    base = drjit_array(UInt32, local * stride, np.uint32)
+    su, sv = drjit_array(Float64, span[local, 0]), drjit_array(Float64, span[local, 1])
+    ou, ov = drjit_array(Float64, lo[local, 0]), drjit_array(Float64, lo[local, 1])
+    o = Array3f64(*(drjit_array(Float64, origin[:, c]) for c in range(3)))
+    w = Array3f64(*(drjit_array(Float64, direction[:, c]) for c in range(3)))
+    u0, v0 = drjit_array(Float64, u), drjit_array(Float64, v)
 
     def evaluate(uu, vv):
         """p, p_u, p_v at (uu, vv)."""

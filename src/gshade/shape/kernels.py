@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from ..geometry.differential import first_form, first_form_det, solve_first_form
+from ..runtime.drjit_arrays import drjit_array
 from ..runtime.llvm import drjit_llvm_ready
 from .jets import NUMPY, Backend, Jet
 
@@ -142,7 +143,7 @@ def run(
         zero = dr.zeros(Float64, n)
 
         def array(i, j, c):
-            return Float64(np.ascontiguousarray(d[i, j, :, c]))
+            return drjit_array(Float64, d[i, j, :, c])
     else:
         xp = NUMPY
         params = [float(x) for x in prm]
