@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from gshade import GshadeError
@@ -391,6 +391,7 @@ _header = st.dictionaries(
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(header=_header, patch=st.sampled_from([0.0, 1.0, -1.0, 2.0**31, float("nan")]))
+@example(header={"junctions": '[{"\\n": null}]'}, patch=0.0)  # a key with a line break
 def test_any_header_makes_a_page_or_one_clean_error(header, patch):
     channels = {"f": np.zeros((3, 2), np.float32), "patch": np.full((3, 2), patch, np.float32)}
     channels["patch"][0, 0] = 0.0

@@ -36,6 +36,11 @@ class SurfaceDataError(GshadeError):
     """A surface data file (e.g. Newell's teapot format) could not be read."""
 
 
+def _one_line(text: str) -> str:
+    """``text`` as it is if printable, else as a JSON string (control characters escaped)."""
+    return text if text.isprintable() else json.dumps(text, ensure_ascii=False)
+
+
 def show(value: Any, limit: int = 60) -> str:
     """A value as it would look in TOML, shortened to ``limit`` characters: tuples and numpy
     arrays as lists, numpy scalars as plain numbers; a long list is read only as far as
@@ -56,10 +61,10 @@ def show(value: Any, limit: int = 60) -> str:
             if length > limit:  # shortened whatever follows
                 break
         text = "[" + ", ".join(parts) + "]"
-    elif isinstance(value, dict):
-        text = "a table {" + ", ".join(value) + "}"
+    elif isinstance(value, dict):  # keys from a file may hold line breaks: escaped
+        text = "a table {" + ", ".join(_one_line(str(key)) for key in value) + "}"
     else:
-        text = f"{value} ({type(value).__name__})"
+        text = f"{_one_line(str(value))} ({type(value).__name__})"
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 

@@ -12,13 +12,17 @@ meets no surface hold 0.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry import Patch, regularised_derivatives
+from ..geometry import BezierPatch, BSplinePatch, Patch, irregular_mask, regularised_derivatives
+from ..geometry.patch_cells import PatchCells, cell_groups
 from ..shape import ShapeFunction, evaluate
+from ..shape.kernels import backend
 
-__all__ = ["centre_values"]
+__all__ = ["centre_derivatives", "centre_values"]
 
 
 def centre_values(
@@ -46,16 +50,11 @@ def centre_values(
     u_all, v_all = channels["u"].ravel(), channels["v"].ravel()
     for start in range(0, order.size, BLOCK):  # one evaluation of each function a block
         block = order[start : start + BLOCK]
-        d = np.empty((highest + 1, highest + 1, block.size, 3))
         on = patch[block]
-        for at in np.split(np.arange(block.size), np.flatnonzero(np.diff(on)) + 1):
-            if not at.size:
-                continue
-            p = patches[int(on[at[0]])]
-            (u0, u1), (v0, v1) = p.domain
-            u = np.clip(u_all[block[at]].astype(np.float64), u0, u1)
-            v = np.clip(v_all[block[at]].astype(np.float64), v0, v1)
-            d[:, :, at] = regularised_derivatives(p, u, v, highest).d
+        domains = np.array([p.domain for p in patches], dtype=np.float64)[on]
+        u = np.clip(u_all[block].astype(np.float64), domains[:, 0, 0], domains[:, 0, 1])
+        v = np.clip(v_all[block].astype(np.float64), domains[:, 1, 0], domains[:, 1, 1])
+        d = centre_derivatives(patches, on, u, v, highest)
         for name, (fn, params) in functions.items():
             out[name][block] = evaluate(
                 fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
@@ -65,3 +64,32 @@ def centre_values(
 
 #: Centre hits per evaluation of the functions (bounds the derivatives' memory).
 BLOCK = 1 << 16
+
+
+def centre_derivatives(
+    patches: list[Patch] | tuple[Patch, ...], on: NDArray, u: NDArray, v: NDArray, order: int
+) -> NDArray[np.float64]:
+    """Derivatives up to ``order`` of patch ``on[i]`` at (u[i], v[i]) (``on`` sorted),
+    regularised at irregular points (:func:`gshade.geometry.regularised_derivatives`, each
+    patch on its own scale): the Bézier and B-spline patches of one degree by one Dr.Jit
+    kernel over their cells (:class:`gshade.geometry.patch_cells.PatchCells`), the others
+    (and all without Dr.Jit) one by one."""
+    d = np.empty((order + 1, order + 1, on.size, 3))
+    groups, _ = cell_groups(patches) if backend() == "drjit" else ({}, [])
+    done = np.zeros(on.size, dtype=bool)
+    for members in groups.values():
+        place = np.full(len(patches), -1, dtype=np.int64)
+        place[members] = np.arange(len(members))
+        at = np.flatnonzero(place[on] >= 0)
+        if at.size:
+            cells = PatchCells([cast(BezierPatch | BSplinePatch, patches[k]) for k in members])
+            d[:, :, at] = cells.derivatives(place[on[at]], u[at], v[at], order)
+            done[at] = True
+    for at in np.split(np.arange(on.size), np.flatnonzero(np.diff(on)) + 1):
+        if not at.size:
+            continue
+        if done[at[0]] and (order < 1 or not irregular_mask(d[:, :, at]).any()):
+            continue
+        p = patches[int(on[at[0]])]
+        d[:, :, at] = regularised_derivatives(p, u[at], v[at], order).d
+    return d

@@ -90,7 +90,7 @@ def exact_channels(
 
 
 #: Centre rays per block of exact Newton steps.
-BLOCK = 1 << 16
+BLOCK = 1 << 19
 #: Newton steps from a neighbour's hit for a centre ray that slipped between two surfaces.
 SLIPPED_STEPS = 4
 

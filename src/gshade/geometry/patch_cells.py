@@ -1,0 +1,196 @@
+"""Bézier and B-spline patches of one degree as Bézier cells, their points and first
+derivatives at many points in one Dr.Jit kernel.
+
+A CAD model's faces are B-spline patches (rational or not) of a few degrees; an image's
+pixels fall on all of them.  Evaluated by numpy, each point gathers its (m + 1) x (n + 1)
+control points into memory before the products (:mod:`gshade.geometry.spline_batches`), and
+that traffic is the cost.  Here each patch is cut once into the Bézier patches of its knot
+intervals (Bézier extraction, :meth:`gshade.geometry.BSplinePatch.bezier_patches`; a Bézier
+patch is one cell), the homogeneous nets of all cells laid end to end, and one kernel per
+call evaluates, per point, the Bernstein basis of its cell in closed form and sums its
+control points gathered inside the kernel (no temporaries):
+
+    h(s, t) = sum_ij B_i^m(s) B_j^n(t) H_ij,   p = h_xyz / h_w,
+    p_s = (h_xyz,s - p h_w,s) / h_w,  ...
+
+with s, t the point's parameters normalised to its cell, and the higher derivatives alike
+(Leibniz's rule for rational patches,
+:func:`gshade.geometry.rational.project_patch_derivatives`).  The result equals each patch's
+own ``derivatives`` up to round-off (tested).
+
+Examples
+--------
+>>> import numpy as np
+>>> from gshade.geometry import BSplinePatch
+>>> rng = np.random.default_rng(3)
+>>> knots = ([0, 0, 0, 0.4, 1, 1, 1], [0, 0, 1, 1])
+>>> patch = BSplinePatch(rng.normal(size=(4, 2, 3)), (2, 1), knots, rng.uniform(1, 2, (4, 2)))
+>>> cells = PatchCells([patch])
+>>> u, v = np.array([0.1, 0.7]), np.array([0.3, 0.9])
+>>> d = cells.derivatives(np.zeros(2, dtype=np.int64), u, v)
+>>> bool(np.allclose(d, patch.derivatives(u, v, 1)))
+True
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Sequence
+from math import comb, perm
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..runtime.drjit_arrays import drjit_array
+from .bezier import BezierPatch
+from .bspline import BSplinePatch
+from .patch import validate_order
+from .rational import project_patch_derivatives
+
+__all__ = ["PatchCells", "cell_groups"]
+
+
+def cell_groups(patches: Sequence[Any]) -> tuple[dict[tuple, list[int]], list[int]]:
+    """The indices of the Bézier and B-spline patches by (degree, rational), and of all
+    other patches."""
+    groups: dict[tuple, list[int]] = {}
+    others = []
+    for k, patch in enumerate(patches):
+        if type(patch) in (BezierPatch, BSplinePatch):
+            groups.setdefault((patch.degree, patch.rational), []).append(k)
+        else:
+            others.append(k)
+    return groups, others
+
+
+#: each patch's cells, kept while the patch lives: (u breaks, v breaks, homogeneous nets)
+_CELLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, NDArray, NDArray]:
+    """The patch's cell breaks along u and v and its cells' homogeneous nets
+    (cells, m + 1, n + 1, c), the cells row by row (u-interval major)."""
+    kept = _CELLS.get(patch)
+    if kept is not None:
+        return kept
+    rows = [[patch]] if isinstance(patch, BezierPatch) else patch.bezier_patches()
+    ub = np.array([row[0].domain[0][0] for row in rows] + [rows[-1][0].domain[0][1]])
+    vb = np.array([cell.domain[1][0] for cell in rows[0]] + [rows[0][-1].domain[1][1]])
+    nets = np.stack([cell._net for row in rows for cell in row]).astype(np.float64)
+    kept = (ub, vb, nets)
+    _CELLS[patch] = kept
+    return kept
+
+
+class PatchCells:
+    """Bézier or B-spline patches of one degree and kind as Bézier cells, for
+    :meth:`derivatives`."""
+
+    def __init__(self, patches: Sequence[BezierPatch | BSplinePatch]):
+        first = patches[0]
+        self.degree: tuple[int, int] = first.degree
+        self.rational: bool = first.rational
+        if any(p.degree != self.degree or p.rational != self.rational for p in patches):
+            raise ValueError("PatchCells: patches of one degree and kind only")
+        cells = [_cells(p) for p in patches]
+        self.breaks = [(ub, vb) for ub, vb, _ in cells]
+        counts = np.array([len(nets) for _, _, nets in cells])
+        self.first = np.cumsum(counts) - counts  # each patch's first cell
+        self.columns = np.array([len(vb) - 1 for _, vb, _ in cells])
+        self.nets = np.concatenate([nets.reshape(-1) for _, _, nets in cells])
+        lo, span = [], []
+        for ub, vb, _ in cells:
+            u0, v0 = np.meshgrid(ub[:-1], vb[:-1], indexing="ij")
+            du, dv = np.meshgrid(np.diff(ub), np.diff(vb), indexing="ij")
+            lo.append(np.stack([u0.ravel(), v0.ravel()], -1))
+            span.append(np.stack([du.ravel(), dv.ravel()], -1))
+        self.lo, self.span = np.concatenate(lo), np.concatenate(span)
+
+    def locate(self, member: NDArray, u: NDArray, v: NDArray) -> NDArray[np.int64]:
+        """The cell of each point (u[i], v[i]) of patch ``member[i]`` (its place here): the
+        knot interval holding it, the end ones past the domain."""
+        cell = np.empty(member.size, dtype=np.int64)
+        by_member = np.argsort(member, kind="stable")
+        bounds = np.flatnonzero(np.diff(member[by_member])) + 1
+        for mine in np.split(by_member, bounds):
+            if not mine.size:
+                continue
+            k = int(member[mine[0]])
+            ub, vb = self.breaks[k]
+            iu = np.clip(np.searchsorted(ub, u[mine], "right") - 1, 0, len(ub) - 2)
+            iv = np.clip(np.searchsorted(vb, v[mine], "right") - 1, 0, len(vb) - 2)
+            cell[mine] = self.first[k] + iu * self.columns[k] + iv
+        return cell
+
+    def derivatives(
+        self, member: NDArray, u: NDArray, v: NDArray, order: int = 1
+    ) -> NDArray[np.float64]:
+        """Derivatives up to total order ``order`` of patch ``member[i]`` at (u[i], v[i]):
+        shape (order + 1, order + 1, N, 3), as ``Patch.derivatives(u, v, order)`` (zero for
+        i + j > order)."""
+        import drjit as dr
+        from drjit.llvm import Float64, UInt32
+
+        order = validate_order(order)
+        member = np.asarray(member, dtype=np.int64)
+        u = np.asarray(u, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        cell = self.locate(member, u, v)
+        lo, span = self.lo[cell], self.span[cell]
+        m, n = self.degree
+        c = 4 if self.rational else 3
+        nets = drjit_array(Float64, self.nets)
+        base = drjit_array(UInt32, cell * ((m + 1) * (n + 1) * c), np.uint32)
+        bu = _bernstein(m, drjit_array(Float64, (u - lo[:, 0]) / span[:, 0]), order)
+        bv = _bernstein(n, drjit_array(Float64, (v - lo[:, 1]) / span[:, 1]), order)
+        wanted = [(a, b) for a in range(order + 1) for b in range(order + 1 - a)]
+        h: dict[tuple[int, int], list[Any]] = {ab: [0.0] * c for ab in wanted}
+        for i in range(m + 1):
+            for j in range(n + 1):
+                for k in range(c):
+                    x = dr.gather(Float64, nets, base + ((i * (n + 1) + j) * c + k))
+                    for a, b in wanted:
+                        h[a, b][k] = h[a, b][k] + (bu[a][i] * bv[b][j]) * x
+        arrays = [h[ab][k] for ab in wanted for k in range(c)]
+        dr.eval(*arrays)
+        buf = np.zeros((order + 1, order + 1, c, u.size))
+        for at, (a, b) in enumerate(wanted):
+            for k in range(c):
+                # d/du = d/ds / span_u: the cell's parameters normalised
+                buf[a, b, k] = np.asarray(arrays[at * c + k]) / (span[:, 0] ** a * span[:, 1] ** b)
+        if self.rational:
+            buf = project_patch_derivatives(buf[:, :, :3], buf[:, :, 3], order)
+        return np.moveaxis(buf, 2, -1)
+
+
+def _bernstein(degree: int, s: Any, order: int) -> list[list[Any]]:
+    """The Bernstein basis of ``degree`` at s (Dr.Jit arrays) and its derivatives up to
+    ``order``: ``out[r][i]`` = d^r/ds^r B_i^n = n!/(n - r)! sum_k (-1)^(r-k) C(r, k)
+    B_{i-k}^{n-r} (Farin, *Curves and Surfaces for CAGD*, §5.3)."""
+    one = 1.0 - s
+    powers_s, powers_1 = [1.0], [1.0]
+    for _ in range(degree):
+        powers_s.append(powers_s[-1] * s)
+        powers_1.append(powers_1[-1] * one)
+
+    def basis(n: int, i: int) -> Any:
+        return comb(n, i) * powers_s[i] * powers_1[n - i] if 0 <= i <= n else 0.0
+
+    out = []
+    for r in range(order + 1):
+        if r > degree:
+            out.append([0.0] * (degree + 1))
+            continue
+        factor = perm(degree, r)
+        row = []
+        for i in range(degree + 1):
+            total: Any = 0.0
+            for k in range(r + 1):
+                term = basis(degree - r, i - k)
+                if isinstance(term, float) and term == 0.0:
+                    continue
+                total = total + ((-1) ** (r - k) * comb(r, k) * factor) * term
+            row.append(total)
+        out.append(row)
+    return out
