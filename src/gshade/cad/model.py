@@ -207,32 +207,56 @@ def trimmed_points(
     loops (at most ``loop_points`` a loop, default 4 n; all with 0) and of the n x n grid of
     its box that lie inside them (an odd number of loops around; the box's grid for a face
     without loops)."""
+    return faces_trimmed_points([face], n, loop_points)[0]
+
+
+def faces_trimmed_points(
+    faces: list[CadFace], n: int = 17, loop_points: int | None = None, drjit: bool = False
+) -> list[NDArray[np.float64]]:
+    """:func:`trimmed_points` of each face, the surfaces evaluated at all faces' points at
+    once (:class:`gshade.geometry.patch_cells.ManyPatches`; its Dr.Jit kernel with
+    ``drjit``, never in a kernel process: it forks)."""
     from matplotlib.path import Path as Polygon
 
-    (u0, u1), (v0, v1) = face.box
-    (a0, a1), (b0, b1) = face.patch.domain
-    us, vs = np.linspace(u0, u1, n), np.linspace(v0, v1, n)
-    # the box's grid on the surface at once (the grid algorithm: a basis per axis)
-    surface = face.patch.derivatives_grid(np.clip(us, a0, a1), np.clip(vs, b0, b1))[0, 0]
-    points = np.asarray(surface, dtype=np.float64).reshape(-1, 3)
-    if not face.loops:
-        return points
-    u, v = np.meshgrid(us, vs, indexing="ij")
-    grid = np.stack([u.ravel(), v.ravel()], -1)
-    around = sum(Polygon(loop).contains_points(grid).astype(int) for loop in face.loops)
+    from ..geometry.patch_cells import ManyPatches
+
     most = 4 * n if loop_points is None else loop_points
-    edges = np.concatenate(
-        [loop[:: max(1, len(loop) // most)] if most else loop for loop in face.loops]
-    )
-    on_loops = face.patch(np.clip(edges[:, 0], a0, a1), np.clip(edges[:, 1], b0, b1))
-    inside = points[np.asarray(around) % 2 == 1]
-    return np.concatenate([inside, np.asarray(on_loops, dtype=np.float64).reshape(-1, 3)])
+    grids, loops, index, u, v = [], [], [], [], []
+    for k, face in enumerate(faces):
+        (u0, u1), (v0, v1) = face.box
+        (a0, a1), (b0, b1) = face.patch.domain
+        gu, gv = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+        grid = np.stack([gu.ravel(), gv.ravel()], -1)
+        edges = (
+            np.concatenate([lp[:: max(1, len(lp) // most)] if most else lp for lp in face.loops])
+            if face.loops
+            else np.empty((0, 2))
+        )
+        grids.append(grid)
+        loops.append(edges.shape[0])
+        uv = np.concatenate([grid, edges])
+        index.append(np.full(len(uv), k))
+        u.append(np.clip(uv[:, 0], a0, a1))
+        v.append(np.clip(uv[:, 1], b0, b1))
+    many = ManyPatches([f.patch for f in faces], drjit=drjit)
+    points = many.derivatives(np.concatenate(index), np.concatenate(u), np.concatenate(v), 0)
+    out, at = [], 0
+    for face, grid, count in zip(faces, grids, loops, strict=True):
+        on_grid = points[0, 0, at : at + len(grid)]
+        on_loops = points[0, 0, at + len(grid) : at + len(grid) + count]
+        at += len(grid) + count
+        if not face.loops:
+            out.append(on_grid)
+            continue
+        around = sum(Polygon(lp).contains_points(grid).astype(int) for lp in face.loops)
+        out.append(np.concatenate([on_grid[np.asarray(around) % 2 == 1], on_loops]))
+    return out
 
 
 def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The bounding box (lo, hi) of the faces' trimmed regions, from their
     :func:`trimmed_points` (points on the exact surfaces: tight up to the sampling)."""
-    points = np.concatenate([trimmed_points(face, 65, 0) for face in faces])
+    points = np.concatenate(faces_trimmed_points(faces, 65, 0))
     return points.min(axis=0), points.max(axis=0)
 
 

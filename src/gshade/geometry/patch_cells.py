@@ -48,7 +48,7 @@ from .bspline import BSplinePatch
 from .patch import validate_order
 from .rational import project_patch_derivatives
 
-__all__ = ["PatchCells", "cell_groups"]
+__all__ = ["ManyPatches", "PatchCells", "cell_groups"]
 
 
 def cell_groups(patches: Sequence[Any]) -> tuple[dict[tuple, list[int]], list[int]]:
@@ -68,9 +68,10 @@ def cell_groups(patches: Sequence[Any]) -> tuple[dict[tuple, list[int]], list[in
 _CELLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, NDArray, NDArray]:
-    """The patch's cell breaks along u and v and its cells' homogeneous nets
-    (cells, m + 1, n + 1, c), the cells row by row (u-interval major)."""
+def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, ...]:
+    """The patch's cell breaks along u and v, its cells' homogeneous nets
+    (cells, m + 1, n + 1, c) and their lower corners and sides (cells, 2), the cells row by
+    row (u-interval major)."""
     kept = _CELLS.get(patch)
     if kept is not None:
         return kept
@@ -78,7 +79,11 @@ def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, NDArray, NDArray
     ub = np.array([row[0].domain[0][0] for row in rows] + [rows[-1][0].domain[0][1]])
     vb = np.array([cell.domain[1][0] for cell in rows[0]] + [rows[0][-1].domain[1][1]])
     nets = np.stack([cell._net for row in rows for cell in row]).astype(np.float64)
-    kept = (ub, vb, nets)
+    u0, v0 = np.meshgrid(ub[:-1], vb[:-1], indexing="ij")
+    du, dv = np.meshgrid(np.diff(ub), np.diff(vb), indexing="ij")
+    lo = np.stack([u0.ravel(), v0.ravel()], -1)
+    span = np.stack([du.ravel(), dv.ravel()], -1)
+    kept = (ub, vb, nets, lo, span)
     _CELLS[patch] = kept
     return kept
 
@@ -94,18 +99,13 @@ class PatchCells:
         if any(p.degree != self.degree or p.rational != self.rational for p in patches):
             raise ValueError("PatchCells: patches of one degree and kind only")
         cells = [_cells(p) for p in patches]
-        self.breaks = [(ub, vb) for ub, vb, _ in cells]
-        counts = np.array([len(nets) for _, _, nets in cells])
+        self.breaks = [(ub, vb) for ub, vb, *_ in cells]
+        counts = np.array([len(nets) for _, _, nets, *_ in cells])
         self.first = np.cumsum(counts) - counts  # each patch's first cell
-        self.columns = np.array([len(vb) - 1 for _, vb, _ in cells])
-        self.nets = np.concatenate([nets.reshape(-1) for _, _, nets in cells])
-        lo, span = [], []
-        for ub, vb, _ in cells:
-            u0, v0 = np.meshgrid(ub[:-1], vb[:-1], indexing="ij")
-            du, dv = np.meshgrid(np.diff(ub), np.diff(vb), indexing="ij")
-            lo.append(np.stack([u0.ravel(), v0.ravel()], -1))
-            span.append(np.stack([du.ravel(), dv.ravel()], -1))
-        self.lo, self.span = np.concatenate(lo), np.concatenate(span)
+        self.columns = np.array([len(vb) - 1 for _, vb, *_ in cells])
+        self.nets = np.concatenate([nets.reshape(-1) for _, _, nets, *_ in cells])
+        self.lo = np.concatenate([lo for *_, lo, _ in cells])
+        self.span = np.concatenate([span for *_, span in cells])
 
     def locate(self, member: NDArray, u: NDArray, v: NDArray) -> NDArray[np.int64]:
         """The cell of each point (u[i], v[i]) of patch ``member[i]`` (its place here): the
@@ -162,6 +162,47 @@ class PatchCells:
         if self.rational:
             buf = project_patch_derivatives(buf[:, :, :3], buf[:, :, 3], order)
         return np.moveaxis(buf, 2, -1)
+
+
+class ManyPatches:
+    """Any patches, for the derivatives of points on many of them at once: the Bézier and
+    B-spline patches of one degree and kind by one Dr.Jit kernel over their cells
+    (:class:`PatchCells`, with ``drjit``), every other patch (all without ``drjit``) by
+    :func:`gshade.geometry.spline_batches.batch_derivatives`."""
+
+    def __init__(self, patches: Sequence[Any], drjit: bool):
+        self.patches = patches
+        groups = cell_groups(patches)[0] if drjit else {}
+        self.groups = [
+            (np.asarray(members), PatchCells([patches[k] for k in members]))
+            for members in groups.values()
+        ]
+        self.place = np.full(len(patches), -1, dtype=np.int64)  # a patch's place in its group
+        self.group = np.full(len(patches), -1, dtype=np.int64)  # its group (-1: by numpy)
+        for g, (members, _) in enumerate(self.groups):
+            self.place[members] = np.arange(members.size)
+            self.group[members] = g
+
+    def derivatives(
+        self, index: NDArray, u: NDArray, v: NDArray, order: int
+    ) -> NDArray[np.float64]:
+        """Derivatives up to total order ``order`` of patch ``index[i]`` at (u[i], v[i]):
+        shape (order + 1, order + 1, N, 3), as each patch's ``derivatives``."""
+        from .spline_batches import batch_derivatives
+
+        index = np.asarray(index, dtype=np.int64)
+        u = np.asarray(u, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        group = self.group[index]
+        out = np.empty((order + 1, order + 1, index.size, 3))
+        for g, (_, cells) in enumerate(self.groups):
+            at = np.flatnonzero(group == g)
+            if at.size:
+                out[:, :, at] = cells.derivatives(self.place[index[at]], u[at], v[at], order)
+        rest = np.flatnonzero(group < 0)
+        if rest.size:
+            out[:, :, rest] = batch_derivatives(self.patches, index[rest], u[rest], v[rest], order)
+        return out
 
 
 def _bernstein(degree: int, s: Any, order: int) -> list[list[Any]]:

@@ -12,13 +12,11 @@ meets no surface hold 0.
 
 from __future__ import annotations
 
-from typing import cast
-
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry import BezierPatch, BSplinePatch, Patch, irregular_mask, regularised_derivatives
-from ..geometry.patch_cells import PatchCells, cell_groups
+from ..geometry import Patch, irregular_mask, regularised_derivatives
+from ..geometry.patch_cells import ManyPatches
 from ..shape import ShapeFunction, evaluate
 from ..shape.kernels import backend
 
@@ -48,13 +46,14 @@ def centre_values(
     out = {name: np.zeros(patch.size, dtype=np.float32) for name in functions}
     highest = max((fn.order for fn, _ in functions.values()), default=0)  # f needs order k
     u_all, v_all = channels["u"].ravel(), channels["v"].ravel()
+    many = ManyPatches(patches, drjit=backend() == "drjit")
     for start in range(0, order.size, BLOCK):  # one evaluation of each function a block
         block = order[start : start + BLOCK]
         on = patch[block]
         domains = np.array([p.domain for p in patches], dtype=np.float64)[on]
         u = np.clip(u_all[block].astype(np.float64), domains[:, 0, 0], domains[:, 0, 1])
         v = np.clip(v_all[block].astype(np.float64), domains[:, 1, 0], domains[:, 1, 1])
-        d = centre_derivatives(patches, on, u, v, highest)
+        d = centre_derivatives(patches, on, u, v, highest, many)
         for name, (fn, params) in functions.items():
             out[name][block] = evaluate(
                 fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
@@ -63,32 +62,28 @@ def centre_values(
 
 
 #: Centre hits per evaluation of the functions (bounds the derivatives' memory).
-BLOCK = 1 << 16
+BLOCK = 1 << 18
 
 
 def centre_derivatives(
-    patches: list[Patch] | tuple[Patch, ...], on: NDArray, u: NDArray, v: NDArray, order: int
+    patches: list[Patch] | tuple[Patch, ...],
+    on: NDArray,
+    u: NDArray,
+    v: NDArray,
+    order: int,
+    many: ManyPatches | None = None,
 ) -> NDArray[np.float64]:
     """Derivatives up to ``order`` of patch ``on[i]`` at (u[i], v[i]) (``on`` sorted),
     regularised at irregular points (:func:`gshade.geometry.regularised_derivatives`, each
-    patch on its own scale): the Bézier and B-spline patches of one degree by one Dr.Jit
-    kernel over their cells (:class:`gshade.geometry.patch_cells.PatchCells`), the others
-    (and all without Dr.Jit) one by one."""
-    d = np.empty((order + 1, order + 1, on.size, 3))
-    groups, _ = cell_groups(patches) if backend() == "drjit" else ({}, [])
-    done = np.zeros(on.size, dtype=bool)
-    for members in groups.values():
-        place = np.full(len(patches), -1, dtype=np.int64)
-        place[members] = np.arange(len(members))
-        at = np.flatnonzero(place[on] >= 0)
-        if at.size:
-            cells = PatchCells([cast(BezierPatch | BSplinePatch, patches[k]) for k in members])
-            d[:, :, at] = cells.derivatives(place[on[at]], u[at], v[at], order)
-            done[at] = True
+    patch on its own scale), all at once (``many``, the patches'
+    :class:`gshade.geometry.patch_cells.ManyPatches`, made here if not given)."""
+    if many is None:
+        many = ManyPatches(patches, drjit=backend() == "drjit")
+    d = many.derivatives(on, u, v, order)
     for at in np.split(np.arange(on.size), np.flatnonzero(np.diff(on)) + 1):
         if not at.size:
             continue
-        if done[at[0]] and (order < 1 or not irregular_mask(d[:, :, at]).any()):
+        if order < 1 or not irregular_mask(d[:, :, at]).any():
             continue
         p = patches[int(on[at[0]])]
         d[:, :, at] = regularised_derivatives(p, u[at], v[at], order).d

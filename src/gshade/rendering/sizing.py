@@ -49,10 +49,9 @@ NEAREST_FRACTION = 1e-2
 #: texel spacing, so this is a trade with the textures' memory (a texel every 3 pixels took
 #: 1.8x the texels; benchmarks/RESULTS.md, "Measurements behind code choices").
 PIXELS_PER_TEXEL = 4
-#: Texels per pixel that the largest patch's tile may take for every patch: while all fit,
-#: every patch gets one (small patches then resolve their shape function finely, as before
-#: 0.8); else each patch gets its own (0.9.1: no longer raised up to this; the same
-#: interpolation error at the pixels, measured in benchmarks/RESULTS.md).
+#: Texels per pixel that tiles may take beyond each patch's own need: while all tiles of the
+#: largest patch's size fit, every patch gets one (small patches then resolve their shape
+#: function finely, as before 0.8); else the smaller tiles are raised alike until they fit.
 TEXELS_PER_PIXEL = 2
 #: Bounds on the texels per patch side, and on the whole atlas.
 MIN_TILE, MAX_TILE, MAX_ATLAS_TEXELS = 8, 512, 4096 * 4096
@@ -143,8 +142,9 @@ def tile_sizes(scene, framing: Framing) -> NDArray[np.int64]:
     largest one's square tile (about one texel every :data:`PIXELS_PER_TEXEL` pixels of its
     projected extent) within :data:`TEXELS_PER_PIXEL`, all get it, as before 0.8.  Else each
     side follows its own patch's projected length along s and t (a texel every
-    :data:`PIXELS_PER_TEXEL` pixels, in multiples of :data:`gshade.rendering.atlas.BLOCK`):
-    hundreds of small faces, or long thin ones, cost what their pixels cost."""
+    :data:`PIXELS_PER_TEXEL` pixels), the shorter sides raised alike (:func:`_fill`) within
+    the same texels, in multiples of :data:`gshade.rendering.atlas.BLOCK`: hundreds of small
+    faces, or long thin ones, cost what their pixels cost."""
     n = len(scene.patches)
     if scene.render.texture_resolution:
         side = int(np.clip(scene.render.texture_resolution, 2, MAX_TILE))
@@ -169,12 +169,27 @@ def tile_sizes(scene, framing: Framing) -> NDArray[np.int64]:
     if n * largest**2 <= spend:  # every patch the largest one's tile
         return np.full((n, 2), largest)
     own = np.clip(np.ceil(np.asarray(lengths) / PIXELS_PER_TEXEL) + 1, MIN_TILE, MAX_TILE)
-    tiles = BLOCK * np.ceil(own / BLOCK)
+    tiles = _fill(own, spend)
     total = float(tiles.prod(axis=1).sum())
     if total > budget:  # all alike, none below MIN_TILE
         tiles = BLOCK * np.floor(tiles * np.sqrt(budget / total) / BLOCK)
         tiles = np.maximum(tiles, BLOCK * np.ceil(MIN_TILE / BLOCK))
     return tiles.astype(np.int64)
+
+
+def _fill(own: NDArray, texels: int) -> NDArray:
+    """The tiles max(own, T*) side by side (in multiples of BLOCK) with the largest common
+    side T* (at most the longest side) whose tiles hold at most ``texels`` texels (none
+    raised if even the tiles ``own`` exceed it)."""
+    own = BLOCK * np.ceil(own / BLOCK)
+    lo, hi = 0, int(own.max()) // BLOCK  # T* = BLOCK * m, m in [lo, hi]
+    while lo < hi:  # the largest m within the texels
+        m = (lo + hi + 1) // 2
+        if float(np.maximum(own, BLOCK * m).prod(axis=1).sum()) <= texels:
+            lo = m
+        else:
+            hi = m - 1
+    return np.maximum(own, BLOCK * lo)
 
 
 def _validate_scale(where: str, lo: NDArray, hi: NDArray) -> float:

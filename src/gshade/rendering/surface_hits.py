@@ -18,14 +18,11 @@ it).
 
 from __future__ import annotations
 
-from typing import cast
-
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry import BezierPatch, BSplinePatch, Patch
-from ..geometry.patch_cells import PatchCells, cell_groups
-from ..geometry.spline_batches import batch_derivatives
+from ..geometry import Patch
+from ..geometry.patch_cells import ManyPatches
 from ..runtime.backend import NUMPY
 from ..shape.kernels import backend
 from .newton import newton_step, ray_residual
@@ -86,44 +83,15 @@ def surface_hits(
     settled = np.zeros(N, dtype=bool)
     origin = np.broadcast_to(origin, (N, 3))
     direction = np.broadcast_to(direction, (N, 3))
-    groups, others = cell_groups(patches)
-    if backend(backend_name) != "drjit":
-        groups, others = {}, list(range(len(patches)))
-    for members in groups.values():  # Bézier and B-spline patches of one degree: Dr.Jit
-        lookup = np.full(len(patches), -1, dtype=np.int64)
-        lookup[members] = np.arange(len(members))
-        sel = np.flatnonzero(lookup[index] >= 0)
-        if sel.size:
-            cells = PatchCells([cast(BezierPatch | BSplinePatch, patches[k]) for k in members])
-            on = lookup[index[sel]]
-            domains = np.array([patches[k].domain for k in members], dtype=np.float64)[on]
+    if N:
+        many = ManyPatches(patches, drjit=backend(backend_name) == "drjit")
+        domains = np.array([p.domain for p in patches], dtype=np.float64)[index]
 
-            def cell_derivatives(uu, vv, cells=cells, on=on):
-                return cells.derivatives(on, uu, vv, 1)
+        def derivatives(uu, vv):
+            return many.derivatives(index, uu, vv, 1)
 
-            result = _newton_numpy(
-                cell_derivatives,
-                domains[:, :, 0],
-                domains[:, :, 1],
-                u_out[sel],
-                v_out[sel],
-                origin[sel],
-                direction[sel],
-                steps,
-            )
-            u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
-    if others:  # every other patch's points at once (B-splines batched by degree)
-        sel = np.flatnonzero(np.isin(index, others))
-        if sel.size:
-            on = index[sel]
-            domains = np.array([p.domain for p in patches], dtype=np.float64)[on]
-            lo, hi = domains[:, :, 0], domains[:, :, 1]
-
-            def derivatives(uu, vv):
-                return batch_derivatives(patches, on, uu, vv, 1)
-
-            result = _newton_numpy(
-                derivatives, lo, hi, u_out[sel], v_out[sel], origin[sel], direction[sel], steps
-            )
-            u_out[sel], v_out[sel], d[:, :, sel], settled[sel] = result
+        lo, hi = domains[:, :, 0], domains[:, :, 1]
+        u_out, v_out, d, settled = _newton_numpy(
+            derivatives, lo, hi, u_out, v_out, origin, direction, steps
+        )
     return u_out, v_out, d, settled

@@ -143,15 +143,18 @@ class CadFaces:
 
     def extent_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
         """The points of the faces' trimmed regions (:func:`gshade.cad.trimmed_points`)."""
-        from ..cad import trimmed_points
+        from ..cad.model import faces_trimmed_points
+        from ..runtime.llvm import drjit_llvm_ready
 
-        return np.concatenate([trimmed_points(self.model.face(i)) for i in self.faces])
+        faces = [self.model.face(i) for i in self.faces]
+        return np.concatenate(faces_trimmed_points(faces, drjit=drjit_llvm_ready()))
 
     def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
         """A 9 x 9 grid of each face's surface over its box (the rational arcs' control
-        points lie off the surface, overstating it)."""
-        for p in patches:
-            yield np.asarray(p(*p.parameter_grid(9, 9))).reshape(9, 9, 3)
+        points lie off the surface, overstating it), all faces at once."""
+        from ..geometry.patch_groups import grid_derivatives
+
+        yield from grid_derivatives(list(patches), np.linspace(0.0, 1.0, 9))[:, 0, 0]
 
     def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
         """The corners of the model's bounding box."""
