@@ -65,3 +65,7 @@ def test_groups_by_degree_and_kind():
     assert others == [5]
     with pytest.raises(ValueError):
         PatchCells([a, r])
+    # a patch of more knot intervals than a table holds goes by numpy
+    knots = np.concatenate([[0.0], np.linspace(0.0, 1.0, 150), [1.0]])
+    fine = BSplinePatch(rng.normal(size=(150, 150, 3)), (1, 1), (knots, knots))
+    assert cell_groups([fine, a]) == ({((3, 2), False): [1]}, [0])

@@ -98,14 +98,18 @@ _SOURCES = (
     "errors.py",
     "limits.py",
     "runtime/native.py",
+    "runtime/drjit_arrays.py",
     "geometry/bspline.py",
     "geometry/bezier.py",
+    "geometry/bezier_cells.py",
     "geometry/bernstein.py",
     "geometry/blas_threads.py",
     "geometry/knots.py",
     "geometry/patch.py",
+    "geometry/patch_cells.py",
     "geometry/rational.py",
     "geometry/revolution.py",
+    "geometry/spline_batches.py",
 )
 _OCCT_SOURCES = (
     "cad/occt.py",
@@ -116,7 +120,7 @@ _OCCT_SOURCES = (
 )
 _READER_SOURCES = {
     "occt": _OCCT_SOURCES,
-    "3dm": ("cad/rhino*.py", "geometry/bezier_cells.py", *_OCCT_SOURCES),
+    "3dm": ("cad/rhino*.py", *_OCCT_SOURCES),
 }
 #: The modules whose source the kernel's operations depend on, beside the read's, by the
 #: operations' module.

@@ -205,8 +205,8 @@ def trimmed_points(
 ) -> NDArray[np.float64]:
     """Points (m, 3) of a face's trimmed region, standing for its extent: the points of its
     loops (at most ``loop_points`` a loop, default 4 n; all with 0) and of the n x n grid of
-    its box that lie inside them (an odd number of loops around; the box's grid for a face
-    without loops)."""
+    its box that lie inside them (an odd number of loops around, a loop's points counted
+    inside it; the box's grid for a face without loops)."""
     return faces_trimmed_points([face], n, loop_points)[0]
 
 
@@ -216,7 +216,7 @@ def faces_trimmed_points(
     """:func:`trimmed_points` of each face, the surfaces evaluated at all faces' points at
     once (:class:`gshade.geometry.patch_cells.ManyPatches`; its Dr.Jit kernel with
     ``drjit``, never in a kernel process: it forks)."""
-    from matplotlib.path import Path as Polygon
+    from skimage.measure import points_in_poly
 
     from ..geometry.patch_cells import ManyPatches
 
@@ -248,7 +248,7 @@ def faces_trimmed_points(
         if not face.loops:
             out.append(on_grid)
             continue
-        around = sum(Polygon(lp).contains_points(grid).astype(int) for lp in face.loops)
+        around = sum(points_in_poly(grid, lp).astype(int) for lp in face.loops)
         out.append(np.concatenate([on_grid[np.asarray(around) % 2 == 1], on_loops]))
     return out
 

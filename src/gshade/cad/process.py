@@ -79,7 +79,7 @@ _OPERATION_MODULES = ("gshade.cad.model", "gshade.cad.mesh", "gshade.cad.edges")
 #: them, and the readers, once for all its children: :mod:`gshade.cad.zygote`).
 CHILD_MODULES = (
     "numpy",
-    "matplotlib.path",
+    "skimage.measure",
     *_OPERATION_MODULES,
     "gshade.cad.readers",
     "gshade.cad.cache",

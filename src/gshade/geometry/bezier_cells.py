@@ -38,7 +38,7 @@ from .bernstein import bernstein_basis
 from .bspline import BSplinePatch
 from .knots import basis_functions
 
-__all__ = ["MAX_CELLS", "Splines"]
+__all__ = ["MAX_CELLS", "Splines", "to_bezier"]
 
 #: A patch of more knot intervals (u times v) is evaluated on its own, not from a table of
 #: Bézier cells.
@@ -120,7 +120,7 @@ class _Own:
         return d[0, 0], d[1, 0], d[0, 1]
 
 
-def _to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
+def to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
     """The Bézier coefficients of a B-spline (control points ``net``, (n, ...)) on each of
     its knot intervals in the domain: the distinct knots (ends included) and (intervals,
     p + 1, ...), from its values at p + 1 Chebyshev points inside each interval (a
@@ -170,8 +170,8 @@ class Splines:
             return self._add(("own", len(self._pending)), (patch.knots[0], patch))
         w = np.ones(patch.points.shape[:2]) if patch.weights is None else patch.weights
         net = np.concatenate([patch.points * w[..., None], w[..., None]], axis=-1)
-        bv, by_v = _to_bezier(patch.knots[1], q, np.swapaxes(net, 0, 1))  # (v cells, q+1, nu, 4)
-        bu, cells = _to_bezier(patch.knots[0], p, np.moveaxis(by_v, 2, 0))
+        bv, by_v = to_bezier(patch.knots[1], q, np.swapaxes(net, 0, 1))  # (v cells, q+1, nu, 4)
+        bu, cells = to_bezier(patch.knots[0], p, np.moveaxis(by_v, 2, 0))
         return self._add(
             (p, q), (bu, bv, cells.transpose(0, 2, 1, 3, 4).reshape(-1, p + 1, q + 1, 4))
         )
@@ -183,7 +183,7 @@ class Splines:
         knots = np.array([flat.Value(i) for i in range(flat.Lower(), flat.Upper() + 1)])
         poles = np.array([[q.X(), q.Y(), q.Z()] for q in (curve.Pole(i) for i in range(1, n + 1))])
         w = np.array([curve.Weight(i) for i in range(1, n + 1)])
-        bu, cells = _to_bezier(knots, p, np.hstack([poles * w[:, None], w[:, None]]))
+        bu, cells = to_bezier(knots, p, np.hstack([poles * w[:, None], w[:, None]]))
         return self._add((p, 0), (bu, np.array([0.0, 1.0]), cells[:, :, None, :]))
 
     def breaks(self, number: int) -> NDArray[np.float64]:

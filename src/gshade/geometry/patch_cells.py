@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from ..runtime.drjit_arrays import drjit_array
 from .bezier import BezierPatch
+from .bezier_cells import MAX_CELLS, to_bezier
 from .bspline import BSplinePatch
 from .patch import validate_order
 from .rational import project_patch_derivatives
@@ -52,19 +53,26 @@ __all__ = ["ManyPatches", "PatchCells", "cell_groups"]
 
 
 def cell_groups(patches: Sequence[Any]) -> tuple[dict[tuple, list[int]], list[int]]:
-    """The indices of the Bézier and B-spline patches by (degree, rational), and of all
-    other patches."""
+    """The indices of the Bézier and B-spline patches (of at most
+    :data:`gshade.geometry.bezier_cells.MAX_CELLS` knot intervals) by (degree, rational),
+    and of all other patches."""
     groups: dict[tuple, list[int]] = {}
     others = []
     for k, patch in enumerate(patches):
-        if type(patch) in (BezierPatch, BSplinePatch):
+        if type(patch) is BezierPatch or (type(patch) is BSplinePatch and _few_cells(patch)):
             groups.setdefault((patch.degree, patch.rational), []).append(k)
         else:
             others.append(k)
     return groups, others
 
 
-#: each patch's cells, kept while the patch lives: (u breaks, v breaks, homogeneous nets)
+def _few_cells(patch: BSplinePatch) -> bool:
+    """Whether the patch has at most MAX_CELLS knot intervals (u times v) in its domain."""
+    u, v = (np.unique(np.clip(k, *d)) for k, d in zip(patch.knots, patch.domain, strict=True))
+    return (len(u) - 1) * (len(v) - 1) <= MAX_CELLS
+
+
+#: each patch's cells, kept while the patch lives (see :func:`_cells`)
 _CELLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -75,10 +83,15 @@ def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, ...]:
     kept = _CELLS.get(patch)
     if kept is not None:
         return kept
-    rows = [[patch]] if isinstance(patch, BezierPatch) else patch.bezier_patches()
-    ub = np.array([row[0].domain[0][0] for row in rows] + [rows[-1][0].domain[0][1]])
-    vb = np.array([cell.domain[1][0] for cell in rows[0]] + [rows[0][-1].domain[1][1]])
-    nets = np.stack([cell._net for row in rows for cell in row]).astype(np.float64)
+    net = np.asarray(patch._net, dtype=np.float64)  # homogeneous (w P, w) if rational
+    if isinstance(patch, BezierPatch):
+        (a, b), (c, d) = patch.domain
+        ub, vb, nets = np.array([a, b]), np.array([c, d]), net[None]
+    else:  # Bézier extraction along v, then u (gshade.geometry.bezier_cells.to_bezier)
+        (U, V), (p, q) = patch.knots, patch.degree
+        vb, by_v = to_bezier(V, q, np.swapaxes(net, 0, 1))  # (v cells, q + 1, nu, c)
+        ub, cells = to_bezier(U, p, np.moveaxis(by_v, 2, 0))  # (u cells, p + 1, v cells, ..)
+        nets = np.moveaxis(cells, 2, 1).reshape(-1, p + 1, q + 1, net.shape[-1])
     u0, v0 = np.meshgrid(ub[:-1], vb[:-1], indexing="ij")
     du, dv = np.meshgrid(np.diff(ub), np.diff(vb), indexing="ij")
     lo = np.stack([u0.ravel(), v0.ravel()], -1)

@@ -20,6 +20,7 @@ from .patch import Patch
 __all__ = [
     "RegularisedDerivatives",
     "degenerate_patch",
+    "degenerate_patches",
     "patch_normals",
     "regularised_derivatives",
     "toward_interior",
@@ -82,23 +83,27 @@ def regularised_derivatives(
 
 
 def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 3):
-    """The first patch that is no surface, and why; None if every patch is one.
+    """The first patch that is no surface, and why; None if every patch is one
+    (:func:`degenerate_patches`)."""
+    return next(iter(degenerate_patches(patches, samples)), None)
+
+
+def degenerate_patches(
+    patches: list[Patch] | tuple[Patch, ...], samples: int = 3
+) -> list[tuple[int, str]]:
+    """The patches that are no surface, and why: (index, reason) each, in order.
 
     A patch is degenerate when its derivatives are not finite anywhere on an interior
     sample grid (its data overflow), or when it is irregular (|p_u x p_v| ≈ 0, see
     :func:`~gshade.geometry.differential.irregular_mask`) at every sample: all control
     points equal, collinear points, a sphere too small for double precision.  Collapsed
     edges (the teapot's lid) are irregular only at the boundary and pass.
-
-    Returns
-    -------
-    (int, str) or None
-        The patch's index and a reason for messages.
     """
     from .patch_groups import grid_derivatives
 
     s = (np.arange(samples) + 0.5) / samples
     chunk = 512  # patches per evaluation: bounded memory for large scenes
+    out = []
     for start in range(0, len(patches), chunk):
         group = list(patches[start : start + chunk])
         with np.errstate(all="ignore"):
@@ -118,9 +123,22 @@ def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 3)
             flat_patch = point | (cross <= IRREGULAR_TOL * scale[:, None] ** 2).all(axis=1)
         for k in np.flatnonzero(overflow | flat_patch):
             if overflow[k]:
-                return start + int(k), "its points or derivatives overflow (numbers too large)"
-            return start + int(k), (
-                "it has no regular point (p_u x p_v = 0 everywhere: all control points "
-                "equal or collinear, or a size below double precision)"
+                out.append(
+                    (start + int(k), "its points or derivatives overflow (numbers too large)")
+                )
+                continue
+            out.append(
+                (
+                    start + int(k),
+                    "it has no regular point (p_u x p_v = 0 everywhere: all control points "
+                    "equal or collinear, or a size below double precision)",
+                )
             )
-    return None
+    return out
+
+
+_OVERFLOW = "its points or derivatives overflow (numbers too large)"
+_NO_REGULAR_POINT = (
+    "it has no regular point (p_u x p_v = 0 everywhere: all control points equal or "
+    "collinear, or a size below double precision)"
+)

@@ -188,7 +188,7 @@ def over_box(face: Any) -> Any:
 )
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     from ..cad import LeftOutFace, in_scene, read_cad, strict_refusal
-    from ..geometry.regularity import degenerate_patch
+    from ..geometry.regularity import degenerate_patches
 
     name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()
@@ -226,24 +226,24 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     chosen = [i for i in asked if i in usable]
     if len(chosen) > MAX_PATCHES:
         raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
+    boxed: list[tuple[int, Patch]] = []
+    for i in chosen:
+        try:
+            boxed.append((i, over_box(usable[i])))
+        except GshadeError as exc:
+            left_out.append(LeftOutFace(i, str(exc), "restricting its surface to its box"))
+    bad = dict(degenerate_patches([patch for _, patch in boxed]))  # all faces at once
     patches: list[Patch] = []
     swapped = []
     rendered = []
-    for i in chosen:
-        face = usable[i]
-        try:
-            patch = over_box(face)
-        except GshadeError as exc:
-            left_out.append(LeftOutFace(i, str(exc), "restricting its surface to its box"))
+    for k, (i, patch) in enumerate(boxed):
+        if k in bad:
+            left_out.append(LeftOutFace(i, bad[k], "checking its surface"))
             continue
-        bad = degenerate_patch([patch])
-        if bad is not None:
-            left_out.append(LeftOutFace(i, bad[1], "checking its surface"))
-            continue
-        if face.reversed:
+        if usable[i].reversed:
             patch = _swapped(patch)
         patches.append(patch)
-        swapped.append(bool(face.reversed))
+        swapped.append(bool(usable[i].reversed))
         rendered.append(i)
     left_out.sort(key=lambda f: f.index)
     where = f"{t.file}: {t.prefix}".rstrip(": ")
