@@ -69,3 +69,32 @@ def test_groups_by_degree_and_kind():
     knots = np.concatenate([[0.0], np.linspace(0.0, 1.0, 150), [1.0]])
     fine = BSplinePatch(rng.normal(size=(150, 150, 3)), (1, 1), (knots, knots))
     assert cell_groups([fine, a]) == ({((3, 2), False): [1]}, [0])
+
+
+def test_many_patches_equal_each_patch_own_derivatives_with_and_without_drjit():
+    """Points on patches of two degrees, rational and not, a sphere (rational B-spline
+    with collapsed edges) and a patch of another kind (Coons, by numpy), shuffled."""
+    from gshade.geometry import BezierCurve, CoonsPatch, sphere
+    from gshade.geometry.patch_cells import ManyPatches
+
+    rng = np.random.default_rng(8)
+    bezier = BezierPatch(rng.normal(size=(3, 4, 3)))
+    net = rng.normal(size=(4, 4, 3))  # a Coons patch of a Bézier net's boundary
+    coons = CoonsPatch(
+        BezierCurve(net[:, 0]), BezierCurve(net[:, -1]), BezierCurve(net[0]), BezierCurve(net[-1])
+    )
+    patches = [*_patches(rng, False), *_patches(rng, True), sphere(2.0), bezier, coons]
+    index = rng.integers(0, len(patches), 3000)
+    dom = np.array([p.domain for p in patches])[index]
+    u = dom[:, 0, 0] + rng.random(index.size) * (dom[:, 0, 1] - dom[:, 0, 0])
+    v = dom[:, 1, 0] + rng.random(index.size) * (dom[:, 1, 1] - dom[:, 1, 0])
+    many = ManyPatches(patches, drjit=True)
+    assert len(many.groups) == 4 and list(many.group[-2:]) == [many.group[-2], -1]  # Coons
+    a = many.derivatives(index, u, v, 2)
+    b = ManyPatches(patches, drjit=False).derivatives(index, u, v, 2)
+    for k, p in enumerate(patches):
+        at = index == k
+        expected = p.derivatives(u[at], v[at], 2)
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(a[:, :, at], expected, rtol=0, atol=1e-11 * scale)
+        np.testing.assert_allclose(b[:, :, at], expected, rtol=0, atol=1e-11 * scale)

@@ -124,7 +124,8 @@ class PatchCells:
         """The cell of each point (u[i], v[i]) of patch ``member[i]`` (its place here): the
         knot interval holding it, the end ones past the domain."""
         cell = np.empty(member.size, dtype=np.int64)
-        by_member = np.argsort(member, kind="stable")
+        ordered = bool((member[1:] >= member[:-1]).all())  # as the render's hits come
+        by_member = np.arange(member.size) if ordered else np.argsort(member, kind="stable")
         bounds = np.flatnonzero(np.diff(member[by_member])) + 1
         for mine in np.split(by_member, bounds):
             if not mine.size:
@@ -207,6 +208,8 @@ class ManyPatches:
         u = np.asarray(u, dtype=np.float64)
         v = np.asarray(v, dtype=np.float64)
         group = self.group[index]
+        if len(self.groups) == 1 and index.size and (group == 0).all():  # no copy
+            return self.groups[0][1].derivatives(self.place[index], u, v, order)
         out = np.empty((order + 1, order + 1, index.size, 3))
         for g, (_, cells) in enumerate(self.groups):
             at = np.flatnonzero(group == g)
