@@ -8,7 +8,7 @@ from gshade.errors import GshadeError
 from gshade.geometry import BezierPatch
 from gshade.rendering.atlas import Atlas
 from gshade.rendering.camera import View
-from gshade.rendering.channels import centre_hits, exact_channels, refuse_non_finite
+from gshade.rendering.channels import exact_channels, refuse_non_finite
 from gshade.rendering.integrator import SHAPE_FILM
 from gshade.rendering.rendered_image import CHANNELS
 
@@ -78,8 +78,7 @@ def test_every_channel_at_its_pixel():
     film = image.copy()
     for c in ("x", "y"):  # the centre pass's coordinates beside the samples' picture
         film[..., SHAPE_FILM.index(c)] = data[..., SHAPE_FILM.index(c)]
-    hit_mask = data[..., SHAPE_FILM.index("A")] > 0.5
-    out = exact_channels(film, centre_hits(film, hit_mask, atlas, surfaces, camera), surfaces)
+    out = exact_channels(film, data[..., SHAPE_FILM.index("A")] > 0.5, atlas, surfaces, camera)
     assert list(out) == [c for c in CHANNELS if c != "f.mean"]  # the pipeline adds it
     assert all(a.shape == (H, W) and a.dtype == np.float32 for a in out.values())
     A = image[..., SHAPE_FILM.index("A")]

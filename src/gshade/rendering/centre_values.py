@@ -16,14 +16,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
+from ..geometry.patch_cells import ManyPatches
 from ..shape import ShapeFunction, evaluate
-from .channels import CentreHits
+from ..shape.kernels import backend
 
-__all__ = ["centre_values"]
+__all__ = ["centre_derivatives", "centre_values"]
 
 
 def centre_values(
-    hits: CentreHits,
+    channels: dict[str, NDArray[np.float32]],
     patches: list[Patch] | tuple[Patch, ...],
     functions: dict[str, tuple[ShapeFunction, dict]],
 ) -> dict[str, NDArray[np.float32]]:
@@ -31,35 +32,59 @@ def centre_values(
 
     Parameters
     ----------
-    hits : CentreHits
-        The render's exact centre hits (:func:`gshade.rendering.channels.centre_hits`),
-        with derivatives up to the functions' highest order.
+    channels : dict
+        The exact channels (``patch``, ``u``, ``v``) of a render.
     patches : sequence of Patch
-        The scene's patches, as the hits number them.
+        The scene's patches, as the ``patch`` channel numbers them.
     functions : dict
         Channel name -> (shape function, its parameters).
     """
-    H, W = hits.shape
-    out = {name: np.zeros(H * W, dtype=np.float32) for name in functions}
+    shape = channels["patch"].shape
+    patch = np.rint(channels["patch"]).astype(np.int64).ravel()
+    hits = np.flatnonzero(patch >= 0)
+    order = hits[np.argsort(patch[hits], kind="stable")]  # the hits, patch by patch
+    out = {name: np.zeros(patch.size, dtype=np.float32) for name in functions}
     highest = max((fn.order for fn, _ in functions.values()), default=0)  # f needs order k
-    if highest > hits.order:
-        raise ValueError(f"hits: derivatives up to order {highest} needed, got {hits.order}")
-    d = hits.derivatives[: max(highest, 1) + 1, : max(highest, 1) + 1]
-    if highest >= 1:  # irregular points: each patch on its own scale, limits from inside
-        by_patch = np.argsort(hits.patch, kind="stable")
-        bounds = np.flatnonzero(np.diff(hits.patch[by_patch])) + 1
-        for at in np.split(by_patch, bounds):
-            if at.size and irregular_mask(d[:, :, at]).any():
-                p = patches[int(hits.patch[at[0]])]
-                d[:, :, at] = regularised_derivatives(p, hits.u[at], hits.v[at], highest).d
-    for start in range(0, hits.pixels.size, BLOCK):  # one evaluation of each function a block
-        block = slice(start, start + BLOCK)
+    u_all, v_all = channels["u"].ravel(), channels["v"].ravel()
+    many = ManyPatches(patches, drjit=backend() == "drjit")
+    for start in range(0, order.size, BLOCK):  # one evaluation of each function a block
+        block = order[start : start + BLOCK]
+        on = patch[block]
+        domains = np.array([p.domain for p in patches], dtype=np.float64)[on]
+        u = np.clip(u_all[block].astype(np.float64), domains[:, 0, 0], domains[:, 0, 1])
+        v = np.clip(v_all[block].astype(np.float64), domains[:, 1, 0], domains[:, 1, 1])
+        d = centre_derivatives(patches, on, u, v, highest, many)
         for name, (fn, params) in functions.items():
-            out[name][hits.pixels[block]] = evaluate(
-                fn, d[: fn.order + 2, : fn.order + 2, block], gradient=False, **params
+            out[name][block] = evaluate(
+                fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
             ).f
-    return {name: values.reshape(H, W) for name, values in out.items()}
+    return {name: values.reshape(shape) for name, values in out.items()}
 
 
 #: Centre hits per evaluation of the functions (bounds the derivatives' memory).
 BLOCK = 1 << 18
+
+
+def centre_derivatives(
+    patches: list[Patch] | tuple[Patch, ...],
+    on: NDArray,
+    u: NDArray,
+    v: NDArray,
+    order: int,
+    many: ManyPatches | None = None,
+) -> NDArray[np.float64]:
+    """Derivatives up to ``order`` of patch ``on[i]`` at (u[i], v[i]) (``on`` sorted),
+    regularised at irregular points (:func:`gshade.geometry.regularised_derivatives`, each
+    patch on its own scale), all at once (``many``, the patches'
+    :class:`gshade.geometry.patch_cells.ManyPatches`, made here if not given)."""
+    if many is None:
+        many = ManyPatches(patches, drjit=backend() == "drjit")
+    d = many.derivatives(on, u, v, order)
+    for at in np.split(np.arange(on.size), np.flatnonzero(np.diff(on)) + 1):
+        if not at.size:
+            continue
+        if order < 1 or not irregular_mask(d[:, :, at]).any():
+            continue
+        p = patches[int(on[at[0]])]
+        d[:, :, at] = regularised_derivatives(p, u[at], v[at], order).d
+    return d

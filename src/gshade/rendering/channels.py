@@ -11,8 +11,6 @@ the point where that ray meets it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -24,42 +22,21 @@ from .camera import View
 from .integrator import SHAPE_FILM
 from .surface_hits import surface_hits
 
-__all__ = ["PICTURE", "CentreHits", "centre_hits", "exact_channels", "refuse_non_finite"]
+__all__ = ["PICTURE", "exact_channels", "refuse_non_finite"]
 
 #: the film's channels that all the pixel's samples make (the rest come from its centre)
 PICTURE = ("R", "G", "B", "A", "f")
 
 
-@dataclass(frozen=True)
-class CentreHits:
-    """Where the rays through the pixel centres meet the exact surface: the pixels (flat
-    indices into an image of ``shape``), their patches, parameters (float64) and the
-    patch's derivatives there up to ``order`` ((order + 1, order + 1, n, 3))."""
-
-    shape: tuple[int, int]
-    pixels: NDArray[np.int64]
-    patch: NDArray[np.int64]
-    u: NDArray[np.float64]
-    v: NDArray[np.float64]
-    derivatives: NDArray[np.float64]
-
-    @property
-    def order(self) -> int:
-        return self.derivatives.shape[0] - 1
-
-
-def centre_hits(
+def exact_channels(
     film: NDArray,
     hit: NDArray,
     atlas: Atlas,
     patches: list[Patch] | tuple[Patch, ...],
     view: View,
-    order: int = 1,
-) -> CentreHits:
-    """One exact Newton step from the centre pass's atlas coordinates onto each pixel's
-    patch (:func:`gshade.rendering.surface_hits.surface_hits`), and the derivatives there
-    up to ``order`` (at least 1); the centre rays that slipped between two surfaces found
-    from their neighbours' hits.
+) -> dict[str, NDArray[np.float32]]:
+    """The EXR channels: the picture, coverage and f from the samples; P, N, u, v and the
+    patch index where the ray through the pixel centre meets the exact surface.
 
     Parameters
     ----------
@@ -73,42 +50,27 @@ def centre_hits(
         The atlas the centre pass's coordinates address, its patches, the camera.
     """
     H, W = film.shape[:2]
-    order = max(1, int(order))
     A = film[..., SHAPE_FILM.index("A")]
+    f = np.where(A > 0, film[..., SHAPE_FILM.index("f")] / np.where(A > 0, A, 1.0), 0.0)
     hit = np.flatnonzero(hit.ravel())
     x, y = (film[..., SHAPE_FILM.index(c)].ravel()[hit] for c in ("x", "y"))
     patch_index, st = atlas.locate(np.stack([x, y], -1).astype(np.float64))
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
-    d = np.empty((order + 1, order + 1, hit.size, 3))
+    d = np.empty((2, 2, hit.size, 3))
     by_patch = np.argsort(patch_index, kind="stable")  # a patch's hits in few blocks
     for block in range(0, hit.size, BLOCK):  # in blocks: the steps' temporaries stay small
         at = by_patch[block : block + BLOCK]
         rays = view.pixel_rays(hit[at] // W, hit[at] % W)
-        u[at], v[at], d[:, :, at], _ = surface_hits(
-            patches, patch_index[at], u[at], v[at], *rays, order=order
-        )
+        u[at], v[at], d[:, :, at], _ = surface_hits(patches, patch_index[at], u[at], v[at], *rays)
     slipped = _slipped_through(A, hit, H, W)
     if slipped.size:
-        found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W, order)
+        found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W)
         hit = np.concatenate([hit, found[0]])
         patch_index = np.concatenate([patch_index, found[1]])
         u, v = np.concatenate([u, found[2]]), np.concatenate([v, found[3]])
         d = np.concatenate([d, found[4]], axis=2)
-    return CentreHits((H, W), hit, patch_index, u, v, d)
-
-
-def exact_channels(
-    film: NDArray, hits: CentreHits, patches: list[Patch] | tuple[Patch, ...]
-) -> dict[str, NDArray[np.float32]]:
-    """The EXR channels: the picture, coverage and f from the samples (the film, as
-    :func:`centre_hits` reads it); P, N, u, v and the patch index at the pixel centres'
-    exact hits ``hits`` on ``patches``."""
-    H, W = hits.shape
-    A = film[..., SHAPE_FILM.index("A")]
-    f = np.where(A > 0, film[..., SHAPE_FILM.index("f")] / np.where(A > 0, A, 1.0), 0.0)
-    d, patch_index, u, v = hits.derivatives, hits.patch, hits.u, hits.v
-    normal = unit_normal(d[:2, :2])
+    normal = unit_normal(d)
     n = normal.n
     if not normal.regular.all():  # limits at collapsed edges need higher derivatives
         irr = np.flatnonzero(~normal.regular)
@@ -122,7 +84,7 @@ def exact_channels(
     per_hit.update(u=u, v=v, patch=patch_index)
     for name, values in per_hit.items():  # written into float32 images, 0 (patch -1) off
         channel = np.full(H * W, -1.0 if name == "patch" else 0.0, dtype=np.float32)
-        channel[hits.pixels] = values
+        channel[hit] = values
         out[name] = channel.reshape(H, W)
     return out
 
@@ -142,9 +104,7 @@ def _slipped_through(A: NDArray, hit: NDArray, H: int, W: int) -> NDArray:
     return np.flatnonzero((A.ravel() >= 1.0) & ~covered)
 
 
-def _hits_from_neighbours(
-    slipped, hit, patch_index, u, v, patches, view: View, H: int, W: int, order: int
-):
+def _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view: View, H: int, W: int):
     """Exact hits for the slipped centre rays: Newton steps on the patches of the pixel's
     neighbours that were hit, from their (u, v); the first that settles.  Returns the
     pixels found and their patch, u, v and derivatives."""
@@ -152,7 +112,7 @@ def _hits_from_neighbours(
     where[hit] = np.arange(hit.size)
     index = np.full(slipped.size, -1, dtype=np.int64)  # the patch found, -1: none yet
     su, sv = np.zeros(slipped.size), np.zeros(slipped.size)
-    d = np.zeros((order + 1, order + 1, slipped.size, 3))
+    d = np.zeros((2, 2, slipped.size, 3))
     rows, cols = slipped // W, slipped % W
     for dr, dc in ((0, -1), (0, 1), (-1, 0), (1, 0), (-1, -1), (-1, 1), (1, -1), (1, 1)):
         r, c = rows + dr, cols + dc
@@ -165,7 +125,7 @@ def _hits_from_neighbours(
         pixels = slipped[todo]
         rays = view.pixel_rays(pixels // W, pixels % W)
         tu, tv, td, settled = surface_hits(
-            patches, patch_index[s], u[s], v[s], *rays, steps=SLIPPED_STEPS, order=order
+            patches, patch_index[s], u[s], v[s], *rays, steps=SLIPPED_STEPS
         )
         done = todo[settled]
         index[done], su[done], sv[done] = patch_index[s][settled], tu[settled], tv[settled]

@@ -41,7 +41,7 @@ from ..runtime.variant import select_variant
 from .atlas import Atlas
 from .camera import View
 from .centre_values import centre_values
-from .channels import PICTURE, centre_hits, exact_channels, refuse_non_finite
+from .channels import PICTURE, exact_channels, refuse_non_finite
 from .integrator import SHAPE_FILM
 from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
 from .rendered_image import RenderedImage
@@ -113,13 +113,11 @@ def render(scene, **overrides) -> RenderedImage:
     _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, scene.shape)
     lap("supersample")
 
-    exact = _exact_functions(scene, settings, functions)
-    order = max(fn.order for fn, _ in exact.values())
-    hits = centre_hits(film, hit, atlas, scene.patches, view, order)
-    channels = exact_channels(film, hits, scene.patches)
+    channels = exact_channels(film, hit, atlas, scene.patches, view)
     channels["f.mean"] = channels["f"]  # the samples' mean, what the pixel's colour shows
-    channels.update(centre_values(hits, scene.patches, exact))
-    del hits
+    channels.update(
+        centre_values(channels, scene.patches, _exact_functions(scene, settings, functions))
+    )
     lap("exact_channels")
     refuse_non_finite(where, channels)
     if junctions is not None:

@@ -226,7 +226,7 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     chosen = [i for i in asked if i in usable]
     if len(chosen) > MAX_PATCHES:
         raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
-    boxed: list[tuple[int, Patch]] = []
+    boxed: list[tuple[int, BSplinePatch]] = []
     for i in chosen:
         try:
             boxed.append((i, over_box(usable[i])))
