@@ -221,7 +221,7 @@ def faces_trimmed_points(
     from ..geometry.patch_cells import ManyPatches
 
     most = 4 * n if loop_points is None else loop_points
-    grids, loops, index, u, v = [], [], [], [], []
+    grids, on_loop, index, u, v = [], [], [], [], []
     for k, face in enumerate(faces):
         (u0, u1), (v0, v1) = face.box
         (a0, a1), (b0, b1) = face.patch.domain
@@ -233,7 +233,7 @@ def faces_trimmed_points(
             else np.empty((0, 2))
         )
         grids.append(grid)
-        loops.append(edges.shape[0])
+        on_loop.append(edges.shape[0])  # the loops' points after the grid's
         uv = np.concatenate([grid, edges])
         index.append(np.full(len(uv), k))
         u.append(np.clip(uv[:, 0], a0, a1))
@@ -241,7 +241,7 @@ def faces_trimmed_points(
     many = ManyPatches([f.patch for f in faces], drjit=drjit)
     points = many.derivatives(np.concatenate(index), np.concatenate(u), np.concatenate(v), 0)
     out, at = [], 0
-    for face, grid, count in zip(faces, grids, loops, strict=True):
+    for face, grid, count in zip(faces, grids, on_loop, strict=True):
         on_grid = points[0, 0, at : at + len(grid)]
         on_loops = points[0, 0, at + len(grid) : at + len(grid) + count]
         at += len(grid) + count

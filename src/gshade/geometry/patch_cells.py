@@ -48,6 +48,7 @@ from .bezier_cells import MAX_CELLS, to_bezier
 from .bspline import BSplinePatch
 from .patch import validate_order
 from .rational import project_patch_derivatives
+from .spline_batches import batch_derivatives
 
 __all__ = ["ManyPatches", "PatchCells", "cell_groups"]
 
@@ -202,8 +203,6 @@ class ManyPatches:
     ) -> NDArray[np.float64]:
         """Derivatives up to total order ``order`` of patch ``index[i]`` at (u[i], v[i]):
         shape (order + 1, order + 1, N, 3), as each patch's ``derivatives``."""
-        from .spline_batches import batch_derivatives
-
         index = np.asarray(index, dtype=np.int64)
         u = np.asarray(u, dtype=np.float64)
         v = np.asarray(v, dtype=np.float64)

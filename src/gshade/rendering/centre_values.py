@@ -20,7 +20,7 @@ from ..geometry.patch_cells import ManyPatches
 from ..shape import ShapeFunction, evaluate
 from ..shape.kernels import backend
 
-__all__ = ["centre_derivatives", "centre_values"]
+__all__ = ["centre_values"]
 
 
 def centre_values(
@@ -47,13 +47,16 @@ def centre_values(
     highest = max((fn.order for fn, _ in functions.values()), default=0)  # f needs order k
     u_all, v_all = channels["u"].ravel(), channels["v"].ravel()
     many = ManyPatches(patches, drjit=backend() == "drjit")
+    domains = np.array([p.domain for p in patches], dtype=np.float64)
     for start in range(0, order.size, BLOCK):  # one evaluation of each function a block
         block = order[start : start + BLOCK]
         on = patch[block]
-        domains = np.array([p.domain for p in patches], dtype=np.float64)[on]
-        u = np.clip(u_all[block].astype(np.float64), domains[:, 0, 0], domains[:, 0, 1])
-        v = np.clip(v_all[block].astype(np.float64), domains[:, 1, 0], domains[:, 1, 1])
-        d = centre_derivatives(patches, on, u, v, highest, many)
+        lo, hi = domains[on, :, 0], domains[on, :, 1]
+        u = np.clip(u_all[block].astype(np.float64), lo[:, 0], hi[:, 0])
+        v = np.clip(v_all[block].astype(np.float64), lo[:, 1], hi[:, 1])
+        d = many.derivatives(on, u, v, highest)
+        if highest >= 1:
+            _regularise(d, patches, on, u, v)
         for name, (fn, params) in functions.items():
             out[name][block] = evaluate(
                 fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
@@ -65,26 +68,12 @@ def centre_values(
 BLOCK = 1 << 18
 
 
-def centre_derivatives(
-    patches: list[Patch] | tuple[Patch, ...],
-    on: NDArray,
-    u: NDArray,
-    v: NDArray,
-    order: int,
-    many: ManyPatches | None = None,
-) -> NDArray[np.float64]:
-    """Derivatives up to ``order`` of patch ``on[i]`` at (u[i], v[i]) (``on`` sorted),
-    regularised at irregular points (:func:`gshade.geometry.regularised_derivatives`, each
-    patch on its own scale), all at once (``many``, the patches'
-    :class:`gshade.geometry.patch_cells.ManyPatches`, made here if not given)."""
-    if many is None:
-        many = ManyPatches(patches, drjit=backend() == "drjit")
-    d = many.derivatives(on, u, v, order)
+def _regularise(d: NDArray, patches, on: NDArray, u: NDArray, v: NDArray) -> None:
+    """Replace, in place, the derivatives of the patches ``on`` (sorted) that are irregular
+    at some of their points by :func:`gshade.geometry.regularised_derivatives` (each patch
+    on its own scale, limits from inside)."""
+    order = d.shape[0] - 1
     for at in np.split(np.arange(on.size), np.flatnonzero(np.diff(on)) + 1):
-        if not at.size:
-            continue
-        if order < 1 or not irregular_mask(d[:, :, at]).any():
-            continue
-        p = patches[int(on[at[0]])]
-        d[:, :, at] = regularised_derivatives(p, u[at], v[at], order).d
-    return d
+        if at.size and irregular_mask(d[:, :, at]).any():
+            p = patches[int(on[at[0]])]
+            d[:, :, at] = regularised_derivatives(p, u[at], v[at], order).d

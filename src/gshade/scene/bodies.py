@@ -144,10 +144,10 @@ class CadFaces:
     def extent_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
         """The points of the faces' trimmed regions (:func:`gshade.cad.trimmed_points`)."""
         from ..cad.model import faces_trimmed_points
-        from ..runtime.llvm import drjit_llvm_ready
+        from ..shape.kernels import backend
 
         faces = [self.model.face(i) for i in self.faces]
-        return np.concatenate(faces_trimmed_points(faces, drjit=drjit_llvm_ready()))
+        return np.concatenate(faces_trimmed_points(faces, drjit=backend() == "drjit"))
 
     def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
         """A 9 x 9 grid of each face's surface over its box (the rational arcs' control
