@@ -363,3 +363,73 @@ def test_a_face_the_mesher_leaves_empty_is_meshed_alone_at_another_deflection(
     ]
     assert mesh.left_out == []
     assert triangle_area(mesh.positions, mesh.triangles) == pytest.approx(200.0, rel=1e-12)
+
+
+def twice_round(radius: float = 2.0, height: float = 3.0):
+    """A cylinder face (valid to the kernel's checks) whose edges turn through 4 pi: its
+    circles' curves on the surface run from u = -3 pi / 2 to 5 pi / 2 (as five pins of a
+    1,393-face FreeCAD part do), joined by the seam twice."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepLib import BRepLib
+    from OCP.Geom import Geom_CylindricalSurface
+    from OCP.Geom2d import Geom2d_Line
+    from OCP.gp import gp_Ax3, gp_Dir, gp_Dir2d, gp_Pnt2d
+
+    surface = Geom_CylindricalSurface(gp_Ax3(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), radius)
+    a, b = -1.5 * math.pi, 2.5 * math.pi
+    wire = BRepBuilderAPI_MakeWire()
+    for p, q in (((a, 0), (b, 0)), ((b, 0), (b, height)), ((b, height), (a, height))):
+        line = Geom2d_Line(gp_Pnt2d(*p), gp_Dir2d(q[0] - p[0], q[1] - p[1]))
+        wire.Add(BRepBuilderAPI_MakeEdge(line, surface, 0.0, math.dist(p, q)).Edge())
+    line = Geom2d_Line(gp_Pnt2d(a, height), gp_Dir2d(0, -1))
+    wire.Add(BRepBuilderAPI_MakeEdge(line, surface, 0.0, height).Edge())
+    face = BRepBuilderAPI_MakeFace(surface, wire.Wire(), True).Face()
+    BRepLib.BuildCurves3d_s(face)
+    return face
+
+
+def test_a_face_winding_twice_round_its_surface_is_left_out_in_words(tmp_path):
+    """The kernel's mesher joins such a face's nodes across its turns, through the
+    cylinder: it is left out with a line that says so (not the arc's range check), and
+    the box beside it is read."""
+    face = twice_round()
+    assert BRepCheck_Analyzer(face).IsValid()
+    model = read_cad(write_shape(with_box(face), tmp_path / "twice.brep"), isolated=False)
+    assert [f.line() for f in model.left_out] == [
+        "face 26 left out: its trims wind 2 times round its surface in u (-4.71239 to "
+        "7.85398; gshade renders a face of at most one turn) (tried: reading its surface "
+        "and trims)"
+    ]
+    assert [f.index for f in model.faces] == list(range(26))
+
+
+def test_the_patch_channel_numbers_faces_as_info_does_past_a_left_out_face(tmp_path):
+    """With face 0 left out, the ``patch`` channel holds the faces' own numbers (1-26, as
+    ``info``, the warnings and the edge rows number them), not their places among the
+    faces rendered: at every covered pixel, the face numbered there evaluated at (u, v)
+    is the pixel's P."""
+    compound, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(compound)
+    builder.Add(compound, open_wire())
+    builder.Add(compound, filleted_box())
+    path = write_shape(compound, tmp_path / "first.brep")
+    exr = tmp_path / "first.exr"
+    run = gshade("render", path, "-o", exr, *SMALL)
+    assert run.returncode == 0, run.stderr
+    assert f"{path}: face 0 left out" in run.stderr
+    channels, header = read_exr(exr)
+    assert header["patch_channel"] == "face"
+    from gshade.scene import load_scene
+
+    (surface,) = load_scene(path).surfaces
+    swapped = dict(zip(surface.body.faces, surface.body.swapped, strict=True))
+    patch = np.rint(channels["patch"]).astype(int)
+    numbers = set(np.unique(patch[patch >= 0]).tolist())
+    assert len(numbers) > 5 and numbers <= set(range(1, 27)), numbers
+    P = np.stack([channels[f"P.{c}"] for c in "XYZ"], -1)
+    for k in numbers:
+        at = patch == k
+        u, v = (channels[c][at].astype(float) for c in "uv")
+        face = surface.body.model.face(k)  # the reader's face k, u and v as the kernel's
+        exact = face.patch(*((v, u) if swapped[k] else (u, v)))
+        assert np.abs(np.asarray(exact) - P[at]).max() < 1e-4, k

@@ -127,7 +127,8 @@ def info(args: argparse.Namespace) -> int:
     irregular = []
     index = 0
     for surface in scene.surfaces:
-        for patch in surface.patches:
+        numbers = surface.body.patch_numbers(index, len(surface.patches))
+        for patch, number in zip(surface.patches, numbers, strict=True):
             u, v = patch.parameter_grid(17, 17)
             mask = irregular_mask(patch.derivatives(u, v, 1))
             if mask.any():
@@ -136,7 +137,7 @@ def info(args: argparse.Namespace) -> int:
                 where = ", ".join(f"collapsed edge {e}" for e in edges)
                 label = surface.body.patch_label
                 irregular.append(
-                    f"{label} {index}: " + (where or f"{int(mask.sum())} sample points")
+                    f"{label} {number}: " + (where or f"{int(mask.sum())} sample points")
                 )
             index += 1
     # the extent the camera frames (a CAD face's trimmed region, not its patch's box)

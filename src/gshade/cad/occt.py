@@ -37,6 +37,7 @@ from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import GshadeError
 from ..geometry.bspline import BSplinePatch
+from ..geometry.revolution import TURN_OVERSHOOT
 from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
@@ -314,6 +315,7 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
     kind = _kind(face)
     u0, u1, v0, v1 = BRepTools.UVBounds_s(conv)
     box = ((float(u0), float(u1)), (float(v0), float(v1)))
+    _refuse_turns(box, face)
     arcs: Any = (None, None)
     if own and kind not in ("bspline", "bezier"):
         patch, arcs = analytic_patch(kind, BRepAdaptor_Surface(face), box)
@@ -341,6 +343,24 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
         trimmed=bool(trimmed),
         arcs=arcs,
     )
+
+
+def _refuse_turns(box: tuple, face: Any) -> None:
+    """Raise GshadeError if the face's trims wind round its periodic surface more than once
+    (by over :data:`~gshade.geometry.revolution.TURN_OVERSHOOT` of a turn: edges that turn
+    through 4 pi round a pin, a helical strip): the kernel's mesher joins its nodes across
+    the turns, through the surface, so the face is left out, said in these words."""
+    surface = BRepAdaptor_Surface(face)
+    periods = (
+        surface.UPeriod() if surface.IsUPeriodic() else None,
+        surface.VPeriod() if surface.IsVPeriodic() else None,
+    )
+    for name, (lo, hi), period in zip("uv", box, periods, strict=True):
+        if period is not None and hi - lo > period * (1 + TURN_OVERSHOOT):
+            raise GshadeError(
+                f"its trims wind {(hi - lo) / period:.3g} times round its surface in {name} "
+                f"({lo:.6g} to {hi:.6g}; gshade renders a face of at most one turn)"
+            )
 
 
 def _error(patch: BSplinePatch, box: tuple, face: Any, n: int = 7) -> float:

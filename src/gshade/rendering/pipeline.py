@@ -33,6 +33,7 @@ import time
 from dataclasses import asdict, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import __version__
 from ..errors import GshadeError
@@ -126,6 +127,7 @@ def render(scene, **overrides) -> RenderedImage:
         domains = [p.domain for p in scene.patches]
         channels = draw_junctions(channels, junctions, domains, edges=edges)
         lap("junctions")
+    channels["patch"] = _patch_channel(scene, channels["patch"])
     shown = legend(scene.shape, style, _length_unit(scene))
     metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
     if junctions is not None:
@@ -231,11 +233,24 @@ def _length_unit(scene) -> str:
 
 
 def _patch_label(scene) -> str:
-    """What the ``patch`` channel numbers: the surfaces' own word for a patch
-    (:attr:`gshade.scene.bodies.SurfaceBody.patch_label`) where they all have one,
-    ``"face"`` on CAD models), else ``"patch"``."""
-    labels = {s.body.patch_label for s in scene.surfaces}
-    return labels.pop() if len(labels) == 1 else "patch"
+    """What the ``patch`` channel numbers: a scene of one surface, its own word for a patch
+    (:attr:`gshade.scene.bodies.SurfaceBody.patch_label`: ``"face"`` on a CAD model), else
+    ``"patch"`` (the scene's patches; several CAD models' face numbers would collide)."""
+    return scene.surfaces[0].body.patch_label if len(scene.surfaces) == 1 else "patch"
+
+
+def _patch_channel(scene, patch: NDArray[np.float32]) -> NDArray[np.float32]:
+    """The ``patch`` channel as :func:`_patch_label` says: the scene's patch index (as the
+    pipeline numbers them) replaced, on a scene of one surface, by that surface's numbers
+    for its patches (:meth:`gshade.scene.bodies.SurfaceBody.patch_numbers`: a CAD model's
+    face numbers, which differ from the index once a face is left out or chosen away);
+    -1 off the surface."""
+    if len(scene.surfaces) != 1:
+        return patch
+    numbers = scene.surfaces[0].body.patch_numbers(0, len(scene.patches))
+    index = np.rint(patch).astype(np.int64)
+    lookup = np.concatenate([numbers, [-1]]).astype(np.float32)  # index -1: the last
+    return lookup[np.where(index >= 0, index, len(numbers))]
 
 
 #: Points per B-rep edge drawn as a junction line.

@@ -64,6 +64,12 @@ class SurfaceBody(Protocol):
         """Points (n, 3) whose box is the surface's size (its continuity tolerances')."""
         ...
 
+    def patch_numbers(self, first: int, count: int) -> NDArray[np.int64]:
+        """The numbers of its ``count`` patches in messages and the ``patch`` channel, the
+        first of them the scene's patch ``first``: the scene's running index, or a CAD
+        model's face numbers (as ``info``, the warnings and the edge rows number them)."""
+        ...
+
     def notes(self) -> list[tuple[Any, str]]:
         """What the reader noted: (file, line) each."""
         ...
@@ -104,6 +110,9 @@ class PatchBody:
 
     def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
         return np.concatenate([p(*p.parameter_grid(9, 9)).reshape(-1, 3) for p in patches])
+
+    def patch_numbers(self, first: int, count: int) -> NDArray[np.int64]:
+        return first + np.arange(count, dtype=np.int64)
 
     def notes(self) -> list[tuple[Any, str]]:
         return []
@@ -159,6 +168,9 @@ class CadFaces:
     def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
         """The corners of the model's bounding box."""
         return np.atleast_2d(np.asarray(self.model.bounds, dtype=np.float64))
+
+    def patch_numbers(self, first: int, count: int) -> NDArray[np.int64]:
+        return np.asarray(self.faces, dtype=np.int64)
 
     def notes(self) -> list[tuple[Any, str]]:
         return [(self.model.path, line) for line in self.model.notes]
