@@ -28,6 +28,7 @@ __all__ = [
     "LeftOutFace",
     "arc_map",
     "faces_bounds",
+    "faces_extents",
     "no_usable_face",
     "strict_refusal",
     "trimmed_points",
@@ -65,6 +66,9 @@ class CadFace:
         How far (in parameter units) the loops' polylines may lie from the exact curves.
     trimmed : bool
         False when the face is its whole parameter box.
+    extent : ndarray (m, 3) or None
+        Its :func:`trimmed_points` once :func:`faces_extents` has found them (the reader
+        does, so that a cached model keeps them), else None.
     arcs : ((a0, a1) or None, (b0, b1) or None)
         Per parameter, the angle range when the kernel's parameter is an angle (cylinders,
         cones, spheres, tori read without the kernel's NURBS conversion) and ``patch`` runs
@@ -84,6 +88,7 @@ class CadFace:
     loop_tolerance: float = 0.0
     trimmed: bool = False
     arcs: tuple[tuple[float, float] | None, tuple[float, float] | None] = (None, None)
+    extent: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
     def to_patch(self, uv: NDArray[np.float64]) -> NDArray[np.float64]:
         """The patch's parameters (n, 2) of the kernel's (u, v) (n, 2) (:func:`arc_map`)."""
@@ -251,6 +256,17 @@ def faces_trimmed_points(
         around = sum(points_in_poly(grid, lp).astype(int) for lp in face.loops)
         out.append(np.concatenate([on_grid[np.asarray(around) % 2 == 1], on_loops]))
     return out
+
+
+def faces_extents(faces: list[CadFace], drjit: bool = False) -> list[NDArray[np.float64]]:
+    """Each face's :func:`trimmed_points` (the defaults), standing for its extent: kept on
+    the face (``CadFace.extent``), those not yet found evaluated all at once
+    (:func:`faces_trimmed_points`)."""
+    missing = [face for face in faces if face.extent is None]
+    if missing:
+        for face, points in zip(missing, faces_trimmed_points(missing, drjit=drjit), strict=True):
+            face.extent = points
+    return [face.extent for face in faces]  # type: ignore[misc]
 
 
 def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

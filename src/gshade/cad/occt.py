@@ -43,7 +43,16 @@ from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
 from .healing import HEALING, heal
 from .kernel import exception_text, shape_faces
-from .model import CadFace, CadModel, LeftOutFace, arc_map, faces_bounds, no_usable_face, usable
+from .model import (
+    CadFace,
+    CadModel,
+    LeftOutFace,
+    arc_map,
+    faces_bounds,
+    faces_extents,
+    no_usable_face,
+    usable,
+)
 from .quadrics import analytic_patch, builds
 from .step_accuracy import step_uncertainty
 
@@ -133,6 +142,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
             )
     if not out:
         raise no_usable_face(path, [left_out[i] for i in sorted(left_out)])
+    faces_extents(out)  # kept with the model (and the cached read)
     precision = step_uncertainty(path) if ext in (".step", ".stp") else 0.0
     return CadModel(
         path=path,

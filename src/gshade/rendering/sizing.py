@@ -19,6 +19,7 @@ from ..errors import GshadeError
 from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_budget, render_memory
 from .atlas import BLOCK
 from .camera import View, frame_view
+from .surface_meshes import gridded_patches
 from .tessellate import max_chord_resolution
 
 __all__ = [
@@ -126,10 +127,14 @@ def chord_tolerance(scene, settings, framing: Framing) -> float:
 
 def mesh_resolution(scene, settings, framing: Framing) -> int:
     """Vertices per patch side: ``tessellation`` if set, else the coarsest grid within the
-    chord tolerance (no finer than single precision resolves, and within the budget)."""
+    chord tolerance (no finer than single precision resolves, and within the budget) of
+    the patches meshed on it (:func:`gshade.rendering.surface_meshes.gridded_patches`; 2
+    where none are: a CAD model's faces are meshed within the tolerance by the kernel)."""
     if settings.tessellation:
         return int(settings.tessellation)
-    patches = scene.patches
+    patches = gridded_patches(scene)
+    if not patches:
+        return 2
     resolution = max_chord_resolution(patches, chord_tolerance(scene, settings, framing))
     # keep the mesh within what the image can show (a few million vertices at most)
     budget = _budget(settings.width * settings.height, MAX_VERTICES)

@@ -18,7 +18,7 @@ from ..errors import GshadeError
 from ..scene.bodies import CadFaces, PatchBody
 from .tessellate import TriangleMesh, tessellate, tessellate_faces
 
-__all__ = ["MESHERS", "MeshPart", "Mesher", "mesh_parts", "planned_vertices"]
+__all__ = ["MESHERS", "MeshPart", "Mesher", "gridded_patches", "mesh_parts", "planned_vertices"]
 
 
 @dataclass
@@ -39,10 +39,12 @@ class Mesher:
     scene)`` with ``members`` their (surface, the scene's indices of its patches) and
     ``scene`` the scene's file and where messages say it is, and the
     vertices known before (``planned(members, resolution)``), which the memory check counts
-    first."""
+    first; ``on_grid``: whether it meshes them on the common grid, whose resolution their
+    chord errors then set (:func:`gridded_patches`)."""
 
     mesh: Callable[..., list[MeshPart]]
     planned: Callable[[Sequence[tuple[Any, NDArray[np.int32]]], int], int]
+    on_grid: bool = False
 
 
 def _grid(members, resolution: int, deflection: float, scene: tuple) -> list[MeshPart]:
@@ -74,7 +76,9 @@ def _cad(members, resolution: int, deflection: float, scene: tuple) -> list[Mesh
 
 #: The mesher of each body.
 MESHERS: dict[type, Mesher] = {
-    PatchBody: Mesher(_grid, lambda members, r: sum(len(s.patches) for s, _ in members) * r**2),
+    PatchBody: Mesher(
+        _grid, lambda members, r: sum(len(s.patches) for s, _ in members) * r**2, on_grid=True
+    ),
     CadFaces: Mesher(_cad, lambda members, r: 0),
 }
 
@@ -88,6 +92,18 @@ def _members(scene) -> dict[type, list[tuple[Any, NDArray[np.int32]]]]:
         out.setdefault(type(surface.body), []).append((surface, index))
         start += len(surface.patches)
     return out
+
+
+def gridded_patches(scene) -> list:
+    """The patches meshed on the common grid (:attr:`Mesher.on_grid`), whose chord errors
+    set its resolution."""
+    return [
+        patch
+        for kind, members in _members(scene).items()
+        if MESHERS[kind].on_grid
+        for surface, _ in members
+        for patch in surface.patches
+    ]
 
 
 def planned_vertices(scene, resolution: int) -> int:

@@ -151,12 +151,13 @@ class CadFaces:
         return None if unit in (None, "unknown") else str(unit)
 
     def extent_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
-        """The points of the faces' trimmed regions (:func:`gshade.cad.trimmed_points`)."""
-        from ..cad.model import faces_trimmed_points
+        """The points of the faces' trimmed regions (:func:`gshade.cad.trimmed_points`,
+        as the reader kept them: :func:`gshade.cad.model.faces_extents`)."""
+        from ..cad.model import faces_extents
         from ..shape.kernels import backend
 
         faces = [self.model.face(i) for i in self.faces]
-        return np.concatenate(faces_trimmed_points(faces, drjit=backend() == "drjit"))
+        return np.concatenate(faces_extents(faces, drjit=backend() == "drjit"))
 
     def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
         """A 9 x 9 grid of each face's surface over its box (the rational arcs' control
