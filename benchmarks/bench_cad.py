@@ -31,6 +31,12 @@ oriented mesh: the peer's sign is flipped once, for the whole model, by the sign
 correlation (reported).  Error = |H_peer - H_exact| / s, with s the 99th percentile of
 |H_exact| over those pixels (a robust maximum): median and 95th percentile.
 
+A second render of a file in one batch (untimed by the rounds, after them, ``--rounds``
+times): ``gshade batch FILE --sweep shape.stripes=20,21 -j 1`` at the rounds' size, two
+jobs of equal work in one worker, with a cache folder of its own that is empty (cold: the
+first job reads and converts the file; target: the second <= 0.5 x the first) and again
+with it full (warm, ``--force``); each job's seconds from ``manifest.json``.
+
 Targets (the link rod, 2-core machine): whole command <= 5 s with warm kernel caches,
 <= 1.5 x the peer, peak memory <= 2 GB.
 
@@ -62,6 +68,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 from bench_render import (
+    GSHADE,
     PYTHON,
     STAGES,
     Run,
@@ -103,6 +110,8 @@ SIZE_SETS = (f"render.width={WIDTH}", f"render.height={HEIGHT}", f"render.spp={S
 SHAPES = {"isophotes": (), "mean": ("shape.function=mean",)}
 NO_PEER_STATUS = 3  # cad_peer.py: a .3dm file without render meshes
 TIMEOUT_S = 600
+#: The second render of a file in one batch, against its first (a cold cache).
+TARGET_BATCH = 0.5
 
 TARGET_S, TARGET_RATIO, TARGET_GB = 5.0, 1.5, 2.0
 SECTION = "bench_cad"
@@ -169,6 +178,9 @@ class Model:
     peer_stages: list[dict] = field(default_factory=list)
     error: dict | None = None
     error_failed: str | None = None  # why the peer's error could not be measured
+    batches: dict[str, list[tuple[float, float]]] = field(
+        default_factory=lambda: {"cold": [], "warm": []}
+    )  # (first job's seconds, second's) per round
 
 
 def timed(cmd: list[str]) -> tuple[Run, float]:
@@ -266,6 +278,67 @@ def one_round(models: list[Model], tmp: Path, index: int, rounds: int) -> None:
         if keep and model.path.name == LINK_ROD and model.refused is None:
             run_stages(model, tmp)
         print(f"round {index}/{rounds}: {model.path.name} done", file=sys.stderr)
+
+
+# --------------------------------------------------------------------------- the batch
+
+#: The batch of two renders of one file: equal work (one more stripe), at the rounds' size.
+BATCH_SWEEPS = (
+    "shape.stripes=20,21",
+    f"render.width={WIDTH}",
+    f"render.height={HEIGHT}",
+    f"render.spp={SPP}",
+)
+
+
+def batch_round(model: Model, tmp: Path) -> None:
+    """``gshade batch FILE --sweep shape.stripes=20,21 -j 1``: with a cache folder of its
+    own, empty (cold: the first job reads and converts the file), then again with it
+    (warm, ``--force``); each job's seconds from the manifest."""
+    cache, out = tmp / "batch-cache", tmp / "batch-out"
+    for folder in (cache, out):
+        shutil.rmtree(folder, ignore_errors=True)
+    sweeps = [x for sweep in BATCH_SWEEPS for x in ("--sweep", sweep)]
+    for label in ("cold", "warm"):
+        cmd = ["env", f"GSHADE_CACHE_DIR={cache}", GSHADE, "batch", str(model.path), *sweeps]
+        run = run_process([*cmd, "-j", "1", "-o", str(out), "--force"], TIMEOUT_S)
+        checked(run, f"gshade batch {model.path.name} ({label})")
+        manifest = json.loads((out / "manifest.json").read_text())
+        jobs = manifest["jobs"] if isinstance(manifest, dict) else manifest
+        seconds = [float(job["seconds"]) for job in jobs]
+        if len(seconds) != 2 or any(job["status"] != "rendered" for job in jobs):
+            raise SanityError(f"gshade batch {model.path.name}: {jobs}")
+        model.batches[label].append((seconds[0], seconds[1]))
+
+
+BATCH_COLUMNS = [
+    "Model",
+    "cold: first s",
+    "second s",
+    "second / first [min-max]",
+    "warm: first s",
+    "second s",
+    "second / first [min-max]",
+    "target (cold)",
+    "Met",
+]
+
+
+def batch_rows(models: list[Model]) -> list[list[str]]:
+    rows = []
+    for m in models:
+        if not m.batches["cold"]:
+            continue
+        row, found = [m.path.name], {}
+        for label in ("cold", "warm"):
+            pairs = np.array(m.batches[label])
+            ratios = list(pairs[:, 1] / pairs[:, 0])
+            found[label] = median(ratios)
+            row += [secs(list(pairs[:, 0])), secs(list(pairs[:, 1]))]
+            row.append(f"{found[label]:.2f} [{spread(ratios)}]")
+        row += [f"<= {TARGET_BATCH}", met(found["cold"] <= TARGET_BATCH)]
+        rows.append(row)
+    return rows
 
 
 # --------------------------------------------------------------------------- the error
@@ -485,6 +558,10 @@ def main(argv: list[str] | None = None) -> int:
             probe(model)
         for index in range(args.rounds + 1):
             one_round(models, tmp, index, args.rounds)
+        for _ in range(args.rounds):
+            for model in models:
+                if model.refused is None:
+                    batch_round(model, tmp)
         for model in models:
             if model.refused is None and model.no_peer is None:
                 try:
@@ -503,6 +580,14 @@ def main(argv: list[str] | None = None) -> int:
         ["Dr.Jit: its default thread pool; VTK: EGL (Mesa llvmpipe)"],
     )
     tables = [("Whole commands (medians over the rounds)", MAIN_COLUMNS, main_rows(models))]
+    tables.append(
+        (
+            "A second render of a file in one batch (`gshade batch FILE --sweep "
+            "shape.stripes=20,21 -j 1`, each job's seconds from the manifest; medians)",
+            BATCH_COLUMNS,
+            batch_rows(models),
+        )
+    )
     notes = list(METHOD_NOTES)
     link = next((m for m in models if m.path.name == LINK_ROD), None)
     if link is not None and link.stages["isophotes"]:

@@ -132,8 +132,9 @@ def without_shape(model):
 
 
 def forget_models_in_use() -> None:
-    """As another process would start: no model of this one's in use."""
+    """As another process would start: no model of this one's in use, none found lately."""
     cad_cache._live.clear()
+    cad_cache._recent.clear()
     gc.collect()
 
 
@@ -186,6 +187,32 @@ def test_a_model_in_use_shares_its_kernel_process(cache, requests, parts):
     assert third.shape is not first.shape and third.shape.running
     mesh_faces(third, DEFLECTION)
     assert requests == ["read", "keep", "mesh_faces", "load"]
+
+
+def test_reads_of_a_cached_file_in_one_process_share_its_faces(cache, requests, parts):
+    """A batch worker's next scene of a file: the cached read found again (its first
+    model's kernel process gone) gives a model of its own with the same face objects, and
+    so the scene the same patch objects (what is kept per patch serves it); the entry
+    is still checked on disk: a corrupt one is a miss."""
+    from gshade.scene import load_scene
+
+    read_cad(parts["step"])  # converted and kept
+    forget_models_in_use()
+    first = read_cad(parts["step"])
+    first.shape.close()  # its kernel process gone: the next read is found in the cache
+    second = read_cad(parts["step"])
+    assert requests == ["read", "keep"]
+    assert second is not first and second.notes is not first.notes
+    assert len(second.faces) == len(first.faces) > 0
+    assert all(a is b for a, b in zip(first.faces, second.faces, strict=True))
+    second.shape.close()
+    patches = load_scene(parts["step"]).patches
+    assert all(a is b for a, b in zip(patches, load_scene(parts["step"]).patches, strict=True))
+    (entry,) = cache.glob("*.model")
+    entry.write_bytes(entry.read_bytes()[:-1] + b"?")  # its last byte changed
+    third = read_cad(parts["step"])
+    assert requests[2:] == ["read", "keep"]  # a miss: read and kept anew
+    assert not any(a is b for a, b in zip(first.faces, third.faces, strict=True))
 
 
 def test_a_changed_file_or_other_options_are_a_miss(cache, requests, parts, tmp_path):

@@ -17,7 +17,9 @@ many times, so :func:`gshade.cad.read_cad` keeps what a read gives:
   child as any read: a cached shape that crashes the kernel costs a read of the file,
   not the render).  So a second render at the same size asks the kernel nothing.
 - **in memory**, while a model of the file is in use in this process (:func:`live_model`):
-  a second read of it shares the model's kernel process.
+  a second read of it shares the model's kernel process; and the models of the entries
+  found last (:data:`RECENT_MODELS`): an entry found again (checked on disk as any) gives
+  a model with the same face objects, not unpickled again (a batch worker's next job).
 
 The key (:func:`model_key`) is a SHA-256 of the file's content (its bytes, streamed), its
 reader (by extension), the reading options (``sew``, ``tolerance``; ``strict`` is applied
@@ -352,9 +354,20 @@ class ModelEntry:
     shape: bytes
 
 
+#: The models of the cached reads this process found last (:func:`find_model`), by (key,
+#: path): the digest of the entry's model part and the model.
+RECENT_MODELS = 4
+_recent: dict[tuple[str, str], tuple[str, CadModel]] = {}
+
+
 def find_model(key: str, path: str | os.PathLike) -> ModelEntry | None:
     """The cached read of ``key``, checked (see the module), its model's ``path`` set to
-    ``path``; None when there is none to trust."""
+    ``path``; None when there is none to trust.
+
+    An entry whose model part is the one of the :data:`RECENT_MODELS` found last here is
+    not unpickled again: its model comes back as a model of its own with the same face
+    objects, so that what is kept per patch (its Bézier cells) serves the next render of
+    the file in a batch worker or a sweep."""
     found = _read(key, "model")
     if found is None:
         return None
@@ -365,6 +378,33 @@ def find_model(key: str, path: str | os.PathLike) -> ModelEntry | None:
     named = header.get("names")  # the path the model's messages name, if they do
     if named is not None and named != str(path):
         return None
+    where, digest = (key, str(path)), str(header["parts"][0][1])
+    with _live_lock:
+        recent = _recent.pop(where, None)
+        if recent is not None and recent[0] == digest:
+            _recent[where] = recent  # the last used, last
+    if recent is not None and recent[0] == digest:
+        return ModelEntry(_copy(recent[1]), answer, shape)
+    model = _unpickled(answer, header)
+    if model is None:
+        return None
+    model.path, model.shape = Path(path), None
+    with _live_lock:
+        _recent[where] = (digest, _copy(model))
+        while len(_recent) > RECENT_MODELS:
+            del _recent[next(iter(_recent))]
+    return ModelEntry(model, answer, shape)
+
+
+def _copy(model: CadModel) -> CadModel:
+    """A model of its own (its lists new) with the same faces."""
+    return replace(
+        model, faces=list(model.faces), left_out=list(model.left_out), notes=list(model.notes)
+    )
+
+
+def _unpickled(answer: bytes, header: dict) -> CadModel | None:
+    """The model of an entry's answer part, or None where it is not one to trust."""
     try:
         kind, model = allowed_answer(answer)
     except Exception:  # whatever a foreign entry's bytes raise in the unpickler: a miss
@@ -373,8 +413,7 @@ def find_model(key: str, path: str | os.PathLike) -> ModelEntry | None:
         return None
     if model.face_count != header.get("faces") or not model.faces:
         return None
-    model.path, model.shape = Path(path), None
-    return ModelEntry(model, answer, shape)
+    return model
 
 
 def cached(path: str | os.PathLike) -> bool:

@@ -6,6 +6,7 @@ model).  Registered in :mod:`.surfaces`' registry like every type.
 
 from __future__ import annotations
 
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -166,6 +167,52 @@ def over_box(face: Any) -> Any:
         return face.patch.restricted(_clipped(face.box, face.patch.domain))
 
 
+#: What :func:`_scene_patches` made of each CAD face, by ``id``, while the face lives:
+#: (a weak reference to it, (its scene patch or None, why not, what was tried)).
+_MADE: dict[int, tuple[weakref.ref, tuple[Any, str, str]]] = {}
+
+
+def _scene_patches(faces: list, degenerate: Any) -> list[tuple[Any, str, str]]:
+    """Per CAD face, the patch a scene renders (:func:`over_box`, u and v swapped on a
+    reversed face: p_u x p_v then points outward), or None, why not and what was tried (no
+    patch over its box; a degenerate surface: ``degenerate(patches)``, all faces at once).
+
+    Kept per face while it lives: the next scene of the same model (a batch worker's, a
+    sweep's: :func:`gshade.cad.cache.find_model` gives the same faces) renders the same
+    patch objects, so that neither they nor what is kept per patch (its Bézier cells) is
+    made again."""
+    out: dict[int, tuple[Any, str, str]] = {}
+    boxed: list[tuple[int, BSplinePatch]] = []
+    for k, face in enumerate(faces):
+        kept = _MADE.get(id(face))
+        if kept is not None and kept[0]() is face:
+            out[k] = kept[1]
+            continue
+        try:
+            boxed.append((k, over_box(face)))
+        except GshadeError as exc:
+            out[k] = (None, str(exc), "restricting its surface to its box")
+    bad = dict(degenerate([patch for _, patch in boxed]))  # all faces at once
+    for j, (k, patch) in enumerate(boxed):
+        if j in bad:
+            out[k] = (None, bad[j], "checking its surface")
+        else:
+            out[k] = (_swapped(patch) if faces[k].reversed else patch, "", "")
+        _keep(faces[k], out[k])
+    return [out[k] for k in range(len(faces))]
+
+
+def _keep(face: Any, made: tuple[Any, str, str]) -> None:
+    """Keep what was made of ``face`` in :data:`_MADE` until the face is gone."""
+    key = id(face)
+
+    def gone(ref: weakref.ref) -> None:
+        if _MADE.get(key, (None,))[0] is ref:
+            del _MADE[key]
+
+    _MADE[key] = (weakref.ref(face, gone), made)
+
+
 @surface_type(
     "cad",
     "the trimmed faces of a CAD model (STEP, IGES, BREP, Rhino 3dm), exact, meshed by the kernel",
@@ -226,22 +273,14 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     chosen = [i for i in asked if i in usable]
     if len(chosen) > MAX_PATCHES:
         raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
-    boxed: list[tuple[int, BSplinePatch]] = []
-    for i in chosen:
-        try:
-            boxed.append((i, over_box(usable[i])))
-        except GshadeError as exc:
-            left_out.append(LeftOutFace(i, str(exc), "restricting its surface to its box"))
-    bad = dict(degenerate_patches([patch for _, patch in boxed]))  # all faces at once
+    made = _scene_patches([usable[i] for i in chosen], degenerate_patches)
     patches: list[Patch] = []
     swapped = []
     rendered = []
-    for k, (i, patch) in enumerate(boxed):
-        if k in bad:
-            left_out.append(LeftOutFace(i, bad[k], "checking its surface"))
+    for i, (patch, why, tried) in zip(chosen, made, strict=True):
+        if patch is None:
+            left_out.append(LeftOutFace(i, why, tried))
             continue
-        if usable[i].reversed:
-            patch = _swapped(patch)
         patches.append(patch)
         swapped.append(bool(usable[i].reversed))
         rendered.append(i)
