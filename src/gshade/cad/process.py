@@ -6,7 +6,8 @@ crash the process (SIGSEGV), loop for minutes without returning to Python (so th
 SIGTERM handler, which is Python, never runs), or allocate gigabytes for a file of a
 kilobyte.  So every kernel call on a model runs in a child process of its own, one per
 model, started when the model is read and ended when the model is dropped (forked from a
-process that has the kernel's libraries loaded: :mod:`gshade.cad.zygote`):
+process that has the kernel's libraries loaded: :mod:`gshade.cad.zygote`; what runs there:
+:mod:`gshade.cad.kernel_child`):
 
 - **reading** (:func:`gshade.cad.read_cad`) in the child; the faces come back (exact
   patches, boxes, loops: plain arrays), the kernel's shape stays in the child;
@@ -43,7 +44,6 @@ import select
 import signal
 import struct
 import subprocess
-import sys
 import tempfile
 import time
 import weakref
@@ -55,9 +55,14 @@ from ..limits import CAD_SECONDS, memory_limit
 
 __all__ = [
     "CHILD_MODULES",
+    "MESSAGE_HEADER",
+    "OPERATIONS",
+    "OPERATION_MODULES",
+    "OUT_OF_MEMORY",
     "AnswerStore",
     "KernelProcess",
     "allowed_answer",
+    "at_memory_limit",
     "kernel_operation",
     "kernel_seconds",
     "kernel_time_limit",
@@ -65,28 +70,28 @@ __all__ = [
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-_HEADER = struct.Struct(">Q")
+MESSAGE_HEADER = struct.Struct(">Q")
 #: The largest message the child may send (a mesh of ~10^7 triangles with its arrays).
 _MAX_MESSAGE = 4 * 2**30
 #: Seconds between checks of the deadline while waiting (signals are handled at once).
 _POLL = 0.25
 
 #: Functions the child may be asked to run: "module:name" -> the function on the model.
-_OPERATIONS: dict[str, Callable[..., Any]] = {}
+OPERATIONS: dict[str, Callable[..., Any]] = {}
 #: Modules whose marked functions the child may import to find them.
-_OPERATION_MODULES = ("gshade.cad.model", "gshade.cad.mesh", "gshade.cad.edges")
+OPERATION_MODULES = ("gshade.cad.model", "gshade.cad.mesh", "gshade.cad.edges")
 #: What a child loads before its bounds are set, beside the file's reader (the zygote loads
 #: them, and the readers, once for all its children: :mod:`gshade.cad.zygote`).
 CHILD_MODULES = (
     "numpy",
     "skimage.measure",
-    *_OPERATION_MODULES,
+    *OPERATION_MODULES,
     "gshade.cad.readers",
     "gshade.cad.cache",
 )
 
 #: What native code's exceptions say when an allocation (or a library's mapping) failed.
-_OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
+OUT_OF_MEMORY = ("OutOfMemory", "bad_alloc", "failed to map segment", "Cannot allocate")
 
 _limit: list[float] = []  # kernel_time_limit's stack
 
@@ -130,7 +135,7 @@ def kernel_operation(doing: str) -> Callable[[F], F]:
 
     def mark(function: F) -> F:
         key = f"{function.__module__}:{function.__name__}"
-        _OPERATIONS[key] = function
+        OPERATIONS[key] = function
 
         @functools.wraps(function)
         def run(model: Any, *args: Any, **kwargs: Any) -> Any:
@@ -349,7 +354,7 @@ class _Overrun(Exception):
 _MEMORY_MARGIN = 64 * 2**20
 
 
-def _at_memory_limit(pid: int | str = "self") -> bool:
+def at_memory_limit(pid: int | str = "self") -> bool:
     """Whether the process's peak address space (``/proc``: VmPeak) reached its limit
     (``RLIMIT_AS``), within :data:`_MEMORY_MARGIN`; False where that cannot be read."""
     try:
@@ -372,7 +377,7 @@ class _MemoryWatch:
         self.exhausted = False
 
     def __call__(self) -> None:
-        self.exhausted = self.exhausted or _at_memory_limit(self.pid)
+        self.exhausted = self.exhausted or at_memory_limit(self.pid)
 
 
 class _Ended(Exception):
@@ -412,7 +417,7 @@ def _ending(child: Any, status: int | None, exc: BaseException) -> str:
 def _send(child: Any, message: bytes) -> None:
     assert child.stdin is not None
     try:
-        child.stdin.write(_HEADER.pack(len(message)) + message)
+        child.stdin.write(MESSAGE_HEADER.pack(len(message)) + message)
         child.stdin.flush()
     except (BrokenPipeError, ValueError):
         raise _Ended from None
@@ -423,8 +428,8 @@ def _receive(child: Any, deadline: float, tick: Callable[[], None]) -> bytes:
     ``deadline``, calling ``tick`` while it waits."""
     assert child.stdout is not None
     fd = child.stdout.fileno()
-    header = _read_exactly(fd, _HEADER.size, deadline, tick)
-    (size,) = _HEADER.unpack(header)
+    header = _read_exactly(fd, MESSAGE_HEADER.size, deadline, tick)
+    (size,) = MESSAGE_HEADER.unpack(header)
     if size > _MAX_MESSAGE:
         raise ValueError(f"a message of {size} bytes")
     return _read_exactly(fd, size, deadline, tick)
@@ -492,130 +497,3 @@ class _Results(pickle.Unpickler):
         if kind not in ("ok", "error", "failed", "memory"):
             raise ValueError(f"an answer of kind {kind!r}")
         return kind, value
-
-
-# --- the child -------------------------------------------------------------------------
-
-
-def die_with_parent(parent: int) -> None:
-    """Be killed when the parent ends (Linux), even while deep in the kernel."""
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(OSError, AttributeError):
-            import ctypes
-
-            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    if os.getppid() != parent:  # the parent ended before the line above
-        os._exit(1)
-
-
-def _bound(memory: int, seconds: float) -> None:
-    """Limit the child's address space to what it holds plus ``memory`` bytes, and its CPU
-    time to what it used plus ``seconds`` on every core (an orphan guard: the parent's
-    wall-clock deadline comes first)."""
-    try:
-        import resource
-    except ImportError:  # not POSIX
-        return
-    with open("/proc/self/statm") as f:
-        held = int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
-    for which, soft in (
-        (resource.RLIMIT_AS, held + max(int(memory), 0)),
-        (
-            resource.RLIMIT_CPU,
-            int(sum(os.times()[:2]) + seconds * (os.cpu_count() or 1)) + 10,
-        ),
-    ):
-        _, hard = resource.getrlimit(which)
-        if hard != resource.RLIM_INFINITY:
-            soft = min(soft, hard)
-        with contextlib.suppress(OSError, ValueError):
-            resource.setrlimit(which, (soft, hard))
-
-
-def serve(parent: int) -> None:
-    """Answer the parent's requests on the inherited stdin/stdout until it closes them."""
-    import importlib
-
-    die_with_parent(parent)
-    requests = os.fdopen(os.dup(0), "rb")
-    answers = os.fdopen(os.dup(1), "wb")
-    # the kernel prints banners and warnings: away from the answers, into the log
-    devnull = os.open(os.devnull, os.O_RDONLY)
-    os.dup2(devnull, 0)
-    os.dup2(2, 1)
-    sys.stdout = sys.stderr
-    model: Any = None
-    while True:
-        header = requests.read(_HEADER.size)
-        if len(header) < _HEADER.size:
-            return
-        operation, args, kwargs, memory, seconds = pickle.loads(
-            requests.read(_HEADER.unpack(header)[0])
-        )
-        try:
-            if operation == "read":
-                from .readers import read_cad, reader_module
-
-                path, sew, tolerance = args
-                reader_module(path)  # the libraries are loaded outside the bounds
-                for name in CHILD_MODULES:
-                    importlib.import_module(name)
-                _bound(memory, seconds)
-                model = read_cad(path, sew, tolerance, isolated=False)
-                from dataclasses import replace
-
-                answer: tuple[str, Any] = ("ok", replace(model, shape=None))
-            elif operation == "load":  # a cached read: the model and its shape's bytes
-                from .cache import restored_model
-                from .readers import reader_module
-
-                cached, shape, path = args
-                model = None
-                reader_module(path)  # the libraries are loaded outside the bounds
-                for name in CHILD_MODULES:
-                    importlib.import_module(name)
-                importlib.import_module("OCP.BinTools")
-                _bound(memory, seconds)
-                model = restored_model(cached, shape, path)
-                answer = ("ok", model.face_count)
-            elif operation == "keep":  # the model's shape, for the cache
-                from .cache import shape_bytes
-
-                if model is None or model.shape is None:
-                    raise GshadeError("no model here to keep")
-                _bound(memory, seconds)
-                answer = ("ok", shape_bytes(model.shape))
-            else:
-                module, _, _ = operation.partition(":")
-                if module in _OPERATION_MODULES:
-                    importlib.import_module(module)
-                if operation not in _OPERATIONS or model is None:
-                    raise GshadeError(f"no kernel operation {operation!r} on a model here")
-                _bound(memory, seconds)
-                answer = ("ok", _OPERATIONS[operation](model, *args, **kwargs))
-        except GshadeError as exc:  # perhaps because an allocation failed at the limit
-            answer = ("memory", None) if _at_memory_limit() else ("error", str(exc))
-        except MemoryError:
-            answer = ("memory", None)
-        except Exception as exc:
-            if any(m in f"{type(exc).__name__} {exc}" for m in _OUT_OF_MEMORY):
-                answer = ("memory", None)
-            else:
-                text = (str(exc).strip().splitlines() or [""])[0][:200]
-                answer = ("failed", type(exc).__name__ + (f": {text}" if text else ""))
-        try:
-            data = pickle.dumps(answer, protocol=5)
-        except MemoryError:
-            data = pickle.dumps(("memory", None), protocol=5)
-        answers.write(_HEADER.pack(len(data)) + data)
-        answers.flush()
-
-
-if __name__ == "__main__":  # the child: python -m gshade.cad.process PARENT_PID
-    import numpy as np
-
-    from gshade.cad import process as cad_process  # the module, not this __main__ copy
-
-    np.seterr(all="ignore")
-    cad_process.serve(int(sys.argv[1]))
-    os._exit(0)

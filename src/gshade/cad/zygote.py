@@ -38,7 +38,7 @@ _lock = threading.Lock()
 
 
 def start_child(log: Any) -> Any:
-    """A child process serving :func:`gshade.cad.process.serve` on its stdin/stdout,
+    """A child process serving :func:`gshade.cad.kernel_child.serve` on its stdin/stdout,
     its stderr into ``log`` (a file): forked from the zygote, else started on its own."""
     zygote = _zygote()
     if zygote is not None:
@@ -47,7 +47,7 @@ def start_child(log: Any) -> Any:
         except (OSError, ValueError):
             _forget(zygote)
     return subprocess.Popen(
-        [sys.executable, "-m", "gshade.cad.process", str(os.getpid())],
+        [sys.executable, "-m", "gshade.cad.kernel_child", str(os.getpid())],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=log,
@@ -224,9 +224,9 @@ def _preload() -> None:
 
 
 def _zygote_main(parent: int, fd: int) -> None:
-    from gshade.cad import process as cad_process
+    from gshade.cad import kernel_child
 
-    cad_process.die_with_parent(parent)
+    kernel_child.die_with_parent(parent)
     link = socket.socket(fileno=fd)
     _preload()
     link.send(b"ready")
@@ -248,7 +248,7 @@ def _zygote_main(parent: int, fd: int) -> None:
                     for source in fds:
                         if source > 2:
                             os.close(source)
-                    cad_process.serve(me)
+                    kernel_child.serve(me)
                 finally:
                     os._exit(0)
             for source in fds:
