@@ -35,8 +35,8 @@ from OCP.TopoDS import TopoDS_Compound
 from gshade import GshadeError
 from gshade.app.cli import build_parser, main
 from gshade.cad import cache as cad_cache
+from gshade.cad import cache_keys, read_cad
 from gshade.cad import process as cad_process
-from gshade.cad import read_cad
 from gshade.cad.edges import shared_edges
 from gshade.cad.mesh import mesh_faces
 from gshade.runtime import cache_folder
@@ -235,7 +235,7 @@ def test_a_changed_file_or_other_options_are_a_miss(cache, requests, parts, tmp_
     assert flipped != box and len(flipped) == len(box)
     path.write_bytes(flipped)
     os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
-    cad_cache._hashes.clear()
+    cache_keys._hashes.clear()
     forget_models_in_use()
     requests.clear()
     read_cad(path)
@@ -443,7 +443,7 @@ def test_two_commands_reading_one_file_at_once(cache, parts):
     outputs = [r.communicate(timeout=300)[0] for r in runs]
     assert [r.returncode for r in runs] == [0, 0] and outputs[0] == outputs[1]
     assert [p.suffix for p in cache.iterdir()] == [".model"]
-    cad_cache._fingerprint.cache_clear()  # as the commands found the sources
+    cache_keys.fingerprint.cache_clear()  # as the commands found the sources
     key = cad_cache.model_key(parts["step"], None, None)
     assert cad_cache.find_model(key, parts["step"]) is not None
 
@@ -577,9 +577,9 @@ def _imported(start: str, package: Path, skip: set[str]) -> set[str]:
 def test_the_key_holds_the_source_of_every_module_a_read_or_answer_depends_on(reader, modules):
     """An edit to any module the readers, the mesher or the edges import is another key."""
     package = Path(cad_cache.__file__).resolve().parents[1]
-    patterns = [*cad_cache._SOURCES, *cad_cache._READER_SOURCES[reader]]
+    patterns = [*cache_keys.SOURCES, *cache_keys.READER_SOURCES[reader]]
     for module in modules:
-        patterns += cad_cache._OPERATION_SOURCES.get(f"gshade.{module[:-3].replace('/', '.')}", ())
+        patterns += cache_keys.OPERATION_SOURCES.get(f"gshade.{module[:-3].replace('/', '.')}", ())
     keyed = {p.relative_to(package).as_posix() for g in patterns for p in package.glob(g)}
     other = {"occt": {"cad/rhino.py"}, "3dm": set()}[reader]  # cad.read_cad's other reader
     needed = set().union(*(_imported(m, package, other) for m in modules))

@@ -21,20 +21,21 @@ many times, so :func:`gshade.cad.read_cad` keeps what a read gives:
   found last (:data:`RECENT_MODELS`): an entry found again (checked on disk as any) gives
   a model with the same face objects, not unpickled again (a batch worker's next job).
 
-The key (:func:`model_key`) is a SHA-256 of the file's content (its bytes, streamed), its
-reader (by extension), the reading options (``sew``, ``tolerance``; ``strict`` is applied
-after reading, so one entry serves both), gshade's version and the source of the modules
-that read and convert with that reader (a change to them is another conversion; an
-answer's key adds the source of its operation's module, the mesher's or the edges'), and
-the kernel's versions (numpy, the installed cadquery-ocp and rhino3dm).  An entry is trusted
-only whole: a regular file (not a link) of bounded size, its header naming the same key,
-each part of the size and SHA-256 the header gives, the model unpickled through the kernel
-answers' allow-list (:func:`gshade.cad.process.allowed_answer`, never a plain
-``pickle.load``), its face count the header's and the shape's.  Anything else is a miss,
-read afresh and written anew.  Entries are written whole (:func:`~gshade.runtime.cache_folder.
-write_entry`: concurrent batch workers each rename a whole file into place).  The folder
-is bounded (:data:`CACHE_BYTES`): after each write, the entries used longest ago go first
-(an entry's modification time is its last use: a hit sets it).
+The key (:func:`gshade.cad.cache_keys.model_key`) is a SHA-256 of the file's content (its
+bytes, streamed), its reader (by extension), the reading options (``sew``, ``tolerance``;
+``strict`` is applied after reading, so one entry serves both), gshade's version and the
+source of the modules that read and convert with that reader (a change to them is another
+conversion; an answer's key adds the source of its operation's module, the mesher's or the
+edges'), and the kernel's versions (numpy, the installed cadquery-ocp and rhino3dm). An
+entry is trusted only whole: a regular file (not a link) of bounded size, its header naming
+the same key, each part of the size and SHA-256 the header gives, the model unpickled
+through the kernel answers' allow-list (:func:`gshade.cad.process.allowed_answer`, never a
+plain ``pickle.load``), its face count the header's and the shape's. Anything else is a
+miss, read afresh and written anew. Entries are written whole
+(:func:`~gshade.runtime.cache_folder.write_entry`: concurrent batch workers each rename a
+whole file into place). The folder is bounded (:data:`CACHE_BYTES`): after each write, the
+entries used longest ago go first (an entry's modification time is its last use: a hit sets
+it).
 """
 
 from __future__ import annotations
@@ -43,23 +44,20 @@ import hashlib
 import io
 import json
 import os
-import pickle
 import re
 import stat
 import threading
 import time
 import weakref
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from ..errors import GshadeError
-from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.cache_folder import cache_folder, read_entry, write_entry
+from .cache_keys import ENTRY_FORMAT, answer_key, model_key
 from .model import CadModel
 from .process import allowed_answer
-from .readers import CAD_EXTENSIONS
 
 __all__ = [
     "CACHE_BYTES",
@@ -81,168 +79,14 @@ __all__ = [
 CACHE_NAME = "cad"
 #: The most bytes the CAD entries take together; the entries used longest ago are removed.
 CACHE_BYTES = 2**30
-#: The first line of an entry (a new format is a new line: old entries are then misses).
-_MAGIC = b"gshade cad cache 1\n"
+#: The first line of an entry (:data:`gshade.cad.cache_keys.ENTRY_FORMAT`).
+_MAGIC = ENTRY_FORMAT
 #: The longest header line read (its JSON: key, kind, parts' sizes and checksums).
 _MAX_HEADER = 2**16
 #: Entry names: the key (SHA-256, hex) and the kind.
 _ENTRY = re.compile(r"[0-9a-f]{64}\.(model|answer)")
 #: Temporaries older than this (seconds) were left by a process that died while writing.
 _STALE_SECONDS = 3600.0
-#: The modules (relative to the package, as globs) whose source a read depends on: every
-#: reader's, and each reader's own (tests/test_cad_cache.py checks that these hold what
-#: the readers import).
-_SOURCES = (
-    "cad/model.py",
-    "cad/readers.py",
-    "cad/cache.py",
-    "io/files.py",
-    "errors.py",
-    "limits.py",
-    "runtime/native.py",
-    "runtime/drjit_arrays.py",
-    "geometry/bspline.py",
-    "geometry/bezier.py",
-    "geometry/bezier_cells.py",
-    "geometry/bernstein.py",
-    "geometry/blas_threads.py",
-    "geometry/knots.py",
-    "geometry/patch.py",
-    "geometry/patch_cells.py",
-    "geometry/rational.py",
-    "geometry/revolution.py",
-    "geometry/spline_batches.py",
-)
-_OCCT_SOURCES = (
-    "cad/occt.py",
-    "cad/kernel.py",
-    "cad/healing.py",
-    "cad/quadrics.py",
-    "cad/step_accuracy.py",
-)
-_READER_SOURCES = {
-    "occt": _OCCT_SOURCES,
-    "3dm": ("cad/rhino*.py", *_OCCT_SOURCES),
-}
-#: The modules whose source the kernel's operations depend on, beside the read's, by the
-#: operations' module.
-_OPERATION_SOURCES = {
-    "gshade.cad.mesh": ("cad/mesh.py", "geometry/spline_batches.py"),
-    "gshade.cad.edges": ("cad/edges.py",),
-}
-
-
-# --------------------------------------------------------------------------- the key
-
-
-def model_key(path: str | os.PathLike, sew: bool | None, tolerance: float | None) -> str | None:
-    """The key (SHA-256, hex) of reading ``path`` with ``sew`` and ``tolerance``: its
-    content's hash, its reader, the options and :func:`_fingerprint`; None for a path
-    that is not a regular file of at most :data:`gshade.limits.MAX_DATA_FILE_BYTES` (the
-    reader says what is wrong with it)."""
-    path = Path(path)
-    content = _content_hash(path)
-    if content is None:
-        return None
-    suffix = path.suffix.lower()
-    reader = CAD_EXTENSIONS.get(suffix, "")
-    options = [content, reader, suffix, sew, _number(tolerance)]
-    fingerprint = _fingerprint(_SOURCES, *_READER_SOURCES.get(reader, ()))
-    return hashlib.sha256(fingerprint + json.dumps(options).encode()).hexdigest()
-
-
-def _number(value: float | None) -> str | None:
-    """A tolerance as text that names its float exactly (``repr``)."""
-    return None if value is None else repr(float(value))
-
-
-_hashes: dict[tuple, str] = {}  # (path, device, inode, size, mtime, ctime) -> content hash
-
-
-def _signature(path: Path) -> tuple | None:
-    """What identifies a file's content without reading it (its path, device, inode, size
-    and times), or None for what is not a regular file."""
-    try:
-        st = os.stat(path)
-    except (OSError, ValueError):
-        return None
-    if not stat.S_ISREG(st.st_mode):
-        return None
-    return (str(path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
-
-
-def _content_hash(path: Path) -> str | None:
-    """The SHA-256 of the file's bytes, read in chunks (remembered by its
-    :func:`_signature` in this process); None for what is not a regular file of bounded
-    size or cannot be read."""
-    signature = _signature(path)
-    if signature is None or signature[3] > MAX_DATA_FILE_BYTES:
-        return None
-    if signature in _hashes:
-        return _hashes[signature]
-    h = hashlib.sha256()
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-        with os.fdopen(fd, "rb") as f:
-            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
-                return None
-            while chunk := f.read(2**20):
-                h.update(chunk)
-    except (OSError, ValueError):
-        return None
-    if _signature(path) != signature:  # it changed while being read
-        return None
-    if len(_hashes) > 1024:
-        _hashes.clear()
-    _hashes[signature] = digest = h.hexdigest()
-    return digest
-
-
-@lru_cache(maxsize=8)
-def _fingerprint(*sources: str | tuple[str, ...]) -> bytes:
-    """What a conversion depends on besides the file and the options: the entry format,
-    gshade's version, the source of the modules ``sources`` (globs relative to the package,
-    or tuples of them), numpy's version and the kernel's (:func:`_kernel_versions`)."""
-    import numpy as np
-
-    from .. import __version__
-
-    h = hashlib.sha256(_MAGIC + f"{__version__} numpy {np.__version__}".encode())
-    h.update(json.dumps(_kernel_versions()).encode())
-    package = Path(__file__).resolve().parents[1]
-    patterns = [p for group in sources for p in ((group,) if isinstance(group, str) else group)]
-    for pattern in patterns:
-        for source in sorted(package.glob(pattern)):
-            h.update(source.relative_to(package).as_posix().encode())
-            try:
-                h.update(hashlib.sha256(source.read_bytes()).digest())
-            except OSError:
-                h.update(b"unreadable")
-    return h.digest()
-
-
-def _kernel_versions() -> list[list[str]]:
-    """The kernel's libraries as installed: per module (OCP, rhino3dm) where it is and the
-    distributions beside it (``cadquery_ocp_novtk-8.0.1.1.0.dist-info``), without importing
-    them (a second)."""
-    import importlib.util
-
-    found = []
-    for module, distribution in (("OCP", "cadquery_ocp"), ("rhino3dm", "rhino3dm")):
-        try:
-            spec = importlib.util.find_spec(module)
-        except (ImportError, ValueError):
-            spec = None
-        if spec is None or not spec.origin:
-            found.append([module, "missing"])
-            continue
-        site = Path(spec.origin).parent.parent
-        try:
-            names = sorted(n for n in os.listdir(site) if n.startswith(distribution) and "-" in n)
-        except OSError:
-            names = []
-        found.append([module, str(spec.origin), *names])
-    return found
 
 
 # --------------------------------------------------------------------------- entries
@@ -443,18 +287,9 @@ class Answers:
         self.key = key
 
     def _key(self, operation: str, args: tuple, kwargs: dict) -> str | None:
-        """The answer's key: the model's, the operation, its arguments and the source of
-        its module (:data:`_OPERATION_SOURCES`); None for a call not to keep."""
-        module = operation.partition(":")[0]
-        if module not in _OPERATION_SOURCES:
-            return None
-        try:
-            call = pickle.dumps((operation, args, sorted(kwargs.items())), protocol=5)
-        except Exception:  # arguments that do not pickle: not kept
-            return None
-        h = hashlib.sha256(_fingerprint(_OPERATION_SOURCES[module]))
-        h.update(f"{self.key} {operation} ".encode() + call)
-        return h.hexdigest()
+        """The answer's key (:func:`gshade.cad.cache_keys.answer_key`); None for a call
+        not to keep."""
+        return answer_key(self.key, operation, args, kwargs)
 
     def get(self, operation: str, args: tuple, kwargs: dict) -> bytes | None:
         """The answer kept for the call (the child's answer message), or None."""
