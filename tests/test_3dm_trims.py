@@ -17,7 +17,7 @@ from gshade.cad import read_cad
 from gshade.cad.mesh import mesh_faces
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.cad import rhino, rhino_seams  # noqa: E402
+from gshade.cad import rhino, rhino_inversion, rhino_seams  # noqa: E402
 
 #: Mesher deflection, relative to the part's size.
 DEFLECTION = 1e-3
@@ -160,7 +160,7 @@ def test_nearly_closed_tube_edges_take_their_ends():
     assert not nurbs.IsClosed(0)
     closed = rhino_seams.closed_directions(nurbs, patch)
     assert closed == (True, False)
-    grid = rhino._Grid(patch, patch.domain, closed)
+    grid = rhino_inversion.Grid(patch, patch.domain, closed)
     s = np.linspace(0.0, 1.0, 9)
     inside = u0 + 4e-4 * (u1 - u0)
     uv = np.concatenate(
