@@ -11,7 +11,7 @@ from gshade.geometry import gaussian_and_mean_curvature
 from gshade.geometry.bspline import BSplinePatch
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.cad import rhino, rhino_shape  # noqa: E402
+from gshade.cad import rhino, rhino_trims  # noqa: E402
 
 
 def _write(tmp_path, name, *geoms, unit=None):
@@ -190,7 +190,7 @@ def test_loops_on_the_right_sheet(tmp_path):
     brep = _double_wall()
     model = rhino.read(_write(tmp_path, "wall.3dm", brep))
     (face,) = model.faces
-    edges = np.concatenate([rhino_shape.edge_points(e)[1] for e in brep.Edges])
+    edges = np.concatenate([rhino_trims.edge_points(e)[1] for e in brep.Edges])
     size = float(np.ptp(edges, axis=0).max())
     assert face.loops
     for loop in face.loops:

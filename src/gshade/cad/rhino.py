@@ -29,6 +29,7 @@ from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
 from . import rhino_seams as seams
 from . import rhino_shape as sh
+from . import rhino_trims as tr
 from .model import CadFace, CadModel, LeftOutFace, no_usable_face
 from .rhino_inversion import Grid, pull_back
 
@@ -82,7 +83,7 @@ def read(
         raise GshadeError(f"{path}: openNURBS cannot read the file (damaged or truncated?)")
     faces: list[CadFace] = []
     left_out: list[LeftOutFace] = []
-    parts: list[sh.BrepPart | int] = []
+    parts: list[tr.BrepPart | int] = []
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
     number = 0  # the next face's number
@@ -98,7 +99,7 @@ def read(
             continue
         before = len(faces)
         if isinstance(geom, rhino3dm.Brep):
-            part = sh.BrepPart(geom, {})
+            part = tr.BrepPart(geom, {})
             for face in list(geom.Faces):  # type: ignore[call-overload]
                 if face is not None:
                     try:
@@ -133,7 +134,7 @@ def read(
         if left_out:
             raise no_usable_face(path, left_out)
         raise GshadeError(
-            f"{path}: expected surfaces (Breps, extrusions, NURBS), found {sh.found(model)}"
+            f"{path}: expected surfaces (Breps, extrusions, NURBS), found {tr.found(model)}"
             + (f" ({notes[0]})" if notes else "")
         )
     shape, built, unbuilt = sh.build_shape(path, faces, parts)
@@ -285,8 +286,8 @@ def _surface_face(path: Path, surface, nurbs, index: int) -> CadFace:
 
 
 def _brep_face(
-    path: Path, part: sh.BrepPart, face, index: int
-) -> tuple[CadFace, list[list[sh.Trim]]]:
+    path: Path, part: tr.BrepPart, face, index: int
+) -> tuple[CadFace, list[list[tr.Trim]]]:
     """One Brep face: its NURBS form, the mapped parameter box, the recovered loops (and
     their trims)."""
     nurbs = face.ToNurbsSurface()
@@ -317,7 +318,7 @@ def _brep_face(
         index=index,
         kind=_kind(face, _scale(patch)),
         patch=patch,
-        box=sh.trimmed_box(box, loops),
+        box=tr.trimmed_box(box, loops),
         reversed=bool(face.OrientationIsReversed),
         loops=loops,
         loop_tolerance=tol,
@@ -326,25 +327,25 @@ def _brep_face(
 
 
 def _loops(
-    part: sh.BrepPart, face, grid: Grid
-) -> tuple[list[NDArray[np.float64]], float, list[list[sh.Trim]]]:
+    part: tr.BrepPart, face, grid: Grid
+) -> tuple[list[NDArray[np.float64]], float, list[list[tr.Trim]]]:
     """The face's loops in the NURBS form's (u, v), outer first, their tolerance, and the
     loops' trims (each trim's samples at its edge's parameters, for the kernel's shape)."""
     brep, count = part.brep, len(part.brep.Edges)
-    chains: list[tuple[bool, list[sh.Trim], NDArray[np.float64]]] = []
+    chains: list[tuple[bool, list[tr.Trim], NDArray[np.float64]]] = []
     for loop in face.Loops:
-        trims: list[sh.Trim] = []
+        trims: list[tr.Trim] = []
         curves = []
         for trim in loop.Trims:
             k, rev = int(trim.EdgeIndex), bool(trim.IsReversed)
             ends = (int(trim.StartVertexIndex), int(trim.EndVertexIndex))
             if k < 0 or k >= count:  # singular trim: bridged by its neighbours' end points
-                trims.append(sh.Trim(-1, rev, ends))
+                trims.append(tr.Trim(-1, rev, ends))
                 continue
             if k not in part.samples:
-                part.samples[k] = sh.edge_points(brep.Edges[k])
+                part.samples[k] = tr.edge_points(brep.Edges[k])
             t, pts = part.samples[k]
-            trims.append(sh.Trim(k, rev, ends, t))
+            trims.append(tr.Trim(k, rev, ends, t))
             curves.append(pts[::-1] if rev else pts)
         if curves:
             outer = str(loop.LoopType).endswith("Outer")
@@ -361,8 +362,8 @@ def _loops(
     cuts = np.cumsum(sizes)[:-1]
     outer_loops: list[NDArray[np.float64]] = []
     inner_loops: list[NDArray[np.float64]] = []
-    outer_trims: list[list[sh.Trim]] = []
-    inner_trims: list[list[sh.Trim]] = []
+    outer_trims: list[list[tr.Trim]] = []
+    inner_trims: list[list[tr.Trim]] = []
     tol = 0.0
     for (is_outer, trims, _), uv, ratio, free in zip(
         chains,
@@ -372,7 +373,7 @@ def _loops(
         strict=True,
     ):
         seams.fix_ambiguous(grid, uv, free, is_outer, [len(t.t) for t in trims if t.edge >= 0])
-        sh.split_trims(trims, uv, free)
+        tr.split_trims(trims, uv, free)
         ratio = ratio[free < 0]
         tol = max(tol, float(ratio.max()) if ratio.size else 0.0)
         keep = np.r_[True, np.any(np.abs(np.diff(uv, axis=0)) > 1e-12 * grid.span, axis=1)]
