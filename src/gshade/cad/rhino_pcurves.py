@@ -48,8 +48,9 @@ from OCP.gp import gp_Pnt2d
 from ..geometry.bernstein import bernstein_basis
 from ..geometry.bezier_cells import Splines
 from ..geometry.bspline import BSplinePatch
+from .rhino_feet import least_squares_step, nearest_points, one_side
 
-__all__ = ["ACCURACY", "DEGREE", "MAX_PIECES", "Pcurve", "fit_faces", "one_side"]
+__all__ = ["ACCURACY", "DEGREE", "MAX_PIECES", "Pcurve", "fit_faces"]
 
 #: The pcurve's image within this fraction of the model's size of the face's point nearest
 #: the edge.
@@ -66,15 +67,10 @@ _STALL = 0.8
 _STEPS_SAMPLES, _STEPS_FIRST, _STEPS_WARM, _STEPS_CROSSING = 6, 12, 6, 4
 #: Newton steps on t locating a knot line's crossing.
 _CROSSING_STEPS = 4
-#: The relative round-off of a point's coordinates.
-_ROUND_OFF = 1e-15
 #: The inversion stays within the domain widened by this fraction of its span.
 _REACH = 0.25
 #: Samples this close to a side of the domain (relative to the span) may lie beyond it.
 _NEAR_SIDE = 1e-6
-#: Two parameters name one point (a seam) when their points are this close, relative to
-#: the model's size.
-_SAME_POINT = 1e-6
 
 _NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev-Lobatto
 _CHECKS = 0.5 * (_NODES[:-1] + _NODES[1:])
@@ -101,101 +97,6 @@ class Pcurve:
     error: float
     apart: float
     pieces: int
-
-
-def _solve(su, sv, w):
-    """(J^T J)^-1 J^T w per row, J = [su sv] (n, 3, 2), lightly regularised (poles)."""
-    a11, a12, a22 = (su * su).sum(1), (su * sv).sum(1), (sv * sv).sum(1)
-    g1, g2 = (su * w).sum(1), (sv * w).sum(1)
-    reg = 1e-14 * (a11 + a22) + 1e-300
-    a11, a22 = a11 + reg, a22 + reg
-    det = a11 * a22 - a12 * a12
-    det[~(det > 0.0)] = np.inf  # no direction free: no step
-    return np.stack([(a22 * g1 - a12 * g2) / det, (a11 * g2 - a12 * g1) / det], -1)
-
-
-def _feet(
-    splines: Splines,
-    surface: NDArray[np.intp],
-    xyz: NDArray[np.float64],
-    uv: NDArray[np.float64],
-    box: tuple[NDArray[np.float64], NDArray[np.float64]],
-    steps: int,
-    small: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Damped Gauss-Newton from ``uv`` to the points of the surfaces ``surface`` nearest
-    ``xyz`` (the end pieces continued past the domain, within ``box``: per point, lowest
-    and highest (u, v); a coordinate whose two are equal is pinned there): one evaluation a
-    step, a step kept where it does not take the
-    point farther (beyond the distance's round-off), else a quarter of it tried.  A point
-    is done when its step moves it (in 3D) by less than ``small`` or its round-off, or when
-    the next step will, by the last two steps' ratio (the convergence rate: linear where
-    the face lies off the point, quadratic on it).
-
-    Returns the parameters and, there, S - xyz, S_u and S_v.
-    """
-    lo, hi = box
-    free = (hi > lo).astype(np.float64)  # a coordinate pinned to a side: lo = hi
-    uv = np.clip(uv, lo, hi)
-    s0, su, sv = splines.evaluate(surface, uv[:, 0], uv[:, 1])
-    r = s0 - xyz
-    f = (r * r).sum(1)
-    floor = np.maximum(small, _ROUND_OFF * np.abs(xyz).max(1))  # the points' round-off
-    m = len(uv)
-    alpha, step, last = np.ones(m), np.zeros((m, 2)), np.zeros(m)
-    fresh = np.ones(m, dtype=bool)
-    act = np.arange(m)
-    for _ in range(steps):
-        if not act.size:
-            break
-        new = act[fresh[act]]
-        if new.size:
-            step[new] = -_solve(su[new] * free[new, :1], sv[new] * free[new, 1:], r[new])
-        s = alpha[act, None] * step[act]
-        trial = np.clip(uv[act] + s, lo[act], hi[act])
-        st, sut, svt = splines.evaluate(surface[act], trial[:, 0], trial[:, 1])
-        rt = st - xyz[act]
-        ft = (rt * rt).sum(1)
-        moved = np.linalg.norm(su[act] * s[:, :1] + sv[act] * s[:, 1:], axis=1)
-        ok = ft <= f[act] + floor[act] * (2.0 * np.sqrt(f[act]) + floor[act])
-        a = act[ok]
-        uv[a], r[a], f[a], su[a], sv[a] = trial[ok], rt[ok], ft[ok], sut[ok], svt[ok]
-        rate = np.divide(moved, last[act], out=np.full(act.size, np.inf), where=last[act] > 0)
-        rate[moved == 0.0] = 0.0
-        done = (moved <= floor[act]) | (ok & (rate < 0.5) & (moved * rate <= floor[act]))
-        done |= alpha[act] < 1e-6
-        last[a] = moved[ok]
-        alpha[a] = np.minimum(1.0, 2.0 * alpha[a])
-        alpha[act[~ok]] *= 0.25
-        fresh[act] = ok
-        act = act[~done]
-    return uv, r, su, sv
-
-
-def one_side(patch: BSplinePatch, uv: NDArray[np.float64], size: float) -> NDArray[np.float64]:
-    """The samples on one side of any seam: where consecutive samples are half the domain or
-    more apart in a direction in which the surface meets itself (the same point at both
-    ends), the samples off the longest run's half moved by the domain's width to its
-    side."""
-    out = uv.copy()
-    for d in (0, 1):
-        lo, hi = patch.domain[d]
-        span, middle = hi - lo, 0.5 * (lo + hi)
-        jump = np.abs(np.diff(out[:, d])) > 0.5 * span
-        if not jump.any():
-            continue
-        run = np.r_[0, np.cumsum(jump)]
-        main = run == np.argmax(np.bincount(run))
-        high = np.mean(out[main, d]) > middle  # the longest run on the high end
-        move = np.flatnonzero(~main & ((out[:, d] < middle) if high else (out[:, d] >= middle)))
-        if not move.size:
-            continue
-        there = out[move].copy()
-        there[:, d] = np.clip(there[:, d] + (span if high else -span), lo, hi)
-        both = patch(np.r_[there[:, 0], out[move, 0]], np.r_[there[:, 1], out[move, 1]])
-        same = np.linalg.norm(both[: move.size] - both[move.size :], axis=1) <= _SAME_POINT * size
-        out[move[same], d] = there[same, d]  # where the surface meets itself
-    return out
 
 
 @dataclass
@@ -242,7 +143,7 @@ def _sample_feet(trims: _Trims, small: float):
         xyz, _ = trims.edge(owner[near], t[near])
         surface = trims.patch[face[near]]
         box = trims.box(owner[near])
-        uv[near], _, su, sv = _feet(
+        uv[near], _, su, sv = nearest_points(
             trims.splines, surface, xyz, uv[near], box, _STEPS_SAMPLES, small
         )
         speed[near] = np.stack([np.linalg.norm(su, axis=1), np.linalg.norm(sv, axis=1)], -1)
@@ -311,7 +212,7 @@ def _cuts(trims: _Trims, patches: list[BSplinePatch], feet, accuracy: float, sma
     if pinned.size:  # the pinned samples' nearest points on their sides
         xyz, _ = trims.edge(owner[pinned], t[pinned])
         surface = trims.patch[face[pinned]]
-        uv[pinned] = _feet(
+        uv[pinned] = nearest_points(
             trims.splines, surface, xyz, uv[pinned], (lo[pinned], hi[pinned]), _STEPS_SAMPLES, small
         )[0]
     by_face = np.searchsorted(face, np.arange(len(patches) + 1))  # samples in face order
@@ -369,8 +270,8 @@ def _locate(trims: _Trims, owner, along, level, tl, th, tc, uv, box, small: floa
     free = (box[1] > box[0]).astype(np.float64)
     for _ in range(_CROSSING_STEPS):
         xyz, dxyz = trims.edge(owner, tc)
-        uv, _, su, sv = _feet(trims.splines, surface, xyz, uv, box, _STEPS_CROSSING, small)
-        speed = _solve(su * free[:, :1], sv * free[:, 1:], dxyz)[rows, along]
+        uv, _, su, sv = nearest_points(trims.splines, surface, xyz, uv, box, _STEPS_CROSSING, small)
+        speed = least_squares_step(su * free[:, :1], sv * free[:, 1:], dxyz)[rows, along]
         gap = uv[rows, along] - level
         step = np.divide(-gap, speed, out=np.zeros_like(gap), where=np.abs(speed) > 1e-300)
         new = np.clip(tc + step, tl, th)
@@ -511,7 +412,7 @@ def _refine(trims: _Trims, owner, a, b, start, lo, hi, accuracy: float, small: f
         )
         face_n = trims.face[np.repeat(owner, p + 1)]
         face_c = trims.face[np.repeat(owner, p)]
-        foot, rn, su, sv = _feet(
+        foot, rn, su, sv = nearest_points(
             trims.splines,
             trims.patch[face_n],
             xyz[: len(ts)],
@@ -530,7 +431,7 @@ def _refine(trims: _Trims, owner, a, b, start, lo, hi, accuracy: float, small: f
         s, s_u, s_v = trims.splines.evaluate(trims.patch[face_c], at[:, 0], at[:, 1])
         rc = s - xyz[len(ts) :]
         free = (box_hi > box_lo).astype(np.float64)  # along a side: its parameter along it only
-        step = _solve(s_u * free[:, :1], s_v * free[:, 1:], rc)
+        step = least_squares_step(s_u * free[:, :1], s_v * free[:, 1:], rc)
         miss = np.linalg.norm(s_u * step[:, :1] + s_v * step[:, 1:], axis=1)
         error = miss.reshape(k, p).max(1)
         apart = np.maximum(
