@@ -433,3 +433,25 @@ def test_the_patch_channel_numbers_faces_as_info_does_past_a_left_out_face(tmp_p
         face = surface.body.model.face(k)  # the reader's face k, u and v as the kernel's
         exact = face.patch(*((v, u) if swapped[k] else (u, v)))
         assert np.abs(np.asarray(exact) - P[at]).max() < 1e-4, k
+
+
+def test_a_hole_running_the_outer_loops_way_is_said_in_words():
+    """A square face whose square hole runs the same way as its outer loop: the kernel's
+    checks find the wires' orientation bad, and why_invalid says so (it said "BRepCheck
+    finds it invalid", as for a 709-face Onshape part's face 539)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
+
+    from gshade.cad.healing import why_invalid
+
+    def square(a: float, b: float):
+        polygon = BRepBuilderAPI_MakePolygon()
+        for x, y in ((a, a), (b, a), (b, b), (a, b)):
+            polygon.Add(gp_Pnt(x, y, 0))
+        polygon.Close()
+        return polygon.Wire()
+
+    maker = BRepBuilderAPI_MakeFace(square(0, 10), True)
+    maker.Add(square(3, 6))
+    face = maker.Face()
+    assert not BRepCheck_Analyzer(face).IsValid()
+    assert why_invalid(face) == "a trimming wire runs the wrong way"

@@ -127,12 +127,18 @@ def why_invalid(face: Any) -> str:
     try:
         checks = BRepCheck_Face(face)
         statuses = [checks.IntersectWires(True), checks.ClassifyWires(True)]
+        wires = []
         explorer = TopExp_Explorer(face, TopAbs_WIRE)
         while explorer.More():
             wire = BRepCheck_Wire(TopoDS.Wire(explorer.Current()))
             e1, e2 = TopoDS_Edge(), TopoDS_Edge()
             statuses += [wire.Closed(True), wire.SelfIntersect(face, e1, e2, True)]
+            wires.append(wire)
             explorer.Next()
+        # then what is wrong only once the wires are whole: their ends in (u, v), their sense
+        statuses += [wire.Closed2d(face, True) for wire in wires]
+        statuses += [checks.OrientationOfWires(True)]
+        statuses += [wire.Orientation(face, True) for wire in wires]
     except Exception:  # the checks themselves fail on some faces
         statuses = []
     for status in statuses:
