@@ -281,7 +281,7 @@ def _rewritten(change):
 
     def corrupt(path: Path) -> None:
         data = path.read_bytes()
-        magic = cad_cache._MAGIC
+        magic = cache_keys.ENTRY_FORMAT
         end = data.index(b"\n", len(magic))
         header = json.loads(data[len(magic) : end])
         parts, at = [], end + 1
@@ -320,7 +320,7 @@ CORRUPTIONS = {
     "a flipped byte": lambda p: p.write_bytes(
         p.read_bytes()[:-500] + bytes([p.read_bytes()[-500] ^ 1]) + p.read_bytes()[-499:]
     ),
-    "a header without end": lambda p: p.write_bytes(cad_cache._MAGIC + b"[" * 100_000),
+    "a header without end": lambda p: p.write_bytes(cache_keys.ENTRY_FORMAT + b"[" * 100_000),
     "another key": _rewritten(lambda h, p: h.update(key="0" * 64)),
     "another face count": _rewritten(lambda h, p: h.update(faces=h["faces"] + 1)),
     "a planted pickle": _rewritten(_evil),

@@ -79,8 +79,6 @@ __all__ = [
 CACHE_NAME = "cad"
 #: The most bytes the CAD entries take together; the entries used longest ago are removed.
 CACHE_BYTES = 2**30
-#: The first line of an entry (:data:`gshade.cad.cache_keys.ENTRY_FORMAT`).
-_MAGIC = ENTRY_FORMAT
 #: The longest header line read (its JSON: key, kind, parts' sizes and checksums).
 _MAX_HEADER = 2**16
 #: Entry names: the key (SHA-256, hex) and the kind.
@@ -111,7 +109,7 @@ def _write(key: str, kind: str, parts: list[bytes], **header: Any) -> bool:
     checks = [[len(p), hashlib.sha256(p).hexdigest()] for p in parts]
     head = json.dumps({**header, "key": key, "kind": kind, "parts": checks}).encode()
     name = f"{key}.{kind}"
-    written = write_entry(folder, name, [_MAGIC, head, b"\n", *parts])
+    written = write_entry(folder, name, [ENTRY_FORMAT, head, b"\n", *parts])
     if written:
         _evict(folder, keep=name)
     return written
@@ -124,13 +122,13 @@ def _read(key: str, kind: str) -> tuple[dict, list[bytes]] | None:
     if folder is None:
         return None
     data = read_entry(folder / f"{key}.{kind}", CACHE_BYTES, touch=True)
-    if data is None or not data.startswith(_MAGIC):
+    if data is None or not data.startswith(ENTRY_FORMAT):
         return None
-    end = data.find(b"\n", len(_MAGIC), len(_MAGIC) + _MAX_HEADER)
+    end = data.find(b"\n", len(ENTRY_FORMAT), len(ENTRY_FORMAT) + _MAX_HEADER)
     if end < 0:
         return None
     try:
-        header = json.loads(data[len(_MAGIC) : end].decode("utf-8"))
+        header = json.loads(data[len(ENTRY_FORMAT) : end].decode("utf-8"))
         if not isinstance(header, dict) or header.get("key") != key:
             return None
         if header.get("kind") != kind:

@@ -325,10 +325,11 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
     kind = _kind(face)
     u0, u1, v0, v1 = BRepTools.UVBounds_s(conv)
     box = ((float(u0), float(u1)), (float(v0), float(v1)))
-    _refuse_turns(box, face)
+    adaptor = BRepAdaptor_Surface(face)
+    _refuse_turns(box, adaptor)
     arcs: Any = (None, None)
     if own and kind not in ("bspline", "bezier"):
-        patch, arcs = analytic_patch(kind, BRepAdaptor_Surface(face), box)
+        patch, arcs = analytic_patch(kind, adaptor, box)
     else:
         surface = BRep_Tool.Surface_s(conv)
         if type(surface).__name__ != "Geom_BSplineSurface":
@@ -355,12 +356,12 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
     )
 
 
-def _refuse_turns(box: tuple, face: Any) -> None:
-    """Raise GshadeError if the face's trims wind round its periodic surface more than once
+def _refuse_turns(box: tuple, surface: Any) -> None:
+    """Raise GshadeError if the face's trims wind round its periodic surface (``surface``,
+    its BRepAdaptor_Surface) more than once
     (by over :data:`~gshade.geometry.revolution.TURN_OVERSHOOT` of a turn: edges that turn
     through 4 pi round a pin, a helical strip): the kernel's mesher joins its nodes across
     the turns, through the surface, so the face is left out, said in these words."""
-    surface = BRepAdaptor_Surface(face)
     periods = (
         surface.UPeriod() if surface.IsUPeriodic() else None,
         surface.VPeriod() if surface.IsVPeriodic() else None,

@@ -172,15 +172,17 @@ def over_box(face: Any) -> Any:
 _MADE: dict[int, tuple[weakref.ref, tuple[Any, str, str]]] = {}
 
 
-def _scene_patches(faces: list, degenerate: Any) -> list[tuple[Any, str, str]]:
+def _scene_patches(faces: list) -> list[tuple[Any, str, str]]:
     """Per CAD face, the patch a scene renders (:func:`over_box`, u and v swapped on a
     reversed face: p_u x p_v then points outward), or None, why not and what was tried (no
-    patch over its box; a degenerate surface: ``degenerate(patches)``, all faces at once).
+    patch over its box; a degenerate surface, all faces checked at once).
 
     Kept per face while it lives: the next scene of the same model (a batch worker's, a
     sweep's: :func:`gshade.cad.cache.find_model` gives the same faces) renders the same
     patch objects, so that neither they nor what is kept per patch (its Bézier cells) is
     made again."""
+    from ..geometry.regularity import degenerate_patches
+
     out: dict[int, tuple[Any, str, str]] = {}
     boxed: list[tuple[int, BSplinePatch]] = []
     for k, face in enumerate(faces):
@@ -192,7 +194,7 @@ def _scene_patches(faces: list, degenerate: Any) -> list[tuple[Any, str, str]]:
             boxed.append((k, over_box(face)))
         except GshadeError as exc:
             out[k] = (None, str(exc), "restricting its surface to its box")
-    bad = dict(degenerate([patch for _, patch in boxed]))  # all faces at once
+    bad = dict(degenerate_patches([patch for _, patch in boxed]))  # all faces at once
     for j, (k, patch) in enumerate(boxed):
         if j in bad:
             out[k] = (None, bad[j], "checking its surface")
@@ -235,7 +237,6 @@ def _keep(face: Any, made: tuple[Any, str, str]) -> None:
 )
 def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     from ..cad import LeftOutFace, in_scene, read_cad, strict_refusal
-    from ..geometry.regularity import degenerate_patches
 
     name = t.string("file", expected="a path to a STEP, IGES, BREP or 3dm file")
     suffix = Path(name).suffix.lower()
@@ -273,7 +274,7 @@ def _build_cad(t: Table, files: DataFiles) -> tuple[list[Patch], CadFaces]:
     chosen = [i for i in asked if i in usable]
     if len(chosen) > MAX_PATCHES:
         raise t.error("faces", f"expected at most {MAX_PATCHES} faces, got {len(chosen)}")
-    made = _scene_patches([usable[i] for i in chosen], degenerate_patches)
+    made = _scene_patches([usable[i] for i in chosen])
     patches: list[Patch] = []
     swapped = []
     rendered = []
