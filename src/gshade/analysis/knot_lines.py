@@ -315,6 +315,5 @@ def cad_knot_lines(
                 t = np.linspace(a, b, lines)
                 fixed = np.full(lines, line.knot)
                 uv = np.stack([fixed, t] if line.direction == "u" else [t, fixed], axis=-1)
-                curve = uv[:, ::-1] if cad.swapped[k] else uv
-                drawn.append(EdgeLine(junction.cls, [(start + k, curve)]))
+                drawn.append(EdgeLine(junction.cls, [(start + k, cad.patch_uv(k, uv))]))
     return out, drawn

@@ -138,7 +138,7 @@ def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine
         curves = []
         for face, uv in zip(edge.faces, edge.uv, strict=True):
             k = place[face]
-            curves.append((k, uv[:, ::-1] if cad.swapped[k - start] else uv))
+            curves.append((k, cad.patch_uv(k - start, uv)))
         out.append(EdgeLine(j.cls, curves))
     return out
 

@@ -179,8 +179,7 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
         raise strict_refusal(cad.model.path, m.left_out)
     place = {face: k for k, face in enumerate(cad.faces)}
     index = np.array([place[int(f)] for f in m.face], dtype=np.int64)
-    swapped = np.asarray(cad.swapped, dtype=bool)[index]
-    uv = np.where(swapped[:, None], m.uv[:, ::-1], m.uv)
+    uv = cad.patch_uv(index, m.uv)
     domains = np.array([p.domain for p in patches], dtype=np.float64)[index]
     lo, hi = domains[:, :, 0], domains[:, :, 1]
     params = np.clip((uv - lo) / (hi - lo), 0.0, 1.0)

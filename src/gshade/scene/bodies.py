@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
 from ..geometry.patch_groups import grid_derivatives
@@ -172,6 +172,19 @@ class CadFaces:
 
     def patch_numbers(self, first: int, count: int) -> NDArray[np.int64]:
         return np.asarray(self.faces, dtype=np.int64)
+
+    def patch_uv(self, places: ArrayLike, uv: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The kernel's (u, v) of the faces at ``places`` in :attr:`faces` (one place, or
+        one a row of ``uv``), in the order of their scene patches: (v, u) on a swapped face.
+
+        Examples
+        --------
+        >>> faces = CadFaces(model=None, faces=(4, 7), swapped=(False, True))
+        >>> faces.patch_uv([0, 1], np.array([[0.1, 0.2], [0.1, 0.2]])).tolist()
+        [[0.1, 0.2], [0.2, 0.1]]
+        """
+        swapped = np.asarray(self.swapped, dtype=bool)[np.asarray(places, dtype=np.int64)]
+        return np.where(np.atleast_1d(swapped)[..., None], uv[..., ::-1], uv)
 
     def notes(self) -> list[tuple[Any, str]]:
         return [(self.model.path, line) for line in self.model.notes]
