@@ -103,38 +103,7 @@ def draw_junctions(
             acc = coverage[junction.cls]
             acc[on] = np.maximum(acc[on], c)
     if edges:
-        jacobian = (
-            *_screen_derivatives(params["u"], patch),
-            *_screen_derivatives(params["v"], patch),
-        )
-        flat_patch = patch.ravel()
-        by_patch = np.argsort(flat_patch, kind="stable")
-        starts = np.searchsorted(flat_patch[by_patch], np.arange(len(domains) + 1))
-        faces: dict[int, tuple] = {}
-        for line in edges:
-            for k, curve in line.curves:
-                if k not in faces:  # the face's pixels, their (u, v), J and scale, once
-                    pixels = by_patch[starts[k] : starts[k + 1]]
-                    J = [x.ravel()[pixels] for x in jacobian]
-                    uv = np.stack([params["u"].ravel()[pixels], params["v"].ravel()[pixels]], -1)
-                    faces[k] = (pixels, uv, J, _uv_per_pixel(J))
-                pixels, uv, J, scale = faces[k]
-                if not pixels.size:
-                    continue
-                # only the pixels the search below can reach: within its bound of the
-                # curve's box (in the scaled (u, v) it searches in)
-                reach = (SEARCH_WIDTHS * width + SEARCH_PIXELS) * scale
-                near = np.all(
-                    (uv >= curve.min(axis=0) - reach) & (uv <= curve.max(axis=0) + reach), axis=1
-                )
-                if not near.any():
-                    continue
-                Jn = [x[near] for x in J]
-                distance = _curve_distance(uv[near], Jn, curve, width, scale)
-                c = np.clip(0.5 * width + 0.5 - distance, 0.0, 1.0)
-                flat: NDArray = coverage[line.cls].reshape(-1)  # a view: written through
-                at = pixels[near]
-                flat[at] = np.maximum(flat[at], c)
+        _draw_edges(coverage, edges, params, patch, len(domains), width)
     out = dict(channels)
     rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
     alpha = channels["A"].astype(np.float64)[..., None]
@@ -144,6 +113,47 @@ def draw_junctions(
     for i, name in enumerate("RGB"):
         out[name] = rgb[..., i].astype(np.float32)
     return out
+
+
+def _draw_edges(
+    coverage: dict, edges: list[EdgeLine], params: dict, patch: NDArray, patches: int, width: float
+) -> None:
+    """Draw ``edges`` into ``coverage`` (per class, in place) along their parameter curves
+    on their faces' pixels (see :func:`draw_junctions`), in time proportional to the pixels
+    near each curve's box: a face's pixels sorted by u once, each curve's found by
+    bisection, then those within reach."""
+    jacobian = (*_screen_derivatives(params["u"], patch), *_screen_derivatives(params["v"], patch))
+    flat_patch = patch.ravel()
+    by_patch = np.argsort(flat_patch, kind="stable")
+    starts = np.searchsorted(flat_patch[by_patch], np.arange(patches + 1))
+    faces: dict[int, tuple] = {}
+    for line in edges:
+        flat: NDArray = coverage[line.cls].reshape(-1)  # a view: written through
+        for k, curve in line.curves:
+            if k not in faces:  # the face's pixels by u, their (u, v), J and scale, once
+                pixels = by_patch[starts[k] : starts[k + 1]]
+                pixels = pixels[np.argsort(params["u"].ravel()[pixels], kind="stable")]
+                J = [x.ravel()[pixels] for x in jacobian]
+                uv = np.stack([params["u"].ravel()[pixels], params["v"].ravel()[pixels]], -1)
+                scale = _uv_per_pixel(J)
+                faces[k] = (pixels, uv, J, scale, _stretch(J, scale))
+            pixels, uv, J, scale, stretch = faces[k]
+            if not pixels.size:
+                continue
+            # only the pixels the line can cover: within the farthest reach of the curve's
+            # box, then each within its own
+            box = float(_reach(stretch.max(initial=0.0), curve, width, scale)) * scale
+            lo, hi = curve.min(axis=0) - box, curve.max(axis=0) + box
+            first = int(np.searchsorted(uv[:, 0], lo[0], side="left"))
+            last = int(np.searchsorted(uv[:, 0], hi[0], side="right"))
+            v = uv[first:last, 1]
+            near = first + np.flatnonzero((v >= lo[1]) & (v <= hi[1]))
+            if not near.size:
+                continue
+            reach = _reach(stretch[near], curve, width, scale)
+            distance = _curve_distance(uv[near], [x[near] for x in J], curve, reach, scale)
+            at = pixels[near]
+            flat[at] = np.maximum(flat[at], np.clip(0.5 * width + 0.5 - distance, 0.0, 1.0))
 
 
 def _iso_lines(junction: Junction, domains: list) -> list[tuple[int, str, float]]:
@@ -181,12 +191,13 @@ def _uv_per_pixel(J: list[NDArray]) -> NDArray:
 
 
 def _curve_distance(
-    uv: NDArray, J: list[NDArray], curve: NDArray, width: float, scale: NDArray
+    uv: NDArray, J: list[NDArray], curve: NDArray, reach: NDArray, scale: NDArray
 ) -> NDArray:
     """Pixel distance from each pixel (its (u, v), its Jacobian [[u_x, u_y], [v_x, v_y]])
     to the polyline ``curve`` (m, 2) in (u, v): the nearest of the segments at the pixel's
     few nearest curve points (searched in (u, v) / ``scale``, about a pixel a unit), each
-    mapped to pixels by J^-1; inf where no point is near."""
+    mapped to pixels by J^-1; inf where no point lies within the pixel's ``reach``
+    (:func:`_reach`)."""
     from scipy.spatial import cKDTree
 
     ux, uy, vx, vy = J
@@ -195,38 +206,60 @@ def _curve_distance(
     safe = np.where(ok, det, 1.0)
     inverse = np.stack([vy / safe, -uy / safe, -vx / safe, ux / safe], -1)  # J^-1, row-major
     k = min(4, len(curve))
-    bound = SEARCH_WIDTHS * width + SEARCH_PIXELS
+    bound = float(reach.max()) if reach.size else 0.0
     found = cKDTree(curve / scale).query(uv / scale, k=k, distance_upper_bound=bound)
     dist = np.reshape(found[0], (len(uv), k))
     index = np.reshape(found[1], (len(uv), k))
     best = np.full(len(uv), np.inf)
-    near = ok & np.isfinite(dist[:, 0])
+    near = ok & (dist[:, 0] <= reach)
     if not near.any():
         return best
     m = len(curve)
-    for c in range(k):
-        i = index[near, c]
-        valid = i < m
-        for lo in (-1, 0):  # the segments before and after the point
-            a = np.clip(i + lo, 0, m - 1)
-            b = np.clip(i + lo + 1, 0, m - 1)
-            A = _to_pixels(inverse[near], curve[a] - uv[near])
-            B = _to_pixels(inverse[near], curve[b] - uv[near])
-            AB = B - A
-            length2 = np.sum(AB * AB, -1)
-            t = np.clip(-np.sum(A * AB, -1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
-            d = np.linalg.norm(A + t[:, None] * AB, axis=-1)
-            sub = best[near]
-            best[near] = np.where(valid & (d < sub), d, sub)
+    i = index[near]  # (n, k): the nearest points, m where fewer lie within the bound
+    # the curve points before, at and after each, in pixels from the pixel: (3, n, k, 2)
+    P = np.stack(
+        [
+            _to_pixels(inverse[near], curve[np.clip(i + j, 0, m - 1)] - uv[near, None])
+            for j in (-1, 0, 1)
+        ]
+    )
+    A, AB = P[:2], P[1:] - P[:2]  # the segments before and after each point
+    length2 = np.sum(AB * AB, -1)
+    t = np.clip(-np.sum(A * AB, -1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    d = np.linalg.norm(A + t[..., None] * AB, axis=-1)
+    best[near] = np.where(i < m, d, np.inf).min(axis=(0, 2))
     return best
 
 
+def _stretch(J: list[NDArray], scale: NDArray) -> NDArray:
+    """Per pixel, the largest singular value of J / ``scale``: how far, at most, one pixel
+    reaches in the scaled (u, v) that :func:`_curve_distance` searches in."""
+    su, sv = scale
+    ux, uy, vx, vy = J[0] / su, J[1] / su, J[2] / sv, J[3] / sv
+    frobenius = ux * ux + uy * uy + vx * vx + vy * vy
+    det = ux * vy - uy * vx
+    return np.sqrt(0.5 * (frobenius + np.sqrt(np.maximum(frobenius**2 - 4 * det * det, 0))))
+
+
+def _reach(stretch: NDArray, curve: NDArray, width: float, scale: NDArray) -> NDArray:
+    """Per pixel, how far (in the scaled (u, v)) the curve point nearest to it can lie
+    when the line covers it: a curve point within 0.5 width + 0.5 pixels lies within that
+    times the pixel's ``stretch`` (:func:`_stretch`), a curve vertex within half a segment
+    more.  Pixels farther off are left uncovered, which changes no pixel; no reach exceeds
+    the search's bound (:data:`SEARCH_WIDTHS`, :data:`SEARCH_PIXELS`)."""
+    step = np.linalg.norm(np.diff(curve, axis=0) / scale, axis=1)
+    half_segment = 0.5 * float(step.max()) if step.size else 0.0
+    reach = (0.5 * width + 0.5) * stretch * (1 + 1e-9) + half_segment
+    return np.minimum(reach, SEARCH_WIDTHS * width + SEARCH_PIXELS)
+
+
 def _to_pixels(inverse: NDArray, duv: NDArray) -> NDArray:
-    """J^-1 (du, dv) for each row (inverse row-major (n, 4), duv (n, 2))."""
+    """J^-1 (du, dv) for each row (inverse row-major (n, 4), duv (n, ..., 2))."""
+    inverse = inverse.reshape(inverse.shape[:1] + (1,) * (duv.ndim - 2) + (4,))
     return np.stack(
         [
-            inverse[:, 0] * duv[:, 0] + inverse[:, 1] * duv[:, 1],
-            inverse[:, 2] * duv[:, 0] + inverse[:, 3] * duv[:, 1],
+            inverse[..., 0] * duv[..., 0] + inverse[..., 1] * duv[..., 1],
+            inverse[..., 2] * duv[..., 0] + inverse[..., 3] * duv[..., 1],
         ],
         -1,
     )
