@@ -109,3 +109,50 @@ def test_junctions_key_must_be_a_boolean(tmp_path):
     bad.write_text(text.replace("[render]", '[render]\njunctions = "yes"'))
     with pytest.raises(gshade.GshadeError, match=r"\[render\] junctions: expected true or false"):
         gshade.load_scene(bad)
+
+
+def _polyline_distance(pixel_uv, inverse, curve):
+    """Brute force: the pixel distance J^-1 (c - uv) to every segment of ``curve``."""
+    best = np.inf
+    for a, b in zip(curve[:-1], curve[1:], strict=True):
+        A, B = inverse @ (a - pixel_uv), inverse @ (b - pixel_uv)
+        AB = B - A
+        t = np.clip(-A @ AB / max(AB @ AB, 1e-300), 0.0, 1.0)
+        best = min(best, float(np.linalg.norm(A + t * AB)))
+    return best
+
+
+@pytest.mark.parametrize("seed, points", [(0, 6), (1, 6), (2, 6), (0, 200)])
+def test_a_brep_edge_covers_the_pixels_within_half_its_width_of_its_curve(seed, points):
+    """A B-rep edge's line over a sheared, stretched face, its curve a polyline of few
+    points (segments of several pixels) or many: every pixel's coverage is what its brute-force
+    pixel distance to the polyline gives (clip(width / 2 + 1/2 - d, 0, 1)), also midway
+    along the long segments, where no curve point is near."""
+    from gshade.analysis.edge_continuity import EdgeLine
+
+    rng = np.random.default_rng(seed)
+    H, W = 40, 56
+    rows, cols = np.mgrid[0:H, 0:W] + 0.5
+    J = np.array([[0.02, 0.006], [-0.004, 0.03]]) * (1 + 0.3 * rng.random((2, 2)))
+    u = 0.1 + J[0, 0] * cols + J[0, 1] * rows
+    v = 0.2 + J[1, 0] * cols + J[1, 1] * rows
+    channels, _ = two_patches(W, H)
+    channels.update(u=u.astype(np.float32), v=v.astype(np.float32))
+    channels["patch"] = np.zeros((H, W), np.float32)
+    t = np.linspace(0.0, 1.0, points)
+    curve = np.stack([0.35 + 0.5 * t, 0.6 + 0.3 * np.sin(2 * t + seed)], -1)
+    out = draw_junctions(
+        channels, [], [((0.0, 2.0), (0.0, 2.0))], edges=[EdgeLine("G2", [(0, curve)])]
+    )
+    # the line's colour mixed into grey 0.5: coverage from the green channel
+    coverage = (out["G"] - 0.5) / (CLASS_COLOURS["G2"][1] - 0.5)
+    inverse = np.linalg.inv(J)
+    expected = np.array(
+        [
+            [_polyline_distance(np.array([u[r, c], v[r, c]]), inverse, curve) for c in range(W)]
+            for r in range(H)
+        ]
+    )
+    expected = np.clip(1.5 - expected, 0.0, 1.0)
+    assert (expected > 0).sum() > 60  # the line crosses the face
+    np.testing.assert_allclose(coverage, expected, atol=2e-3)
