@@ -111,15 +111,13 @@ def test_junctions_key_must_be_a_boolean(tmp_path):
         gshade.load_scene(bad)
 
 
-def _polyline_distance(pixel_uv, inverse, curve):
-    """Brute force: the pixel distance J^-1 (c - uv) to every segment of ``curve``."""
-    best = np.inf
-    for a, b in zip(curve[:-1], curve[1:], strict=True):
-        A, B = inverse @ (a - pixel_uv), inverse @ (b - pixel_uv)
-        AB = B - A
-        t = np.clip(-A @ AB / max(AB @ AB, 1e-300), 0.0, 1.0)
-        best = min(best, float(np.linalg.norm(A + t * AB)))
-    return best
+def _polyline_distance(uv, inverse, curve):
+    """Brute force: each pixel's (uv (n, 2)) least pixel distance J^-1 (c - uv) to any
+    segment of ``curve``."""
+    A = (curve[None, :-1] - uv[:, None]) @ inverse.T  # (n, segments, 2)
+    AB = (curve[1:] - curve[:-1]) @ inverse.T
+    t = np.clip(-np.einsum("nsk,sk->ns", A, AB) / np.sum(AB * AB, -1), 0.0, 1.0)
+    return np.linalg.norm(A + t[..., None] * AB, axis=-1).min(axis=1)
 
 
 @pytest.mark.parametrize("seed, points", [(0, 6), (1, 6), (2, 6), (0, 200)])
@@ -147,12 +145,8 @@ def test_a_brep_edge_covers_the_pixels_within_half_its_width_of_its_curve(seed, 
     # the line's colour mixed into grey 0.5: coverage from the green channel
     coverage = (out["G"] - 0.5) / (CLASS_COLOURS["G2"][1] - 0.5)
     inverse = np.linalg.inv(J)
-    expected = np.array(
-        [
-            [_polyline_distance(np.array([u[r, c], v[r, c]]), inverse, curve) for c in range(W)]
-            for r in range(H)
-        ]
-    )
+    uv = np.stack([u.ravel(), v.ravel()], -1)
+    expected = _polyline_distance(uv, inverse, curve).reshape(H, W)
     expected = np.clip(1.5 - expected, 0.0, 1.0)
     assert (expected > 0).sum() > 60  # the line crosses the face
     np.testing.assert_allclose(coverage, expected, atol=2e-3)
