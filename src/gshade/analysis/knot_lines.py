@@ -109,20 +109,28 @@ def one_sided_pieces(
     d^k/du^k p(u* -) and p(u* +); the patch itself, evaluated in the span to the right of
     a knot, gives the right one only.
     """
+    left, right = _side_spans(patch, direction, knot)
+    return _span_piece(patch, direction, left), _span_piece(patch, direction, right)
+
+
+def _side_spans(patch: BSplinePatch, direction: str, knot: float) -> tuple[int, int]:
+    """The knot spans left and right of the knot line u = u* (indices into the knots)."""
+    U = patch.knots[0 if direction == "u" else 1]
+    return int(np.searchsorted(U, knot, "left")) - 1, int(np.searchsorted(U, knot, "right")) - 1
+
+
+def _span_piece(patch: BSplinePatch, direction: str, k: int) -> BSplinePatch:
+    """The patch over its knot span k in ``direction`` (see :func:`one_sided_pieces`)."""
     axis = 0 if direction == "u" else 1
-    U = patch.knots[axis]
     p = patch.degree[axis]
-    net = np.moveaxis(patch.points, axis, 0)
-    weights = None if patch.weights is None else np.moveaxis(patch.weights, axis, 0)
-    pieces = []
-    for k in (np.searchsorted(U, knot, "left") - 1, np.searchsorted(U, knot, "right") - 1):
-        rows = slice(int(k) - p, int(k) + 1)
-        knots = [patch.knots[0], patch.knots[1]]
-        knots[axis] = U[int(k) - p : int(k) + p + 2]
-        points = np.moveaxis(net[rows], 0, axis)
-        w = None if weights is None else np.moveaxis(weights[rows], 0, axis)
-        pieces.append(BSplinePatch(points, patch.degree, tuple(knots), w))
-    return pieces[0], pieces[1]
+    rows = slice(k - p, k + 1)
+    knots = [patch.knots[0], patch.knots[1]]
+    knots[axis] = patch.knots[axis][k - p : k + p + 2]
+    points = np.moveaxis(np.moveaxis(patch.points, axis, 0)[rows], 0, axis)
+    w = None
+    if patch.weights is not None:
+        w = np.moveaxis(np.moveaxis(patch.weights, axis, 0)[rows], 0, axis)
+    return BSplinePatch(points, patch.degree, tuple(knots), w)
 
 
 def knot_line_measures(
@@ -147,15 +155,22 @@ def knot_line_measures(
     if not lines:
         return []
     count, samples = len(lines), len(along[0])
-    sides: list[list[tuple[NDArray, NDArray]]] = [[], []]  # per side, each line's d, error
     uvs = []
-    for (direction, knot), t in zip(lines, along, strict=True):
+    asked: dict[tuple[str, int], list[tuple[int, int]]] = {}  # span piece -> (line, side)
+    for m, ((direction, knot), t) in enumerate(zip(lines, along, strict=True)):
         fixed = np.full_like(t, knot)
-        at = (fixed, t) if direction == "u" else (t, fixed)
-        uvs.append(np.stack(at, axis=-1))
-        for side, piece in zip(sides, one_sided_pieces(patch, direction, knot), strict=True):
-            d, error, _ = side_derivatives(piece, *at, 3)
-            side.append((d, error))
+        uvs.append(np.stack((fixed, t) if direction == "u" else (t, fixed), axis=-1))
+        for side, span in enumerate(_side_spans(patch, direction, knot)):
+            asked.setdefault((direction, span), []).append((m, side))
+    # each span's piece once, at the ends of both its knot lines (a line's right side is
+    # the next line's left)
+    sides: list[list] = [[None] * count, [None] * count]  # per side, each line's d, error
+    for (direction, span), where in asked.items():
+        at = np.concatenate([uvs[m] for m, _ in where])
+        d, error, _ = side_derivatives(_span_piece(patch, direction, span), at[:, 0], at[:, 1], 3)
+        for c, (m, side) in enumerate(where):
+            part = slice(c * samples, (c + 1) * samples)
+            sides[side][m] = (d[:, :, part], error[:, :, part])
     shape = (count, samples)
     geometry = [
         side_geometry(
