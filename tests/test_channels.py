@@ -11,6 +11,7 @@ from gshade.rendering.camera import View
 from gshade.rendering.channels import exact_channels, refuse_non_finite
 from gshade.rendering.integrator import SHAPE_FILM
 from gshade.rendering.rendered_image import CHANNELS
+from gshade.shape import get_shape_function
 
 H, W = 30, 44  # not square: rows and columns must not be swapped
 
@@ -78,16 +79,21 @@ def test_every_channel_at_its_pixel():
     film = image.copy()
     for c in ("x", "y"):  # the centre pass's coordinates beside the samples' picture
         film[..., SHAPE_FILM.index(c)] = data[..., SHAPE_FILM.index(c)]
-    out = exact_channels(film, data[..., SHAPE_FILM.index("A")] > 0.5, atlas, surfaces, camera)
-    assert list(out) == [c for c in CHANNELS if c != "f.mean"]  # the pipeline adds it
+    heights = (get_shape_function("planar_sections"), {"direction": (0.0, 0.0, 1.0)})
+    slope = (get_shape_function("mean"), {})
+    functions = {"f": heights, "f2": slope}
+    out = exact_channels(
+        film, data[..., SHAPE_FILM.index("A")] > 0.5, atlas, surfaces, camera, functions
+    )
+    assert list(out) == [*CHANNELS, "f2"]
     assert all(a.shape == (H, W) and a.dtype == np.float32 for a in out.values())
     A = image[..., SHAPE_FILM.index("A")]
     for c in "RGBA":
         np.testing.assert_array_equal(out[c], image[..., SHAPE_FILM.index(c)])
     f_sum = image[..., SHAPE_FILM.index("f")].astype(np.float64)
     covered = A > 0
-    np.testing.assert_allclose(out["f"][covered], f_sum[covered] / A[covered], rtol=1e-6)
-    assert np.all(out["f"][~covered] == 0)
+    np.testing.assert_allclose(out["f.mean"][covered], f_sum[covered] / A[covered], rtol=1e-6)
+    assert np.all(out["f.mean"][~covered] == 0)
     # pixels the centre pass missed: no surface data, unless the pixel is fully covered and its
     # centre ray meets a surface (it slipped through): then its exact hit, from a neighbour's
     rows, cols = np.divmod(np.arange(H * W), W)
@@ -116,6 +122,15 @@ def test_every_channel_at_its_pixel():
         n /= np.linalg.norm(n, axis=-1, keepdims=True)
         N = np.stack([out[f"N.{c}"][at] for c in "XYZ"], -1)
         np.testing.assert_allclose(N, n, atol=1e-6)
+        # the functions at the same hit: f the height <P, z>, f2 H of the patch there
+        np.testing.assert_allclose(out["f"][at], P[:, 2], atol=1e-6)
+        d2 = patch.derivatives(u, v, 2)
+        pu, pv = d2[1, 0], d2[0, 1]
+        E, F, G = (np.sum(a * b, -1) for a, b in ((pu, pu), (pu, pv), (pv, pv)))
+        L, M, Nn = (np.sum(d2[i, j] * n, -1) for i, j in ((2, 0), (1, 1), (0, 2)))
+        mean = (E * Nn - 2 * F * M + G * L) / (2 * (E * G - F * F))
+        np.testing.assert_allclose(out["f2"][at], mean, atol=1e-5 * max(1.0, np.abs(mean).max()))
+    assert not out["f"][missed].any() and not out["f2"][missed].any()
 
 
 def test_non_finite_channels_are_refused():

@@ -16,56 +16,44 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
-from ..geometry.patch_cells import ManyPatches
 from ..shape import ShapeFunction, evaluate
-from ..shape.kernels import backend
 
-__all__ = ["centre_values"]
+__all__ = ["centre_values", "highest_order"]
 
 
 def centre_values(
-    channels: dict[str, NDArray[np.float32]],
     patches: list[Patch] | tuple[Patch, ...],
+    index: NDArray,
+    u: NDArray,
+    v: NDArray,
+    d: NDArray,
     functions: dict[str, tuple[ShapeFunction, dict]],
-) -> dict[str, NDArray[np.float32]]:
-    """Per channel name, its function's exact value at each pixel's centre hit.
+) -> dict[str, NDArray[np.float64]]:
+    """Per channel name, its function's exact value at each centre hit.
 
     Parameters
     ----------
-    channels : dict
-        The exact channels (``patch``, ``u``, ``v``) of a render.
     patches : sequence of Patch
-        The scene's patches, as the ``patch`` channel numbers them.
+        The scene's patches, as ``index`` numbers them.
+    index, u, v : ndarray, shape (N,)
+        Each hit's patch (sorted, best: a patch's hits side by side) and parameters.
+    d : ndarray, shape (k + 1, k + 1, N, 3)
+        The patches' derivatives there, of orders up to the functions' highest order k (at
+        least 1); replaced in place by their regularised limits at irregular points.
     functions : dict
         Channel name -> (shape function, its parameters).
     """
-    shape = channels["patch"].shape
-    patch = np.rint(channels["patch"]).astype(np.int64).ravel()
-    hits = np.flatnonzero(patch >= 0)
-    order = hits[np.argsort(patch[hits], kind="stable")]  # the hits, patch by patch
-    out = {name: np.zeros(patch.size, dtype=np.float32) for name in functions}
-    highest = max((fn.order for fn, _ in functions.values()), default=0)  # f needs order k
-    u_all, v_all = channels["u"].ravel(), channels["v"].ravel()
-    many = ManyPatches(patches, drjit=backend() == "drjit")
-    domains = np.array([p.domain for p in patches], dtype=np.float64)
-    for start in range(0, order.size, BLOCK):  # one evaluation of each function a block
-        block = order[start : start + BLOCK]
-        on = patch[block]
-        lo, hi = domains[on, :, 0], domains[on, :, 1]
-        u = np.clip(u_all[block].astype(np.float64), lo[:, 0], hi[:, 0])
-        v = np.clip(v_all[block].astype(np.float64), lo[:, 1], hi[:, 1])
-        d = many.derivatives(on, u, v, highest)
-        if highest >= 1:
-            _regularise(d, patches, on, u, v)
-        for name, (fn, params) in functions.items():
-            out[name][block] = evaluate(
-                fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params
-            ).f
-    return {name: values.reshape(shape) for name, values in out.items()}
+    if d.shape[0] > 1:
+        _regularise(d, patches, np.asarray(index), u, v)
+    return {
+        name: evaluate(fn, d[: fn.order + 2, : fn.order + 2], gradient=False, **params).f
+        for name, (fn, params) in functions.items()
+    }
 
 
-#: Centre hits per evaluation of the functions (bounds the derivatives' memory).
-BLOCK = 1 << 18
+def highest_order(functions: dict[str, tuple[ShapeFunction, dict]]) -> int:
+    """The derivatives' order the functions need at the hits: their highest, at least 1."""
+    return max([1, *(fn.order for fn, _ in functions.values())])
 
 
 def _regularise(d: NDArray, patches, on: NDArray, u: NDArray, v: NDArray) -> None:

@@ -17,8 +17,10 @@ from numpy.typing import NDArray
 from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
 from ..geometry.patch import unit_to_domain
+from ..shape import ShapeFunction
 from .atlas import Atlas
 from .camera import View
+from .centre_values import centre_values, highest_order
 from .integrator import SHAPE_FILM
 from .surface_hits import surface_hits
 
@@ -34,9 +36,12 @@ def exact_channels(
     atlas: Atlas,
     patches: list[Patch] | tuple[Patch, ...],
     view: View,
+    functions: dict[str, tuple[ShapeFunction, dict]] | None = None,
 ) -> dict[str, NDArray[np.float32]]:
-    """The EXR channels: the picture, coverage and f from the samples; P, N, u, v and the
-    patch index where the ray through the pixel centre meets the exact surface.
+    """The EXR channels: the picture, coverage and f.mean (f's mean over the samples) from
+    the samples; P, N, u, v, the patch index and each of ``functions`` where the ray through
+    the pixel centre meets the exact surface (:func:`gshade.rendering.centre_values`, from
+    the derivatives the Newton step ends with).
 
     Parameters
     ----------
@@ -48,7 +53,11 @@ def exact_channels(
         Where the centre pass's rays met the surface.
     atlas, patches, view
         The atlas the centre pass's coordinates address, its patches, the camera.
+    functions : dict, optional
+        Channel name (``f``, ``f2``, an AOV's) -> (shape function, its parameters).
     """
+    functions = functions or {}
+    order = highest_order(functions)
     H, W = film.shape[:2]
     A = film[..., SHAPE_FILM.index("A")]
     f = np.where(A > 0, film[..., SHAPE_FILM.index("f")] / np.where(A > 0, A, 1.0), 0.0)
@@ -58,18 +67,27 @@ def exact_channels(
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
     d = np.empty((2, 2, hit.size, 3))
+    values = {name: np.empty(hit.size) for name in functions}
     by_patch = np.argsort(patch_index, kind="stable")  # a patch's hits in few blocks
-    for block in range(0, hit.size, BLOCK):  # in blocks: the steps' temporaries stay small
-        at = by_patch[block : block + BLOCK]
+    block = BLOCK >> (order - 1)  # in blocks: the steps' temporaries stay small
+    for first in range(0, hit.size, block):
+        at = by_patch[first : first + block]
         rays = view.pixel_rays(hit[at] // W, hit[at] % W)
-        u[at], v[at], d[:, :, at], _ = surface_hits(patches, patch_index[at], u[at], v[at], *rays)
+        u[at], v[at], dk, _ = surface_hits(
+            patches, patch_index[at], u[at], v[at], *rays, order=order
+        )
+        d[:, :, at] = dk[:2, :2]
+        for name, x in centre_values(patches, patch_index[at], u[at], v[at], dk, functions).items():
+            values[name][at] = x
     slipped = _slipped_through(A, hit, H, W)
     if slipped.size:
-        found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W)
+        found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W, order)
         hit = np.concatenate([hit, found[0]])
         patch_index = np.concatenate([patch_index, found[1]])
         u, v = np.concatenate([u, found[2]]), np.concatenate([v, found[3]])
-        d = np.concatenate([d, found[4]], axis=2)
+        d = np.concatenate([d, found[4][:2, :2]], axis=2)
+        more = centre_values(patches, found[1], found[2], found[3], found[4], functions)
+        values = {name: np.concatenate([values[name], more[name]]) for name in functions}
     normal = unit_normal(d)
     n = normal.n
     if not normal.regular.all():  # limits at collapsed edges need higher derivatives
@@ -78,18 +96,24 @@ def exact_channels(
             at = irr[patch_index[irr] == k]
             n[at] = patch_normals(patches[k], u[at], v[at]).n
     out = {c: np.ascontiguousarray(film[..., SHAPE_FILM.index(c)]) for c in "RGB"}
-    out["A"], out["f"] = np.ascontiguousarray(A), f.astype(np.float32)
-    per_hit = {f"P.{axis}": d[0, 0][:, c] for c, axis in enumerate("XYZ")}
+    out["A"] = np.ascontiguousarray(A)
+    per_hit = {name: values.pop(name) for name in ("f",) if name in values}
+    per_hit["f.mean"] = None  # the samples' own, below
+    per_hit.update({f"P.{axis}": d[0, 0][:, c] for c, axis in enumerate("XYZ")})
     per_hit.update({f"N.{axis}": n[:, c] for c, axis in enumerate("XYZ")})
-    per_hit.update(u=u, v=v, patch=patch_index)
-    for name, values in per_hit.items():  # written into float32 images, 0 (patch -1) off
+    per_hit.update(u=u, v=v, patch=patch_index, **values)
+    for name, at_hits in per_hit.items():  # written into float32 images, 0 (patch -1) off
+        if at_hits is None:
+            out[name] = f.astype(np.float32)
+            continue
         channel = np.full(H * W, -1.0 if name == "patch" else 0.0, dtype=np.float32)
-        channel[hit] = values
+        channel[hit] = at_hits
         out[name] = channel.reshape(H, W)
     return out
 
 
-#: Centre rays per block of exact Newton steps.
+#: Centre rays per block of exact Newton steps to first-order derivatives (halved for each
+#: order more that the functions need: the derivatives' memory stays about the same).
 BLOCK = 1 << 19
 #: Newton steps from a neighbour's hit for a centre ray that slipped between two surfaces.
 SLIPPED_STEPS = 4
@@ -104,15 +128,17 @@ def _slipped_through(A: NDArray, hit: NDArray, H: int, W: int) -> NDArray:
     return np.flatnonzero((A.ravel() >= 1.0) & ~covered)
 
 
-def _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view: View, H: int, W: int):
+def _hits_from_neighbours(
+    slipped, hit, patch_index, u, v, patches, view: View, H: int, W: int, order: int = 1
+):
     """Exact hits for the slipped centre rays: Newton steps on the patches of the pixel's
     neighbours that were hit, from their (u, v); the first that settles.  Returns the
-    pixels found and their patch, u, v and derivatives."""
+    pixels found and their patch, u, v and derivatives of order <= ``order``."""
     where = np.full(H * W, -1, dtype=np.int64)  # pixel -> its place among the hits
     where[hit] = np.arange(hit.size)
     index = np.full(slipped.size, -1, dtype=np.int64)  # the patch found, -1: none yet
     su, sv = np.zeros(slipped.size), np.zeros(slipped.size)
-    d = np.zeros((2, 2, slipped.size, 3))
+    d = np.zeros((order + 1, order + 1, slipped.size, 3))
     rows, cols = slipped // W, slipped % W
     for dr, dc in ((0, -1), (0, 1), (-1, 0), (1, 0), (-1, -1), (-1, 1), (1, -1), (1, 1)):
         r, c = rows + dr, cols + dc
@@ -125,7 +151,7 @@ def _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view: View, 
         pixels = slipped[todo]
         rays = view.pixel_rays(pixels // W, pixels % W)
         tu, tv, td, settled = surface_hits(
-            patches, patch_index[s], u[s], v[s], *rays, steps=SLIPPED_STEPS
+            patches, patch_index[s], u[s], v[s], *rays, steps=SLIPPED_STEPS, order=order
         )
         done = todo[settled]
         index[done], su[done], sv[done] = patch_index[s][settled], tu[settled], tv[settled]

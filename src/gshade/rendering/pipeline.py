@@ -41,7 +41,6 @@ from ..limits import MAX_SAMPLES
 from ..runtime.variant import select_variant
 from .atlas import Atlas
 from .camera import View
-from .centre_values import centre_values
 from .channels import PICTURE, exact_channels, refuse_non_finite
 from .integrator import SHAPE_FILM
 from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
@@ -114,11 +113,8 @@ def render(scene, **overrides) -> RenderedImage:
     _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, scene.shape)
     lap("supersample")
 
-    channels = exact_channels(film, hit, atlas, scene.patches, view)
-    channels["f.mean"] = channels["f"]  # the samples' mean, what the pixel's colour shows
-    channels.update(
-        centre_values(channels, scene.patches, _exact_functions(scene, settings, functions))
-    )
+    exact = _exact_functions(scene, settings, functions)
+    channels = exact_channels(film, hit, atlas, scene.patches, view, exact)
     lap("exact_channels")
     refuse_non_finite(where, channels)
     if junctions is not None:

@@ -35,26 +35,31 @@ SETTLED = 1e-7
 TINY = 1e-300
 
 
-def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1):
-    """``steps`` float64 Newton steps on points of patches evaluated by ``derivatives(u, v)``
-    (derivatives of order <= 1, (2, 2, N, 3)), each point's parameters kept within
-    [lo, hi] (N, 2); returns (u, v, derivatives (2, 2, N, 3), settled)."""
-    start = d = derivatives(u, v)
+def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1, order: int = 1):
+    """``steps`` float64 Newton steps on points of patches evaluated by
+    ``derivatives(u, v, order, at)`` (derivatives of order <= ``order`` at the points
+    ``at``, (order + 1, order + 1, N, 3)), each point's parameters kept within [lo, hi]
+    (N, 2); returns (u, v, derivatives of order <= ``order`` there, settled)."""
+    every = slice(None)
+    start = d = derivatives(u, v, 1, every)
     scale = np.linalg.norm(d[0, 0] - origin, axis=1)
     uu, vv = u, v
     for step in range(steps):
         if step:
-            d = derivatives(uu, vv)
+            d = derivatives(uu, vv, 1, every)
         t, r = ray_residual(d[0, 0], origin, direction, NUMPY)
         du, dv, dt, _ = newton_step(d[1, 0], d[0, 1], direction, r, NUMPY, TINY)
         uu = np.clip(uu + du, lo[:, 0], hi[:, 0])
         vv = np.clip(vv + dv, lo[:, 1], hi[:, 1])
         t = t + dt
-    d = derivatives(uu, vv)
+    d = derivatives(uu, vv, order, every)
     residual = np.linalg.norm(d[0, 0] - origin - t[:, None] * direction, axis=1)
     settled = residual <= SETTLED * np.maximum(scale, 1e-300)
     if not settled.all():  # those keep their start values and derivatives
-        d[:, :, ~settled] = start[:, :, ~settled]
+        back = np.flatnonzero(~settled)
+        d[:, :, back] = (
+            start[:, :, back] if order == 1 else derivatives(u[back], v[back], order, back)
+        )
     return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
 
 
@@ -67,19 +72,21 @@ def surface_hits(
     direction: NDArray,
     backend_name: str = "auto",
     steps: int = 1,
+    order: int = 1,
 ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """One exact Newton step for each ray (origin, direction) from (u, v) on patch index
     (``steps`` of them, for starts farther away).
 
-    Returns the parameters (u, v) (N,), the derivatives of order <= 1 there (2, 2, N, 3) and
-    whether the step settled (N,); unsettled points keep their start parameters.
+    Returns the parameters (u, v) (N,), the derivatives of order <= ``order`` (at least 1)
+    there (order + 1, order + 1, N, 3) and whether the step settled (N,); unsettled points
+    keep their start parameters.
     ``backend_name``: "auto" (Dr.Jit for Bézier and B-spline patches where it works),
     "drjit" or "numpy" (every patch by numpy).
     """
     index = np.asarray(index, dtype=np.int64)
     N = index.size
     u_out, v_out = np.asarray(u, dtype=np.float64).copy(), np.asarray(v, dtype=np.float64).copy()
-    d = np.zeros((2, 2, N, 3))
+    d = np.zeros((order + 1, order + 1, N, 3))
     settled = np.zeros(N, dtype=bool)
     origin = np.broadcast_to(origin, (N, 3))
     direction = np.broadcast_to(direction, (N, 3))
@@ -87,11 +94,11 @@ def surface_hits(
         many = ManyPatches(patches, drjit=backend(backend_name) == "drjit")
         domains = np.array([p.domain for p in patches], dtype=np.float64)[index]
 
-        def derivatives(uu, vv):
-            return many.derivatives(index, uu, vv, 1)
+        def derivatives(uu, vv, k, at):
+            return many.derivatives(index[at], uu, vv, k)
 
         lo, hi = domains[:, :, 0], domains[:, :, 1]
         u_out, v_out, d, settled = _newton_numpy(
-            derivatives, lo, hi, u_out, v_out, origin, direction, steps
+            derivatives, lo, hi, u_out, v_out, origin, direction, steps, max(1, order)
         )
     return u_out, v_out, d, settled
