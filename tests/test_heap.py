@@ -18,4 +18,3 @@ print(keep_freed_memory())
 def test_the_heap_settings_take_on_glibc():
     out = subprocess.run([sys.executable, "-c", CHECK], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
-

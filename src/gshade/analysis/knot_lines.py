@@ -165,10 +165,10 @@ def knot_line_measures(
     # each span's piece once, at the ends of both its knot lines (a line's right side is
     # the next line's left)
     sides: list[list] = [[None] * count, [None] * count]  # per side, each line's d, error
-    for (direction, span), where in asked.items():
-        at = np.concatenate([uvs[m] for m, _ in where])
+    for (direction, span), users in asked.items():
+        at = np.concatenate([uvs[m] for m, _ in users])
         d, error, _ = side_derivatives(_span_piece(patch, direction, span), at[:, 0], at[:, 1], 3)
-        for c, (m, side) in enumerate(where):
+        for c, (m, side) in enumerate(users):
             part = slice(c * samples, (c + 1) * samples)
             sides[side][m] = (d[:, :, part], error[:, :, part])
     shape = (count, samples)

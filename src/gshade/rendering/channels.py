@@ -97,7 +97,9 @@ def exact_channels(
             n[at] = patch_normals(patches[k], u[at], v[at]).n
     out = {c: np.ascontiguousarray(film[..., SHAPE_FILM.index(c)]) for c in "RGB"}
     out["A"] = np.ascontiguousarray(A)
-    per_hit = {name: values.pop(name) for name in ("f",) if name in values}
+    per_hit: dict[str, NDArray | None] = {
+        name: values.pop(name) for name in ("f",) if name in values
+    }
     per_hit["f.mean"] = None  # the samples' own, below
     per_hit.update({f"P.{axis}": d[0, 0][:, c] for c, axis in enumerate("XYZ")})
     per_hit.update({f"N.{axis}": n[:, c] for c, axis in enumerate("XYZ")})
