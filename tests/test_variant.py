@@ -99,3 +99,45 @@ def test_drjit_imported_first_never_aborts():
         assert "variant: scalar_rgb" in result.stdout and "warned: True" in result.stdout
     else:
         assert "variant: llvm_ad_rgb" in result.stdout
+
+
+OWN_PROCESS = """
+import hashlib, sys
+import gshade.runtime.variant as v
+from gshade.io.image import read_exr
+SCENE = sys.argv[2]
+if sys.argv[1] == "cli":  # the command line's process: gshade's own
+    from gshade.app.cli import main
+    assert main(["render", SCENE, "-o", sys.argv[3]]) == 0
+    picture = read_exr(sys.argv[3])[0]["R"]
+else:  # a program's process
+    import gshade
+    picture = gshade.render(SCENE)["R"]
+mi = v.mitsuba()
+try:
+    mi.load_dict({"type": "prb"})
+    print("prb: yes")
+except Exception:
+    print("prb: no")
+print("variant:", mi.variant(), "R:", hashlib.sha256(picture.tobytes()).hexdigest())
+"""
+
+
+def test_the_command_line_sets_variants_without_mitsubas_python_integrators(tmp_path):
+    scene = tmp_path / "sphere.toml"
+    scene.write_text('[[surface]]\ntype = "sphere"\n[render]\nwidth = 16\nheight = 12\nspp = 4\n')
+    said = {}
+    for mode in ("cli", "library"):
+        out = subprocess.run(
+            [sys.executable, "-c", OWN_PROCESS, mode, str(scene), str(tmp_path / "s.exr")],
+            capture_output=True,
+            text=True,
+        )
+        assert out.returncode == 0, out.stderr
+        said[mode] = out.stdout
+    if "variant: llvm_ad_rgb" not in said["library"]:
+        pytest.skip("Mitsuba loads its Python integrators with llvm_ and cuda_ variants only")
+    assert "prb: yes" in said["library"]  # a program's process: as Mitsuba sets variants
+    assert "prb: no" in said["cli"]
+    picture = [said[m].split("R:")[1].strip() for m in ("cli", "library")]
+    assert picture[0] == picture[1]  # the same picture either way

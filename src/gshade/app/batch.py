@@ -239,11 +239,10 @@ def render_job(job: Job, folder: str) -> JobResult:
 
 
 def _warm_worker() -> None:
+    from ..runtime.own_process import configure_own_process
+
+    configure_own_process()  # the worker process is gshade's, as the command's is
     import gshade.rendering.pipeline  # noqa: F401  (imports Mitsuba's side once)
-
-    from ..runtime.heap import keep_freed_memory
-
-    keep_freed_memory()  # the worker process is gshade's, as the command's is
 
 
 # ----------------------------------------------------------------- the batch

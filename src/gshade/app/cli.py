@@ -321,9 +321,9 @@ def main(argv: list[str] | None = None) -> int:
     _command[0] = args.command
     for sig in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _terminated)
-    from ..runtime.heap import keep_freed_memory
+    from ..runtime.own_process import configure_own_process
 
-    keep_freed_memory()  # this process is gshade's: freed arrays kept for the next ones
+    configure_own_process()  # this process is gshade's (its heap, Mitsuba's variants)
     import numpy as np
 
     # floating-point trouble is found by explicit checks (finite inputs, finite images) and

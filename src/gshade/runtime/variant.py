@@ -6,21 +6,36 @@ observed with drjit 1.5).  gshade therefore looks for libLLVM >= 17 itself — t
 ``karellen-llvm-core`` wheel installed with gshade puts one into the environment — and points
 Dr.Jit at it with ``DRJIT_LIBLLVM_PATH`` before Mitsuba is imported.  With none, ``auto``
 falls back to ``scalar_rgb`` with one warning.
+
+Switching to an ``llvm_`` or ``cuda_`` variant, Mitsuba (re)loads the package
+:data:`PYTHON_INTEGRATORS`: its differentiable integrators written in Python (``prb``,
+``prbvolpath``, ``direct_projective`` ...), whose ``@dr.syntax`` rewrites and recompiles their
+source, a sixth of a second.  gshade renders with its own integrator and Mitsuba's native
+plugins, so its own processes (the command line, its batch workers) call
+:func:`leave_out_python_integrators` once: their variants are then set without that package.
+Importing gshade, or calling :func:`gshade.render` from a program, loads variants as Mitsuba
+does.
 """
 
 from __future__ import annotations
 
+import importlib.abc
+import importlib.machinery
 import os
+import sys
 import warnings
 from functools import cache
+from types import ModuleType
 
 from ..errors import GshadeError
 from .llvm import MIN_LLVM, find_llvm, llvm_version, prepare_llvm
 
 __all__ = [
     "MIN_LLVM",
+    "PYTHON_INTEGRATORS",
     "VARIANTS",
     "find_llvm",
+    "leave_out_python_integrators",
     "llvm_version",
     "mitsuba",
     "prepare_llvm",
@@ -29,6 +44,12 @@ __all__ = [
 ]
 
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb", "cuda_ad_rgb")
+
+#: The package of Mitsuba's Python integrators, reloaded by ``mitsuba.set_variant``.
+PYTHON_INTEGRATORS = "mitsuba.python.ad.integrators"
+
+#: Whether this process sets variants without :data:`PYTHON_INTEGRATORS` (see the module).
+_leaving_out = [False]
 
 
 @cache
@@ -87,7 +108,7 @@ def select_variant(requested: str = "auto") -> str:
             if mi.variant() == variant:
                 return variant
     try:
-        mi.set_variant(variant)
+        _set_variant(mi, variant)
     except (ImportError, AttributeError, RuntimeError) as exc:
         raise GshadeError(f"variant: {variant} is not available here ({exc})") from None
     if variant == "cuda_ad_rgb":
@@ -98,6 +119,53 @@ def select_variant(requested: str = "auto") -> str:
         except RuntimeError as exc:
             raise GshadeError(f"variant: cuda_ad_rgb cannot run here ({exc})") from None
     return variant
+
+
+def leave_out_python_integrators() -> None:
+    """From now on, set Mitsuba's variants in this process without its Python integrators
+    (:data:`PYTHON_INTEGRATORS`; see the module): for gshade's own processes only.
+
+    Examples
+    --------
+    The package left out:
+
+    >>> PYTHON_INTEGRATORS
+    'mitsuba.python.ad.integrators'
+    """
+    _leaving_out[0] = True
+
+
+class _NothingToReload(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Found first for :data:`PYTHON_INTEGRATORS` while a variant is set: reloading the
+    package then runs nothing."""
+
+    def find_spec(self, name, path, target=None):
+        if name != PYTHON_INTEGRATORS:
+            return None
+        return importlib.machinery.ModuleSpec(name, self, is_package=True)
+
+    def create_module(self, spec) -> None:
+        return None  # the package's own module object is reloaded in place
+
+    def exec_module(self, module: ModuleType) -> None:
+        pass
+
+
+def _set_variant(mi, variant: str) -> None:
+    """``mi.set_variant(variant)``, without reloading :data:`PYTHON_INTEGRATORS` where this
+    process leaves them out (:func:`leave_out_python_integrators`); the package's module
+    object is as it was afterwards."""
+    package = sys.modules.get(PYTHON_INTEGRATORS)
+    if not _leaving_out[0] or package is None:
+        mi.set_variant(variant)
+        return
+    spec, finder = package.__spec__, _NothingToReload()
+    sys.meta_path.insert(0, finder)
+    try:
+        mi.set_variant(variant)
+    finally:
+        sys.meta_path.remove(finder)
+        package.__spec__ = spec
 
 
 def mitsuba():
