@@ -11,6 +11,11 @@ faces' Newton steps at a time.  The end pieces are continued past the domain (as
 extrapolates).  :mod:`gshade.geometry.spline_batches` evaluates patches of one degree by
 Cox–de Boor, to any order, with a span search per patch.
 
+The cells themselves are written here once for both their users: a patch's extraction and
+the nets' layout (:func:`tensor_cells`), which patches a table holds (:func:`few_cells`) and
+the table with its search (:class:`CellTable`); :class:`Splines` evaluates them by numpy,
+:class:`gshade.geometry.patch_cells.PatchCells` by one Dr.Jit kernel, to any order.
+
 Examples
 --------
 >>> import numpy as np
@@ -29,6 +34,7 @@ True
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -38,7 +44,7 @@ from .bernstein import bernstein_basis
 from .bspline import BSplinePatch
 from .knots import basis_functions
 
-__all__ = ["MAX_CELLS", "Splines", "to_bezier"]
+__all__ = ["MAX_CELLS", "CellTable", "Splines", "few_cells", "tensor_cells", "to_bezier"]
 
 #: A patch of more knot intervals (u times v) is evaluated on its own, not from a table of
 #: Bézier cells.
@@ -64,15 +70,54 @@ class _Intervals:
         self.width = np.concatenate([np.diff(b) for b in breaks])
 
     def locate(self, which: NDArray[np.intp], t: NDArray[np.float64]):
-        """Per point: its interval in its spline (0-based), the interval's global index,
-        its place in it (0 to 1 inside, beyond at the ends) and the interval's width."""
+        """Per point: its interval in its spline (0-based: the last whose start t reaches,
+        the end ones past the domain), its place in it (0 to 1 inside, beyond at the ends)
+        and the interval's width."""
         x = np.clip((t - self.lo[which]) / self.span[which], -0.4, 1.4)
         keys = which + 0.25 + 0.5 * x
         local = np.searchsorted(self.keys, keys, side="right") - self.inner_before[which]
         local = np.clip(local, 0, self.count[which] - 1)
         at = self.first[which] + local
+        # The keys are rounded alike and in order, so every knot up to t is counted, but a
+        # knot just past t may share t's key: step back until t reaches the start.
+        back = np.flatnonzero((local > 0) & (t < self.start[at]))
+        while back.size:
+            local[back] -= 1
+            at[back] -= 1
+            back = back[(local[back] > 0) & (t[back] < self.start[at[back]])]
         width = self.width[at]
         return local, (t - self.start[at]) / width, width
+
+
+class CellTable:
+    """The Bézier cells of many splines of one degree pair, laid end to end (``nets``,
+    (cells, p + 1, q + 1, c)), each spline's cells u interval major (as
+    :func:`tensor_cells` gives them); a point's cell is found in one search per parameter
+    over all the splines (:class:`_Intervals`).
+
+    ``members``: per spline its distinct knots along u and v (ends included) and its cells'
+    nets."""
+
+    def __init__(self, members: Sequence[tuple[NDArray, NDArray, NDArray]]):
+        self.u = _Intervals([m[0] for m in members])
+        self.v = _Intervals([m[1] for m in members])
+        self.nets = np.concatenate([m[2] for m in members])
+        sizes = np.array([len(m[2]) for m in members])
+        self.first = np.cumsum(sizes) - sizes  # each spline's first cell
+
+    def locate(
+        self, which: NDArray, u: NDArray[np.float64], v: NDArray[np.float64] | None = None
+    ) -> tuple[NDArray[np.intp], tuple[NDArray, NDArray], tuple[NDArray, NDArray]]:
+        """Per point (u[i], v[i]) of spline ``which[i]``: its cell (a row of ``nets``: the
+        knot intervals holding it, the end ones past the domain), its place (s, t) in the
+        cell (0 to 1 inside) and the cell's sides along u and v.  Without ``v`` (curves: one
+        v interval) t is 0 and the side 1."""
+        iu, su, wu = self.u.locate(which, u)
+        if v is None:
+            iv, sv, wv = np.zeros_like(iu), np.zeros(len(u)), np.ones(len(u))
+        else:
+            iv, sv, wv = self.v.locate(which, v)
+        return self.first[which] + iu * self.v.count[which] + iv, (su, sv), (wu, wv)
 
 
 class _Group:
@@ -81,24 +126,17 @@ class _Group:
 
     def __init__(self, degree: tuple[int, int], members: list[tuple]):
         self.degree = degree
-        self.u = _Intervals([m[0] for m in members])
-        self.v = _Intervals([m[1] for m in members])
-        self.cells = np.concatenate([m[2] for m in members])
-        sizes = np.array([len(m[2]) for m in members])
-        self.first = np.cumsum(sizes) - sizes
-        self.nv = self.v.count
+        self.table = CellTable(members)
 
     def evaluate(self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]):
         p, q = self.degree
-        iu, su, wu = self.u.locate(which, u)
+        cell, (su, sv), (wu, wv) = self.table.locate(which, u, v if q else None)
         bu, du = bernstein_basis(p, su, 1)
         if q:
-            iv, sv, wv = self.v.locate(which, v)
             bv, dv = bernstein_basis(q, sv, 1)
         else:
-            iv, wv = np.zeros_like(iu), np.ones(len(u))
             bv, dv = np.ones((len(u), 1)), np.zeros((len(u), 1))
-        net = self.cells[self.first[which] + iu * self.nv[which] + iv]  # (n, p+1, q+1, 4)
+        net = self.table.nets[cell]  # (n, p+1, q+1, 4)
         row = np.einsum("na,nabc->nbc", bu, net)
         row_u = np.einsum("na,nabc->nbc", du, net)
         h = np.einsum("nb,nbc->nc", bv, row)
@@ -138,6 +176,26 @@ def to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
     return breaks, np.einsum("ij,mj...->mi...", _FROM_INSIDE[p], at)
 
 
+def tensor_cells(
+    knots: tuple[NDArray, NDArray], degree: tuple[int, int], net: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The Bézier cells of a tensor-product B-spline (control net ``net``, (nu, nv, c),
+    homogeneous if rational): its distinct knots along u and v (ends included) and its
+    cells' nets (cells, p + 1, q + 1, c), u interval major (cell iu * (v intervals) + iv);
+    by :func:`to_bezier` along v, then u."""
+    (U, V), (p, q) = knots, degree
+    vb, by_v = to_bezier(V, q, np.swapaxes(net, 0, 1))  # (v cells, q + 1, nu, c)
+    ub, cells = to_bezier(U, p, np.moveaxis(by_v, 2, 0))  # (u cells, p + 1, v cells, ...)
+    return ub, vb, np.moveaxis(cells, 2, 1).reshape(-1, p + 1, q + 1, net.shape[-1])
+
+
+def few_cells(patch: BSplinePatch) -> bool:
+    """Whether a B-spline patch has at most :data:`MAX_CELLS` knot intervals (u times v) in
+    its domain: a table of cells holds it, a patch of more is evaluated on its own."""
+    u, v = (np.unique(np.clip(k, *d)) for k, d in zip(patch.knots, patch.domain, strict=True))
+    return (len(u) - 1) * (len(v) - 1) <= MAX_CELLS
+
+
 #: Per degree p: p + 1 Chebyshev points inside (0, 1), and Bernstein coefficients from the
 #: values there.
 _INSIDE = [0.5 - 0.5 * np.cos(np.pi * (2 * np.arange(p + 1) + 1) / (2 * p + 2)) for p in range(33)]
@@ -160,21 +218,11 @@ class Splines:
 
     def add_patch(self, patch: BSplinePatch) -> int:
         """Add a patch; its number."""
-        p, q = patch.degree
-        knots_u, knots_v = (
-            np.unique(np.clip(k, *d)) for k, d in zip(patch.knots, patch.domain, strict=True)
-        )
-        if (len(knots_u) - 1) * (
-            len(knots_v) - 1
-        ) > MAX_CELLS:  # too many for a table: its own evaluation
+        if not few_cells(patch):  # too many for a table: its own evaluation
             return self._add(("own", len(self._pending)), (patch.knots[0], patch))
         w = np.ones(patch.points.shape[:2]) if patch.weights is None else patch.weights
         net = np.concatenate([patch.points * w[..., None], w[..., None]], axis=-1)
-        bv, by_v = to_bezier(patch.knots[1], q, np.swapaxes(net, 0, 1))  # (v cells, q+1, nu, 4)
-        bu, cells = to_bezier(patch.knots[0], p, np.moveaxis(by_v, 2, 0))
-        return self._add(
-            (p, q), (bu, bv, cells.transpose(0, 2, 1, 3, 4).reshape(-1, p + 1, q + 1, 4))
-        )
+        return self._add(patch.degree, tensor_cells(patch.knots, patch.degree, net))
 
     def add_curve(self, curve: Any) -> int:
         """Add a kernel ``Geom_BSplineCurve``; its number."""

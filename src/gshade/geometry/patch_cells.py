@@ -5,10 +5,11 @@ A CAD model's faces are B-spline patches (rational or not) of a few degrees; an 
 pixels fall on all of them.  Evaluated by numpy, each point gathers its (m + 1) x (n + 1)
 control points into memory before the products (:mod:`gshade.geometry.spline_batches`), and
 that traffic is the cost.  Here each patch is cut once into the Bézier patches of its knot
-intervals (Bézier extraction, :meth:`gshade.geometry.BSplinePatch.bezier_patches`; a Bézier
-patch is one cell), the homogeneous nets of all cells laid end to end, and one kernel per
-call evaluates, per point, the Bernstein basis of its cell in closed form and sums its
-control points gathered inside the kernel (no temporaries):
+intervals (Bézier extraction, :func:`gshade.geometry.bezier_cells.tensor_cells`; a Bézier
+patch is one cell), the homogeneous nets of all cells laid end to end and each point's cell
+found as :class:`gshade.geometry.bezier_cells.CellTable` lays them out and finds them, and
+one kernel per call evaluates, per point, the Bernstein basis of its cell in closed form and
+sums its control points gathered inside the kernel (no temporaries):
 
     h(s, t) = sum_ij B_i^m(s) B_j^n(t) H_ij,   p = h_xyz / h_w,
     p_s = (h_xyz,s - p h_w,s) / h_w,  ...
@@ -44,7 +45,7 @@ from numpy.typing import NDArray
 
 from ..runtime.drjit_arrays import drjit_array
 from .bezier import BezierPatch
-from .bezier_cells import MAX_CELLS, to_bezier
+from .bezier_cells import CellTable, few_cells, tensor_cells
 from .bspline import BSplinePatch
 from .patch import validate_order
 from .rational import project_patch_derivatives
@@ -60,44 +61,30 @@ def cell_groups(patches: Sequence[Any]) -> tuple[dict[tuple, list[int]], list[in
     groups: dict[tuple, list[int]] = {}
     others = []
     for k, patch in enumerate(patches):
-        if type(patch) is BezierPatch or (type(patch) is BSplinePatch and _few_cells(patch)):
+        if type(patch) is BezierPatch or (type(patch) is BSplinePatch and few_cells(patch)):
             groups.setdefault((patch.degree, patch.rational), []).append(k)
         else:
             others.append(k)
     return groups, others
 
 
-def _few_cells(patch: BSplinePatch) -> bool:
-    """Whether the patch has at most MAX_CELLS knot intervals (u times v) in its domain."""
-    u, v = (np.unique(np.clip(k, *d)) for k, d in zip(patch.knots, patch.domain, strict=True))
-    return (len(u) - 1) * (len(v) - 1) <= MAX_CELLS
-
-
 #: each patch's cells, kept while the patch lives (see :func:`_cells`)
 _CELLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, ...]:
-    """The patch's cell breaks along u and v, its cells' homogeneous nets
-    (cells, m + 1, n + 1, c) and their lower corners and sides (cells, 2), the cells row by
-    row (u-interval major)."""
+def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, NDArray, NDArray]:
+    """The patch's cell breaks along u and v and its cells' homogeneous nets
+    (cells, m + 1, n + 1, c), as :func:`gshade.geometry.bezier_cells.tensor_cells` gives
+    them (a Bézier patch: one cell over its domain)."""
     kept = _CELLS.get(patch)
     if kept is not None:
         return kept
     net = np.asarray(patch._net, dtype=np.float64)  # homogeneous (w P, w) if rational
     if isinstance(patch, BezierPatch):
         (a, b), (c, d) = patch.domain
-        ub, vb, nets = np.array([a, b]), np.array([c, d]), net[None]
-    else:  # Bézier extraction along v, then u (gshade.geometry.bezier_cells.to_bezier)
-        (U, V), (p, q) = patch.knots, patch.degree
-        vb, by_v = to_bezier(V, q, np.swapaxes(net, 0, 1))  # (v cells, q + 1, nu, c)
-        ub, cells = to_bezier(U, p, np.moveaxis(by_v, 2, 0))  # (u cells, p + 1, v cells, ..)
-        nets = np.moveaxis(cells, 2, 1).reshape(-1, p + 1, q + 1, net.shape[-1])
-    u0, v0 = np.meshgrid(ub[:-1], vb[:-1], indexing="ij")
-    du, dv = np.meshgrid(np.diff(ub), np.diff(vb), indexing="ij")
-    lo = np.stack([u0.ravel(), v0.ravel()], -1)
-    span = np.stack([du.ravel(), dv.ravel()], -1)
-    kept = (ub, vb, nets, lo, span)
+        kept = (np.array([a, b]), np.array([c, d]), net[None])
+    else:
+        kept = tensor_cells(patch.knots, patch.degree, net)
     _CELLS[patch] = kept
     return kept
 
@@ -112,31 +99,8 @@ class PatchCells:
         self.rational: bool = first.rational
         if any(p.degree != self.degree or p.rational != self.rational for p in patches):
             raise ValueError("PatchCells: patches of one degree and kind only")
-        cells = [_cells(p) for p in patches]
-        self.breaks = [(ub, vb) for ub, vb, *_ in cells]
-        counts = np.array([len(nets) for _, _, nets, *_ in cells])
-        self.first = np.cumsum(counts) - counts  # each patch's first cell
-        self.columns = np.array([len(vb) - 1 for _, vb, *_ in cells])
-        self.nets = np.concatenate([nets.reshape(-1) for _, _, nets, *_ in cells])
-        self.lo = np.concatenate([lo for *_, lo, _ in cells])
-        self.span = np.concatenate([span for *_, span in cells])
-
-    def locate(self, member: NDArray, u: NDArray, v: NDArray) -> NDArray[np.int64]:
-        """The cell of each point (u[i], v[i]) of patch ``member[i]`` (its place here): the
-        knot interval holding it, the end ones past the domain."""
-        cell = np.empty(member.size, dtype=np.int64)
-        ordered = bool((member[1:] >= member[:-1]).all())  # as the render's hits come
-        by_member = np.arange(member.size) if ordered else np.argsort(member, kind="stable")
-        bounds = np.flatnonzero(np.diff(member[by_member])) + 1
-        for mine in np.split(by_member, bounds):
-            if not mine.size:
-                continue
-            k = int(member[mine[0]])
-            ub, vb = self.breaks[k]
-            iu = np.clip(np.searchsorted(ub, u[mine], "right") - 1, 0, len(ub) - 2)
-            iv = np.clip(np.searchsorted(vb, v[mine], "right") - 1, 0, len(vb) - 2)
-            cell[mine] = self.first[k] + iu * self.columns[k] + iv
-        return cell
+        self.table = CellTable([_cells(p) for p in patches])
+        self.nets = self.table.nets.reshape(-1)  # flat, for the kernel's gathers
 
     def derivatives(
         self, member: NDArray, u: NDArray, v: NDArray, order: int = 1
@@ -151,14 +115,13 @@ class PatchCells:
         member = np.asarray(member, dtype=np.int64)
         u = np.asarray(u, dtype=np.float64)
         v = np.asarray(v, dtype=np.float64)
-        cell = self.locate(member, u, v)
-        lo, span = self.lo[cell], self.span[cell]
+        cell, (s, t), (side_u, side_v) = self.table.locate(member, u, v)
         m, n = self.degree
         c = 4 if self.rational else 3
         nets = drjit_array(Float64, self.nets)
         base = drjit_array(UInt32, cell * ((m + 1) * (n + 1) * c), np.uint32)
-        bu = _bernstein(m, drjit_array(Float64, (u - lo[:, 0]) / span[:, 0]), order)
-        bv = _bernstein(n, drjit_array(Float64, (v - lo[:, 1]) / span[:, 1]), order)
+        bu = _bernstein(m, drjit_array(Float64, s), order)
+        bv = _bernstein(n, drjit_array(Float64, t), order)
         wanted = [(a, b) for a in range(order + 1) for b in range(order + 1 - a)]
         h: dict[tuple[int, int], list[Any]] = {ab: [0.0] * c for ab in wanted}
         for i in range(m + 1):
@@ -172,8 +135,8 @@ class PatchCells:
         buf = np.zeros((order + 1, order + 1, c, u.size))
         for at, (a, b) in enumerate(wanted):
             for k in range(c):
-                # d/du = d/ds / span_u: the cell's parameters normalised
-                buf[a, b, k] = np.asarray(arrays[at * c + k]) / (span[:, 0] ** a * span[:, 1] ** b)
+                # d/du = d/ds / side_u: the cell's parameters normalised
+                buf[a, b, k] = np.asarray(arrays[at * c + k]) / (side_u**a * side_v**b)
         if self.rational:
             buf = project_patch_derivatives(buf[:, :, :3], buf[:, :, 3], order)
         return np.moveaxis(buf, 2, -1)
