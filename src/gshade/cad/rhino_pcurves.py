@@ -16,7 +16,8 @@ number of faces: :class:`Splines` evaluates many patches and curves together):
 - the parameter range is cut at the edge curve's distinct knots (its corners and its
   pieces' joins), where the nearest point crosses the face's interior knot lines and
   where it crosses a side (both by Newton on t), so that on each piece the nearest point
-  moves analytically with t;
+  moves analytically with t (the samples' nearest points and these cuts:
+  :mod:`gshade.cad.rhino_cuts`);
 - on each piece the pcurve is the polynomial of degree ``DEGREE`` through the nearest
   points at the piece's Chebyshev-Lobatto nodes; its error is measured at the midpoints
   between the nodes: the 3D length of the Gauss-Newton step from the pcurve's point
@@ -48,6 +49,7 @@ from OCP.gp import gp_Pnt2d
 from ..geometry.bernstein import bernstein_basis
 from ..geometry.bezier_cells import Splines
 from ..geometry.bspline import BSplinePatch
+from .rhino_cuts import Trims, range_cuts, sample_feet
 from .rhino_feet import least_squares_step, nearest_points, one_side
 
 __all__ = ["ACCURACY", "DEGREE", "MAX_PIECES", "Pcurve", "fit_faces"]
@@ -61,16 +63,11 @@ DEGREE = 7
 MAX_PIECES, _MAX_DEPTH = 256, 40
 #: A halved piece whose error is above this fraction of its parent's is not halved again.
 _STALL = 0.8
-#: Gauss-Newton steps at most: at the samples (from the recovered trims), at the first
-#: pieces' nodes (from the samples), from a parent piece's polynomial, and per Newton step on
-#: t at a crossing.
-_STEPS_SAMPLES, _STEPS_FIRST, _STEPS_WARM, _STEPS_CROSSING = 6, 12, 6, 4
-#: Newton steps on t locating a knot line's crossing.
-_CROSSING_STEPS = 4
+#: Gauss-Newton steps at most: at the first pieces' nodes (from the samples) and from a
+#: parent piece's polynomial (the samples' and the crossings': :mod:`gshade.cad.rhino_cuts`).
+_STEPS_FIRST, _STEPS_WARM = 12, 6
 #: The inversion stays within the domain widened by this fraction of its span.
 _REACH = 0.25
-#: Samples this close to a side of the domain (relative to the span) may lie beyond it.
-_NEAR_SIDE = 1e-6
 
 _NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(DEGREE + 1) / DEGREE)  # Chebyshev-Lobatto
 _CHECKS = 0.5 * (_NODES[:-1] + _NODES[1:])
@@ -97,189 +94,6 @@ class Pcurve:
     error: float
     apart: float
     pieces: int
-
-
-@dataclass
-class _Trims:
-    """All the trims to fit: per trim its face, its edge curve (its number in the
-    :class:`Splines`), samples (t, one-sided (u, v)) and the box its inversion stays in
-    (lowest and highest (u, v): its face's domain widened by ``_REACH``); per face its
-    surface (number in the :class:`Splines`) and its domain's corners."""
-
-    splines: Splines
-    face: NDArray[np.intp]
-    curve: NDArray[np.intp]
-    samples: list[tuple[NDArray[np.float64], NDArray[np.float64]]]
-    patch: NDArray[np.intp]
-    lo: NDArray[np.float64]
-    hi: NDArray[np.float64]
-    reach_lo: NDArray[np.float64]
-    reach_hi: NDArray[np.float64]
-
-    def box(self, trim: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        return self.reach_lo[trim], self.reach_hi[trim]
-
-    def edge(self, trim: NDArray[np.intp], t: NDArray[np.float64]):
-        """C(t) and C'(t) of the trims' edges."""
-        c, dc, _ = self.splines.evaluate(self.curve[trim], t)
-        return c, dc
-
-
-def _sample_feet(trims: _Trims, small: float):
-    """The face's points nearest the edge at the samples of all trims: per sample its trim,
-    t, (u, v) and the speeds |S_u|, |S_v| there.  The samples within ``_NEAR_SIDE`` of a
-    side of the domain (in parameter) again by Newton on the continued surface (the
-    recovered ones stop at the side), the others as recovered (speeds infinite: inside)."""
-    sizes = [len(t) for t, _ in trims.samples]
-    owner = np.repeat(np.arange(len(sizes)), sizes)
-    t = np.concatenate([t for t, _ in trims.samples])
-    uv = np.concatenate([uv for _, uv in trims.samples])
-    face = trims.face[owner]
-    lo, hi = trims.lo[face], trims.hi[face]
-    margin = _NEAR_SIDE * (hi - lo)
-    near = np.flatnonzero(np.any((uv - lo <= margin) | (hi - uv <= margin), axis=1))
-    speed = np.full((len(t), 2), np.inf)
-    if near.size:
-        xyz, _ = trims.edge(owner[near], t[near])
-        surface = trims.patch[face[near]]
-        box = trims.box(owner[near])
-        uv[near], _, su, sv = nearest_points(
-            trims.splines, surface, xyz, uv[near], box, _STEPS_SAMPLES, small
-        )
-        speed[near] = np.stack([np.linalg.norm(su, axis=1), np.linalg.norm(sv, axis=1)], -1)
-    return owner, t, uv, speed
-
-
-def _brackets(index, owner, t, value, level, along):
-    """Where ``value`` (per sample ``index``, in t order within each trim) crosses zero
-    between consecutive samples of a trim with a nonzero sign: (trim, direction ``along``,
-    the crossed level, t low, t high, first estimate, the two samples), an array each."""
-    nonzero = np.flatnonzero(value != 0.0)
-    i, j = nonzero[:-1], nonzero[1:]
-    cross = (owner[i] == owner[j]) & (value[i] * value[j] < 0)
-    i, j = i[cross], j[cross]
-    w = value[i] / (value[i] - value[j])
-    n = i.size
-    return (
-        owner[i],
-        np.full(n, along),
-        level[i],
-        t[i],
-        t[j],
-        t[i] + w * (t[j] - t[i]),
-        index[i],
-        index[j],
-    )
-
-
-def _cuts(trims: _Trims, patches: list[BSplinePatch], feet, accuracy: float, small: float):
-    """Per trim, the edge parameters where the face's nearest point (``feet``, at the
-    samples: :func:`_sample_feet`) crosses a side of the domain (beyond it, the side's
-    nearest point is the face's: pinned there) or an interior knot line of the face (there
-    it moves less smoothly with t), found by Newton on t (:func:`_locate`); and per trim the
-    sides it runs beyond: (direction, side, where) with ``where`` (t, beyond) > 0 at the
-    samples beyond the side (``None``: all of the trim)."""
-    owner, t, uv, speed = feet
-    uv = uv.copy()
-    index = np.arange(len(t))
-    face = trims.face[owner]
-    by_trim = np.searchsorted(owner, np.arange(len(trims.samples) + 1))
-    free_lo, free_hi = trims.box(owner)
-    lo, hi = free_lo.copy(), free_hi.copy()  # per sample: pinned beyond a side
-    found = []
-    sides: list[list[tuple]] = [[] for _ in trims.samples]
-    for d in (0, 1):
-        for corner, sign in ((trims.lo, -1.0), (trims.hi, 1.0)):
-            end = corner[face, d]
-            beyond = sign * (uv[:, d] - end) * speed[:, d]  # in 3D, > 0: beyond the side
-            state = np.where(beyond > accuracy, 1.0, np.where(beyond < -accuracy, -1.0, 0.0))
-            out = np.zeros(len(sides), dtype=bool)
-            inside = np.zeros(len(sides), dtype=bool)
-            np.logical_or.at(out, owner, state > 0)
-            np.logical_or.at(inside, owner, state < 0)
-            for j in np.flatnonzero(out):
-                rows = slice(by_trim[j], by_trim[j + 1])
-                where = (t[rows], beyond[rows]) if inside[j] else None
-                sides[j].append((d, corner[trims.face[j], d], where))
-                pin = index[rows] if where is None else index[rows][beyond[rows] > 0]
-                lo[pin, d] = hi[pin, d] = end[pin]
-            mixed = np.isin(owner, np.flatnonzero(out & inside))
-            if mixed.any():
-                m = np.flatnonzero(mixed)
-                found.append(_brackets(m, owner[m], t[m], state[m], end[m], d))
-    box = [(free_lo, free_hi)] * len(found)  # sides: located on the continued surface
-    pinned = np.flatnonzero(np.any(lo == hi, axis=1))
-    if pinned.size:  # the pinned samples' nearest points on their sides
-        xyz, _ = trims.edge(owner[pinned], t[pinned])
-        surface = trims.patch[face[pinned]]
-        uv[pinned] = nearest_points(
-            trims.splines, surface, xyz, uv[pinned], (lo[pinned], hi[pinned]), _STEPS_SAMPLES, small
-        )[0]
-    by_face = np.searchsorted(face, np.arange(len(patches) + 1))  # samples in face order
-    for f, patch in enumerate(patches):  # interior knot lines, crossed transversally
-        mine = index[by_face[f] : by_face[f + 1]]
-        for d in (0, 1):
-            a, b = patch.domain[d]
-            x = uv[mine, d]
-            if not x.size:
-                continue
-            knots = np.unique(np.asarray(patch.knots[d], dtype=float))
-            inner = (knots > max(a + 1e-12 * (b - a), x.min())) & (
-                knots < min(b - 1e-12 * (b - a), x.max())
-            )
-            for k in knots[inner]:
-                value = x - k
-                value[np.abs(value) <= 1e-9 * (b - a)] = 0.0  # along the line: no crossing
-                found.append(_brackets(mine, owner[mine], t[mine], value, np.full(mine.size, k), d))
-                box.append((lo, hi))  # in the pinned samples' boxes
-    cuts = [np.empty(0) for _ in trims.samples]
-    keep = [k for k, x in enumerate(found) if x[0].size]
-    if not keep:
-        return cuts, sides
-    # each crossing in its samples' boxes: where a knot line's crossing and a side's share an
-    # interval between samples, in both (the one off its region an extra cut, harmless)
-    parts = []
-    for k in keep:
-        x = found[k]
-        parts.append((*x, box[k][0][x[6]], box[k][1][x[6]]))
-        moved = np.any(
-            (box[k][0][x[6]] != box[k][0][x[7]]) | (box[k][1][x[6]] != box[k][1][x[7]]), axis=1
-        )
-        if moved.any():
-            parts.append((*(y[moved] for y in x), box[k][0][x[7]][moved], box[k][1][x[7]][moved]))
-    who, along, level, tl, th, tc, i, _, bl, bh = (
-        np.concatenate(x) for x in zip(*parts, strict=True)
-    )
-    w = ((tc - tl) / np.where(th > tl, th - tl, 1.0))[:, None]
-    start = uv[i] + w * (uv[i + 1] - uv[i])
-    located = _locate(trims, who, along, level, tl, th, tc, start, (bl, bh), small)
-    order = np.argsort(who, kind="stable")
-    at = np.searchsorted(who[order], np.arange(len(cuts) + 1))
-    for j in np.unique(who):
-        cuts[j] = located[order[at[j] : at[j + 1]]]
-    return cuts, sides
-
-
-def _locate(trims: _Trims, owner, along, level, tl, th, tc, uv, box, small: float):
-    """Newton on t for the crossings of coordinate ``along`` of the face's nearest point
-    (within ``box``) with ``level``, within [tl, th] (from tc, the nearest point from uv):
-    t <- t - (c_d(t) - level) / c_d'(t), the nearest point's speed c' = (J^T J)^-1 J^T C'(t)
-    (J's columns of the pinned parameters zero)."""
-    surface = trims.patch[trims.face[owner]]
-    rows = np.arange(len(tc))
-    free = (box[1] > box[0]).astype(np.float64)
-    for _ in range(_CROSSING_STEPS):
-        xyz, dxyz = trims.edge(owner, tc)
-        uv, _, su, sv = nearest_points(trims.splines, surface, xyz, uv, box, _STEPS_CROSSING, small)
-        speed = least_squares_step(su * free[:, :1], sv * free[:, 1:], dxyz)[rows, along]
-        gap = uv[rows, along] - level
-        step = np.divide(-gap, speed, out=np.zeros_like(gap), where=np.abs(speed) > 1e-300)
-        new = np.clip(tc + step, tl, th)
-        moved = np.abs(new - tc)
-        tc = new
-        if np.all(moved <= 1e-14 * np.maximum(np.abs(th - tl), 1e-300)):
-            break
-    return tc
 
 
 def fit_faces(
@@ -322,13 +136,13 @@ def fit_faces(
     accuracy = ACCURACY * size
     face = np.array(face_of, dtype=np.intp)
     reach = _REACH * (hi[face] - lo[face])
-    trims = _Trims(
+    trims = Trims(
         splines, face, np.array(curve_of, dtype=np.intp), samples,
         np.array(patch_number, dtype=np.intp), lo, hi, lo[face] - reach, hi[face] + reach,
     )  # fmt: skip
     small = 1e-3 * accuracy
-    feet = _sample_feet(trims, small)
-    cuts, sides = _cuts(trims, [p for p, _ in faces], feet, accuracy, small)
+    feet = sample_feet(trims, small)
+    cuts, sides = range_cuts(trims, [p for p, _ in faces], feet, accuracy, small)
     owner, a, b, start, lo_box, hi_box = _pieces(trims, cuts, sides, feet)
     kept = _refine(trims, owner, a, b, start, lo_box, hi_box, accuracy, small)
     out = _assemble(trims, kept, accuracy)
@@ -336,7 +150,7 @@ def fit_faces(
     return [out[bounds[f] : bounds[f + 1]] for f in range(len(faces))]
 
 
-def _pieces(trims: _Trims, cuts: list[NDArray[np.float64]], sides: list[list[tuple]], feet):
+def _pieces(trims: Trims, cuts: list[NDArray[np.float64]], sides: list[list[tuple]], feet):
     """The first pieces between each trim's cuts: (trim, start, end, the Newton starts at
     their nodes (the samples' nearest points interpolated), the box each stays in: the
     trim's, pinned to the sides it runs beyond at the piece's middle)."""
@@ -392,7 +206,7 @@ def _hermite(x: NDArray[np.float64], t: NDArray[np.float64], y: NDArray[np.float
     )
 
 
-def _refine(trims: _Trims, owner, a, b, start, lo, hi, accuracy: float, small: float):
+def _refine(trims: Trims, owner, a, b, start, lo, hi, accuracy: float, small: float):
     """Fit every piece (its nearest points within its box ``lo``, ``hi``), halve those not
     within the accuracy (their halves started from their polynomials), until all are kept;
     the kept pieces as arrays (trim, start, end, poles, error, distance, the surface's
@@ -460,7 +274,7 @@ def _refine(trims: _Trims, owner, a, b, start, lo, hi, accuracy: float, small: f
     return [np.concatenate(x) for x in zip(*kept, strict=True)]
 
 
-def _assemble(trims: _Trims, kept: list[NDArray], accuracy: float) -> list[Pcurve]:
+def _assemble(trims: Trims, kept: list[NDArray], accuracy: float) -> list[Pcurve]:
     """Each trim's pieces joined into one B-spline, poles clamped into the domain; the
     distance |S(c(t)) - C(t)| measured again where clamping moved a pole by more than
     round-off."""
