@@ -173,7 +173,8 @@ def test_stale_temporaries_of_dead_processes_are_removed(tmp_path):
 def test_sigterm_during_a_render_leaves_no_temporary(tmp_path, delay):
     scene = tmp_path / "big.toml"
     scene.write_text(
-        '[[surface]]\ntype = "torus"\n[render]\nwidth = 1600\nheight = 1200\nspp = 16\n'
+        '[[surface]]\ntype = "torus"\n[render]\nwidth = 1600\nheight = 1200\nspp = 64\n'
+        'sampling = "uniform"\n'  # 64 samples in every pixel: seconds of Mitsuba's render
     )
     out = tmp_path / "out"
     out.mkdir()
@@ -331,18 +332,19 @@ def test_render_limits_in_python_and_memory(tmp_path, monkeypatch):
         render(scene)
 
 
-def test_a_render_with_non_finite_values_is_refused(tmp_path, monkeypatch):
+@pytest.mark.parametrize("channel", ["f.mean", "f", "P.X"])  # the samples'; the exact hits'
+def test_a_render_with_non_finite_values_is_refused(tmp_path, monkeypatch, channel):
     from gshade.rendering import pipeline
 
     real = pipeline.exact_channels
 
     def poisoned(*args):
         channels = real(*args)
-        channels["f"][0, 0] = np.nan  # the samples' mean: f.mean from 0.3 on
+        channels[channel][0, 0] = np.nan
         return channels
 
     monkeypatch.setattr(pipeline, "exact_channels", poisoned)
-    with pytest.raises(GshadeError, match=r"non-finite values \(1 pixels of f.mean\)"):
+    with pytest.raises(GshadeError, match=rf"non-finite values \(1 pixels of {channel}\)"):
         render(load_scene(_write(tmp_path, SPHERE + SMALL)))
 
 

@@ -20,7 +20,7 @@ from gshade import GshadeError
 from gshade.app.cli import main
 from gshade.app.terminal import printable
 from gshade.io.output_folders import created_folders, folder_lock, missing_folders, output_folder
-from gshade.io.outputs import atomic_write, confined, distinct_files, staged
+from gshade.io.outputs import atomic_write, confined, distinct_files, staged, write_all
 
 SMALL = '[render]\nwidth = 16\nheight = 12\nspp = 1\nlighting = "flat"\n'
 CHECK = "[check]\nwidth = 16\nheight = 12\nspp = 1\n"
@@ -506,3 +506,27 @@ def test_a_replaced_output_keeps_its_permission_bits(tmp_path):
     with staged([kept]) as (name,):
         Path(name).write_text("newer")
     assert stat.S_IMODE(kept.stat().st_mode) == 0o604
+
+
+def test_write_all_writes_side_by_side_and_raises_the_first_jobs_error_once_all_ended(tmp_path):
+    import threading
+
+    met = threading.Barrier(3, timeout=60)  # a hang guard: each writer waits for the others
+
+    def writer(text):
+        def write(name):
+            met.wait()  # only returns once all three writers run at the same time
+            if text is None:
+                raise OSError("no space left")
+            Path(name).write_text(text)
+
+        return write
+
+    names = [tmp_path / f"{k}.tmp" for k in "abc"]
+    jobs = [
+        (str(n), lambda t=t: writer(t), n.with_suffix(".out"))
+        for n, t in zip(names, ("one", None, "three"), strict=True)
+    ]
+    with pytest.raises(GshadeError, match=r"b\.out: cannot write the file: no space left"):
+        write_all(jobs)
+    assert names[0].read_text() == "one" and names[2].read_text() == "three"  # both ended

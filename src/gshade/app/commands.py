@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from pathlib import Path
 
 from ..errors import GshadeError
@@ -54,7 +55,7 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
 
 def render(args: argparse.Namespace) -> int:
     """``gshade render``: the EXR (and PNG), written together once both are complete."""
-    from ..io.outputs import distinct_files, output_file, staged, write_to
+    from ..io.outputs import distinct_files, output_file, staged, write_all
     from ..rendering import render as render_scene
     from ..scene import load_scene
 
@@ -70,14 +71,15 @@ def render(args: argparse.Namespace) -> int:
     # and the targets change only once every file is written
     with staged(targets) as names:
         image = render_scene(scene)
-        writers = [image.exr_writer(output)] + ([image.png_writer(args.png)] if args.png else [])
+        writers = [partial(image.exr_writer, output)]
+        if args.png:
+            writers.append(partial(image.png_writer, args.png))
         if html:  # the page of the EXR's channels and header, as `gshade view` makes it
             from ..display.html_view import view_writer
 
             page = [(image.channels, image.metadata)]
-            writers.append(view_writer(page, html, labels=[output.name]))
-        for target, writer, name in zip(targets, writers, names, strict=True):
-            write_to(name, writer, target)
+            writers.append(partial(view_writer, page, html, labels=[output.name]))
+        write_all(list(zip(names, writers, targets, strict=True)))
     _tell(image.notes, image.warnings)
     say(
         f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "

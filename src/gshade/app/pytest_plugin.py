@@ -286,7 +286,7 @@ def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
     if state is None or not (state.written or state.results):
         return
     terminalreporter.section("gshade")
-    from ..io.outputs import printable
+    from ..io.printable import printable
 
     for r in state.written:
         terminalreporter.write_line(printable(f"{r.written} reference {r.reference} ({r.scene})"))

@@ -23,8 +23,7 @@ Every file gshade writes goes through this module:
   :func:`staged` for its own targets), compared by their resolved paths.
 - Folders (subfolders, folders to make, locks): :mod:`gshade.io.output_folders`.
 - Names and messages shown (printed, or written into XML, HTML and JSON) go through
-  :func:`printable`: control characters, format characters and bytes of a file name that
-  are not UTF-8 become visible escapes (``\\x1b``, ``\\u202e``, ``\\xff``).
+  :func:`gshade.io.printable.printable`.
 """
 
 from __future__ import annotations
@@ -37,7 +36,7 @@ import tempfile
 import unicodedata
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
-from functools import cache, lru_cache
+from functools import cache
 from pathlib import Path
 
 from ..errors import GshadeError
@@ -53,9 +52,9 @@ __all__ = [
     "new_file_mode",
     "output_file",
     "output_name",
-    "printable",
     "remove_stale_temporaries",
     "staged",
+    "write_all",
     "write_to",
 ]
 
@@ -73,48 +72,6 @@ HOST = re.sub(r"[^A-Za-z0-9_]", "_", socket.gethostname())[:32] or "host"
 
 
 # --------------------------------------------------------------------------- names
-
-#: Unicode categories shown escaped: controls (C0, DEL, C1), format characters (bidi
-#: overrides, zero-width), surrogates (bytes that are not UTF-8), line and paragraph
-#: separators.
-_ESCAPED_CATEGORIES = frozenset({"Cc", "Cf", "Cs", "Zl", "Zp"})
-#: Characters outside ASCII's printable range: the only ones that can need escaping.
-_CANDIDATES = re.compile(r"[^\x20-\x7e]")
-
-
-@lru_cache(maxsize=4096)
-def _escape(char: str, keep_lines: bool) -> str:
-    code = ord(char)
-    if keep_lines and char in "\n\t":
-        return char
-    if 0xDC80 <= code <= 0xDCFF:  # a byte that is not UTF-8, as surrogateescape keeps it
-        return f"\\x{code - 0xDC00:02x}"
-    if code in (0xFFFE, 0xFFFF) or unicodedata.category(char) in _ESCAPED_CATEGORIES:
-        return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
-    return char
-
-
-def printable(text: object, *, keep_lines: bool = False) -> str:
-    """``str(text)`` with its control characters written as escapes.
-
-    Parameters
-    ----------
-    text : object
-        A name, a path or a message (made a str).
-    keep_lines : bool
-        Keep newlines and tabs (a log, a traceback); by default they are escaped too, so
-        that the result is one line.
-
-    Returns
-    -------
-    str
-        The text with C0 and C1 controls, DEL, format characters (``U+202E`` ...), line
-        separators and surrogates written as ``\\xNN`` / ``\\uNNNN`` (a surrogate-escaped
-        byte as the byte, ``\\xff``).  Printable text is returned unchanged, and the result
-        is printable: ``printable(printable(t)) == printable(t)``.
-    """
-    text = str(text)
-    return _CANDIDATES.sub(lambda m: _escape(m.group(), keep_lines), text)
 
 
 def output_name(name: object, what: str = "name") -> str:
@@ -327,6 +284,25 @@ def write_to(name: str, write: Callable[[str], object], target: str | os.PathLik
         raise
     except (OSError, RuntimeError, ValueError, TypeError) as exc:
         raise GshadeError(f"{target}: cannot write the file: {exc}") from exc
+
+
+def write_all(
+    jobs: Sequence[tuple[str, Callable[[], Callable[[str], object]], str | os.PathLike]],
+) -> None:
+    """For each job (name, make, target), :func:`write_to` ``(name, make(), target)``: the
+    jobs side by side, a thread each (the writers' encoders and compressors let go of the
+    interpreter: an EXR and its PNG take about as long as the longer of the two); the first
+    job's error is raised first, once every job has ended."""
+    if len(jobs) < 2:
+        for name, make, target in jobs:
+            write_to(name, make(), target)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(len(jobs), thread_name_prefix="gshade-write") as pool:
+        ends = [pool.submit(lambda j: write_to(j[0], j[1](), j[2]), job) for job in jobs]
+    for end in ends:
+        end.result()
 
 
 def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:

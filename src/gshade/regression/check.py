@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import GshadeError
-from ..io.outputs import distinct_files, output_file, printable
+from ..io.outputs import distinct_files, output_file
+from ..io.printable import printable
 from .comparison import (
     ChannelMismatch,
     Comparison,
@@ -62,7 +63,7 @@ EXACT_CHANNELS = frozenset({"f", "u", "v", "patch", "P.X", "P.Y", "P.Z"})
 class CheckResult:
     """One scene's check: ``status`` is PASS, WARNING, FAILURE, ERROR or NEW (no reference
     yet, and one was written).  ``name``, ``message`` and ``log`` are printable text
-    (:func:`gshade.io.outputs.printable`: a file name's control characters and bytes
+    (:func:`gshade.io.printable.printable`: a file name's control characters and bytes
     that are not UTF-8 escaped), as terminals, XML, HTML and JSON can show them; ``scene``
     and ``reference`` are the files' real paths."""
 

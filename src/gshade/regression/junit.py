@@ -12,7 +12,7 @@ scene file, the reference and the HTML report when there is one.  Every test cas
 in ``gshade check``; so is a reference just written).  Only the elements and attributes of
 the common JUnit schema are used (those of Jenkins' ``junit-10.xsd``, which pytest's
 ``xunit2`` files follow, and ``<error>``); names, paths and messages are written as
-:func:`gshade.io.outputs.printable` shows them: control characters (those XML cannot
+:func:`gshade.io.printable.printable` shows them: control characters (those XML cannot
 hold, terminal escapes), format characters and bytes of a file name that are not UTF-8 as
 ``\\xNN`` / ``\\uNNNN``, so that the file is always written and always valid UTF-8 XML.
 """
@@ -27,7 +27,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from .. import __version__
-from ..io.outputs import atomic_write, printable
+from ..io.outputs import atomic_write
+from ..io.printable import printable
 from .check import CheckResult
 
 __all__ = ["SUITE", "junit_writer", "junit_xml", "write_junit"]

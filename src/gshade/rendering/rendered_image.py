@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -102,9 +103,10 @@ class RenderedImage:
     ) -> None:
         """Write the EXR and / or the PNG: both are renamed onto their targets only when both
         were written (:func:`gshade.io.outputs.staged`)."""
-        from ..io.outputs import staged, write_to
+        from ..io.outputs import staged, write_all
 
         writers = [(p, w) for p, w in ((exr, self.exr_writer), (png, self.png_writer)) if p]
         with staged([p for p, _ in writers]) as names:
-            for (path, writer), name in zip(writers, names, strict=True):
-                write_to(name, writer(path), path)
+            write_all(
+                [(name, partial(w, p), p) for (p, w), name in zip(writers, names, strict=True)]
+            )
