@@ -309,3 +309,28 @@ def test_a_box_past_the_domain_is_refused_unless_asked():
         patch.restricted(((-0.01, 1.0), (0.0, 1.0)))
     out = patch.restricted(((-0.01, 1.0), (0.0, 1.0)), beyond=True)
     assert out.domain == ((-0.01, 1.0), (0.0, 1.0))
+
+
+@pytest.mark.parametrize("rational", [False, True])
+def test_a_box_a_round_off_from_a_knot_leaves_no_sliver_span(rational):
+    # a CAD face's box 4e-14 short of the knot 6 (a STEP file of Alias AutoStudio's): cut
+    # there, the restricted spline had a first span of 4e-14, and its second derivatives at
+    # the box's edge were off by 1e13
+    rng = np.random.default_rng(7)
+    U = np.array([1.0, 2, 2, 2, 3, 4, 5, 6, 7, 8, 9, 10, 10, 10, 11])
+    V = np.array([0.0, 0, 0, 0, 1, 1, 1, 1])
+    net = rng.normal(size=(len(U) - 4, 4, 3)) * 20
+    weights = rng.uniform(0.5, 2.0, size=net.shape[:2]) if rational else None
+    patch = BSplinePatch(net, (3, 3), (U, V), weights=weights)
+    for u0, u1 in ((6 - 4e-14, 10.0), (2.5, 9 + 3e-14), (6 - 4e-14, 9 + 3e-14)):
+        box = ((u0, u1), (0.25, 0.75))
+        restricted = patch.restricted(box)
+        assert restricted.domain == box  # exactly the box's floats
+        assert smallest_span(restricted.knots[0]) >= 0.5  # no sliver span
+        u = np.array([u0, u0, u1, u1, 0.5 * (u0 + u1)])
+        v = np.array([0.25, 0.75, 0.25, 0.75, 0.5])
+        # to order 2: the knots are simple (C2), the third derivatives two-valued there
+        d0, d1 = patch.derivatives(u, v, 2), restricted.derivatives(u, v, 2)
+        scale = np.abs(d0).max(axis=(2, 3), keepdims=True) + np.abs(net).max()
+        assert np.abs(d1 - d0).max() <= 1e-9 * scale.max()
+        assert (np.abs(d1 - d0) <= 1e-9 * scale).all()

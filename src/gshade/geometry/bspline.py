@@ -82,15 +82,44 @@ def _continue_start(knots: NDArray, degree: int, net: NDArray, a: float) -> tupl
     return U, out
 
 
+#: A box end closer than this to a knot inside the box, relative to the span beyond that
+#: knot, would cut a sliver span (a CAD face's box a round-off short of a knot): the spline
+#: is cut at the knot instead, and that span's polynomial continued to the end.
+SLIVER = 1e-6
+
+
+def _cuts(knots: NDArray, degree: int, a: float, b: float) -> tuple[float, float]:
+    """Where to cut the spline for the interval [a, b] inside its domain: a and b, except an
+    end that would leave a sliver span (:data:`SLIVER`), moved onto its knot.
+
+    On a sliver of relative length h, a k-th derivative from the span's Bezier points loses
+    k log10(1/h) digits (a box 4e-14 short of a knot: the second derivatives off by 1e13);
+    the next span's polynomial continued over it differs from the spline by O(h^c) relative
+    (c the continuity there), below round-off for the slivers moved."""
+    p = degree
+    inner = np.unique(knots[p : len(knots) - p])
+    inner = inner[(inner > a) & (inner < b)]
+    if inner.size:
+        beyond = inner[1] if inner.size > 1 else b  # a's knot's span
+        if inner[0] - a <= SLIVER * (beyond - inner[0]):
+            a = float(inner[0])
+        before = inner[-2] if inner.size > 1 else a  # b's knot's span
+        if b - inner[-1] <= SLIVER * (inner[-1] - before) and inner[-1] > a:
+            b = float(inner[-1])
+    return a, b
+
+
 def _over(knots: NDArray, degree: int, net: NDArray, a: float, b: float) -> tuple[NDArray, NDArray]:
     """Knots and control points (axis 0 of ``net``) of the spline over [a, b], which may reach
-    past the domain [U_p, U_{n+1}]: there the end spans' polynomials are continued."""
+    past the domain [U_p, U_{n+1}]: there the end spans' polynomials are continued (and over
+    a sliver span the box's end would cut, :func:`_cuts`)."""
     p = degree
     lo, hi = float(knots[p]), float(knots[-p - 1])
-    U, P = _restrict(knots, p, net, max(a, lo), min(b, hi))
-    if a < lo:
+    cut_a, cut_b = _cuts(knots, p, max(a, lo), min(b, hi))
+    U, P = _restrict(knots, p, net, cut_a, cut_b)
+    if a < cut_a:
         U, P = _continue_start(U, p, P, a)
-    if b > hi:  # the same at the end, on the reversed spline
+    if b > cut_b:  # the same at the end, on the reversed spline
         U, P = _continue_start(-U[::-1], p, P[::-1], -b)
         U, P = -U[::-1], P[::-1]
     return U, np.ascontiguousarray(P)
@@ -244,7 +273,11 @@ class BSplinePatch(TensorProductPatch):
         it works on all rows of the net at once.  This is exact up to round-off, for clamped
         and unclamped (e.g. once periodic) knot vectors alike (Kiciak, A.3).  Past the
         domain, the end's first p control points are the blossom of the end span's
-        polynomial at the new end knots (Ramshaw 1989): no knot is added.
+        polynomial at the new end knots (Ramshaw 1989): no knot is added.  A box end closer
+        to a knot than :data:`SLIVER` of the span beyond it (a CAD face's box a round-off
+        short of a knot) is treated the same way: the spline is cut at the knot and that
+        span's polynomial continued to the end, instead of a sliver span whose derivatives
+        would lose all their digits.
 
         Examples
         --------
