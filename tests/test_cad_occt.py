@@ -252,3 +252,17 @@ def test_a_step_files_declared_accuracy(rounded, tmp_path):
     assert step_uncertainty(metre) == pytest.approx(1e-2)
     (tmp_path / "none.step").write_text("ISO-10303-21;\nDATA;\nENDSEC;\n")
     assert step_uncertainty(tmp_path / "none.step") == 0.0
+
+
+def test_a_step_file_may_start_with_comments(tmp_path, rounded):
+    # ISO 10303-21 allows comments outside strings; some writers put their banner first,
+    # and the kernel reads such a file
+    good = write_shape(rounded, tmp_path / "good.step").read_bytes()
+    banner = tmp_path / "banner.step"
+    banner.write_bytes(b"/* written by a tool\n * with a banner */\n\n/* two */ " + good)
+    assert len(read_cad(banner).faces) == len(read_cad(tmp_path / "good.step").faces)
+    other = tmp_path / "other.step"
+    other.write_bytes(b"/* a comment */ hello, not a STEP file\n")
+    with pytest.raises(GshadeError) as exc:
+        read_cad(other)
+    assert "not a STEP file" in _one_line(exc, other)

@@ -12,6 +12,7 @@ the session unit, which is set to mm here.  A BREP file carries no unit (``"unkn
 from __future__ import annotations
 
 import itertools
+import re
 from pathlib import Path
 from typing import Any
 
@@ -156,6 +157,11 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
     )
 
 
+#: A STEP file's start: its ISO-10303-21 line, after white space and comments (ISO 10303-21
+#: allows ``/* ... */`` anywhere outside a string; some writers put their banner first).
+_STEP_START = re.compile(rb"\s*(?:/\*.*?\*/\s*)*ISO-10303-21", re.DOTALL)
+
+
 def _check_file(path: Path, ext: str) -> None:
     """Refuse what is not a regular, bounded file of the right format, before the kernel."""
     expected = _NAMES[ext]
@@ -163,7 +169,7 @@ def _check_file(path: Path, ext: str) -> None:
     if not head.strip():
         raise GshadeError(f"{path}: expected {expected}, got an empty file")
     if ext in (".step", ".stp"):
-        if not head.lstrip().startswith(b"ISO-10303-21"):
+        if not _STEP_START.match(head):
             raise GshadeError(f"{path}: not a STEP file (no ISO-10303-21 header)")
         with open(path, "rb") as f:
             f.seek(max(path.stat().st_size - 4096, 0))
