@@ -153,6 +153,23 @@ def split_bspline_face(at: float = SPLIT_AT):
     return sewing.SewedShape()
 
 
+def split_bspline_shells(at: float = SPLIT_AT):
+    """The faces of :func:`split_bspline_face`, unsewn, each in an open shell of its own (as
+    STEP surface models write them): a compound of two one-face shells sharing no edge."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound, TopoDS_Shell
+
+    surface = _bspline_surface(SHEET_HEIGHTS)
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for u0, u1 in ((0.0, at), (at, 1.0)):
+        shell = TopoDS_Shell()
+        builder.MakeShell(shell)
+        builder.Add(shell, BRepBuilderAPI_MakeFace(surface, u0, u1, 0.0, 1.0, 1e-7).Face())
+        builder.Add(compound, shell)
+    return compound
+
+
 def write_shape(shape, path: Path) -> Path:
     """The shape as a STEP, IGES (``.igs``) or BREP file, by the suffix; the writers'
     banners silenced."""

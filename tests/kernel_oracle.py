@@ -200,6 +200,17 @@ def faces_of(shape) -> list:
     return out
 
 
+def _unsewn(shape) -> bool:
+    """Faces in no shell, or a shell of one face among several shells."""
+    if TopExp_Explorer(shape, TopAbs_FACE, TopAbs_SHELL).More():
+        return True
+    shells, explorer = [], TopExp_Explorer(shape, TopAbs_SHELL)
+    while explorer.More():
+        shells.append(len(faces_of(explorer.Current())))
+        explorer.Next()
+    return len(shells) > 1 and 1 in shells
+
+
 def _invalid_count(shape) -> int:
     if BRepCheck_Analyzer(shape).IsValid():
         return 0
@@ -236,7 +247,7 @@ def read_shape(path: str | Path, heal: bool = True) -> tuple[TopoDS_Shape, dict]
             reader.TransferRoots()
             shape = reader.OneShape()
         count = len(faces_of(shape))
-        if TopExp_Explorer(shape, TopAbs_FACE, TopAbs_SHELL).More():  # free faces: sew
+        if _unsewn(shape):  # free faces: sew
             largest = 0.0
             explorer = TopExp_Explorer(shape, TopAbs_EDGE)
             while explorer.More():

@@ -25,7 +25,7 @@ from gshade.cad.edges import shared_edges
 from gshade.rendering import render
 from gshade.scene import load_scene
 
-from .cad_parts import filleted_box, loft, split_bspline_face
+from .cad_parts import filleted_box, loft, split_bspline_face, split_bspline_shells, write_shape
 
 R = 2.0  # the fillet radius
 
@@ -88,6 +88,15 @@ def test_one_surface_split_in_two_faces_meets_itself_smoothly(parts):
     assert j.cls == "G3"
     assert j.gap < 1e-9 and j.normal_angle_deg < 1e-9
     assert j.curvature_jump < 1e-9 and j.curvature_gradient_jump < 1e-7
+
+
+def test_faces_each_alone_in_a_shell_are_sewn_and_their_edge_measured(tmp_path):
+    """A STEP surface model may put each face in an open shell of its own: the faces share
+    no edge until sewn, and the report would hold none (an Unigraphics file's 44 faces)."""
+    for suffix in (".brep", ".step"):
+        path = write_shape(split_bspline_shells(), tmp_path / f"shells{suffix}")
+        report, _ = edge_report(read_cad(path))
+        assert len(report) == 1 and report[0].cls == "G3", suffix
 
 
 def test_a_loft_meets_its_caps_at_an_angle(parts):

@@ -228,8 +228,21 @@ def _nonempty(shape: TopoDS_Shape | None, path: Path, said: str) -> TopoDS_Shape
 
 
 def _has_free_faces(shape: TopoDS_Shape) -> bool:
-    """True when some face lies in no shell (unsewn faces, as IGES files usually hold)."""
-    return TopExp_Explorer(shape, TopAbs_FACE, TopAbs_SHELL).More()
+    """True when some face lies in no shell (unsewn faces, as IGES files usually hold), or
+    alone in a shell of its own beside other faces (a STEP surface model written as one
+    open shell a face: its faces share no edge until sewn)."""
+    if TopExp_Explorer(shape, TopAbs_FACE, TopAbs_SHELL).More():
+        return True
+    sizes = []
+    shells = TopExp_Explorer(shape, TopAbs_SHELL)
+    while shells.More():
+        faces = TopExp_Explorer(shells.Current(), TopAbs_FACE)
+        sizes.append(0)
+        while faces.More() and sizes[-1] < 2:
+            sizes[-1] += 1
+            faces.Next()
+        shells.Next()
+    return len(sizes) > 1 and min(sizes) == 1
 
 
 def _sew_tolerance(shape: TopoDS_Shape, diagonal: float) -> float:
