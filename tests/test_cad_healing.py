@@ -455,3 +455,33 @@ def test_a_hole_running_the_outer_loops_way_is_said_in_words():
     face = maker.Face()
     assert not BRepCheck_Analyzer(face).IsValid()
     assert why_invalid(face) == "a trimming wire runs the wrong way"
+
+
+def test_a_face_of_triangles_only_is_left_out_in_words(tmp_path):
+    """A tessellated face (STEP AP242's COMPLEX_TRIANGULATED_FACE: triangles, no exact
+    surface) beside a face with a surface: left out as a triangle mesh, not as invalid."""
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.BRepTools import BRepTools
+    from OCP.Poly import Poly_Triangle, Poly_Triangulation
+
+    from gshade.cad.healing import why_invalid
+
+    triangles = Poly_Triangulation(3, 1, False)
+    for k, (x, y) in enumerate(((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), start=1):
+        triangles.SetNode(k, gp_Pnt(x + 5.0, y, 0.0))
+    triangles.SetTriangle(1, Poly_Triangle(1, 2, 3))
+    mesh_only = TopoDS_Face()
+    builder = BRep_Builder()
+    builder.MakeFace(mesh_only, triangles)
+    assert why_invalid(mesh_only) == "a triangle mesh, no exact surface (a tessellated face)"
+    compound = TopoDS_Compound()
+    builder.MakeCompound(compound)
+    builder.Add(compound, mesh_only)
+    for face in shape_faces(BRepPrimAPI_MakeBox(1.0, 1.0, 1.0).Shape())[:1]:
+        builder.Add(compound, face)
+    path = tmp_path / "mixed.brep"
+    BRepTools.Write_s(compound, str(path))
+    model = read_cad(path)
+    assert len(model.faces) == 1
+    (lost,) = model.left_out
+    assert "a triangle mesh, no exact surface" in lost.why

@@ -21,6 +21,7 @@ from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
 from OCP.ShapeFix import ShapeFix_Shape
 from OCP.TopAbs import TopAbs_EDGE, TopAbs_WIRE
 from OCP.TopExp import TopExp_Explorer
+from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS, TopoDS_Edge, TopoDS_Shape
 
 from ..runtime.native import captured_output
@@ -123,6 +124,9 @@ def _changes(before: dict[int, str], after: dict[int, str], count: int, faces: l
 
 def why_invalid(face: Any) -> str:
     """What the kernel finds wrong with an invalid face, in a few words."""
+    missing = _no_surface(face)
+    if missing is not None:
+        return missing
     ok = BRepCheck_Status.BRepCheck_NoError
     try:
         checks = BRepCheck_Face(face)
@@ -148,6 +152,21 @@ def why_invalid(face: Any) -> str:
     if off is not None:
         return off
     return "BRepCheck finds it invalid"
+
+
+def _no_surface(face: Any) -> str | None:
+    """'a triangle mesh, no exact surface' for a face the kernel holds only as triangles (a
+    tessellated STEP AP242 face), 'no surface' for one with neither; None for a face with a
+    surface."""
+    try:
+        if BRep_Tool.Surface_s(face) is not None:
+            return None
+        mesh = BRep_Tool.Triangulation_s(face, TopLoc_Location())
+    except Exception:  # the kernel's own error: the face is not this kind of broken
+        return None
+    if mesh is not None:
+        return "a triangle mesh, no exact surface (a tessellated face)"
+    return "no surface"
 
 
 def _off_surface(face: Any) -> str | None:
