@@ -86,6 +86,10 @@ def _cache_flag(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: what a command's SCENE argument may be
+SCENE_HELP = "a scene file (TOML), or a CAD file (STEP, IGES, BREP, Rhino 3dm) as a scene"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser; each subcommand's arguments carry ``run`` (its function in
     :mod:`gshade.app.commands`) and ``error_status`` (for a GshadeError, default 2)."""
@@ -103,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     keys.set_defaults(run=commands.keys)
 
     render = sub.add_parser("render", help="render a scene file to EXR (and PNG)")
-    render.add_argument("scene", help="scene file (TOML)")
+    render.add_argument("scene", help=SCENE_HELP)
     render.add_argument("-o", "--output", help="EXR file (default: <scene name>.exr here)")
     render.add_argument("--png", help="also write this PNG (sRGB)")
     render.add_argument("--width", type=int, help="image width in pixels")
@@ -245,7 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
     fig.set_defaults(run=commands.figure)
 
     cont = sub.add_parser("continuity", help="measure and classify the patch junctions")
-    cont.add_argument("scene", help="scene file (TOML)")
+    cont.add_argument("scene", help=SCENE_HELP)
     cont.add_argument("--json", action="store_true", help="print JSON")
     cont.add_argument(
         "--samples", type=int, default=32, help="samples per junction (1 to 4096, default 32)"
@@ -270,7 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
     cont.set_defaults(run=commands.continuity)
 
     info = sub.add_parser("info", help="describe a scene's surfaces")
-    info.add_argument("scene", help="scene file (TOML)")
+    info.add_argument("scene", help=SCENE_HELP)
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     _strict_flag(info)
     _cache_flag(info)
