@@ -257,3 +257,15 @@ def test_png_replaces_an_existing_file(tmp_path):
     write_png(target, np.ones((4, 5, 3)))
     assert iio.imread(target).shape == (4, 5, 3)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]
+
+
+def test_the_8_bit_srgb_codes_by_steps_are_the_rounded_transfer_function():
+    """Two algorithms for one quantity: round(255 srgb(x)) by a power per value, and the
+    count of steps t_k <= x that srgb8 takes (also just beside every step; right at one,
+    255 srgb(x) is a half in floats, and which way it rounds is a matter of taste)."""
+    rng = np.random.default_rng(5)
+    steps = image._srgb8_steps()
+    beside = np.concatenate([steps * (1 - 1e-9), steps * (1 + 1e-9)])
+    x = np.concatenate([rng.uniform(-0.2, 1.2, 200_000), rng.uniform(0, 0.01, 10_000), beside])
+    powered = np.round(255.0 * linear_to_srgb(x)).astype(np.uint8)
+    assert np.array_equal(image.srgb8(x[None, :, None].repeat(3, axis=2))[0, :, 0], powered)
