@@ -3,7 +3,8 @@
 Perspective cameras take the horizontal field of view (degrees); orthographic ones the view
 width in scene units.  Without origin and target the camera looks at the centre of the
 bounding box from a three-quarter view above it, at the distance where the bounding sphere
-fills the narrower image side (with a margin).  :func:`fit_view` then fits a resolved view
+fills the narrower image side (with a margin); in perspective the eye is then turned until
+the surfaces' projection is centred in the picture.  :func:`fit_view` then fits a resolved view
 tightly on the surfaces (for figures: the projected extent fills the image up to a margin).
 """
 
@@ -212,7 +213,22 @@ def frame_view(camera, points: NDArray, width: int, height: int) -> View:
         half_w = np.max(np.abs(rel @ right))
         half_h = np.max(np.abs(rel @ true_up))
         view_width = 2 * MARGIN * max(half_w, half_h * aspect)
-    return View(camera.type, origin, target, up, float(camera.fov), view_width, width, height)
+    view = View(camera.type, origin, target, up, float(camera.fov), view_width, width, height)
+    if camera.type == "perspective" and camera.origin is None and camera.target is None:
+        view = _centred(view, points)
+    return view
+
+
+def _centred(view: View, points: NDArray) -> View:
+    """An automatic perspective view turned about its eye until the points' projection is
+    centred (:func:`_aimed`): the near side of the surfaces projects larger, so the extent
+    centred across the view (:func:`_centre_in_view`) sits off the picture's centre.  The
+    eye stays at the automatic distance, so the points stay within the margin."""
+    aimed = _aimed(view, points)[0]
+    target = view.origin + aimed.forward * float(np.linalg.norm(view.target - view.origin))
+    with reported(_AUTOMATIC_TARGET):
+        validate_view(view.origin, target, view.up)
+    return replace(view, target=target)
 
 
 #: Re-aiming steps of :func:`fit_view` (each centres the projected extent better; a few do).
@@ -258,8 +274,25 @@ def fit_view(view: View, points: NDArray, margin: float) -> View:
         shift = view.right * (x.max() + x.min()) / 2 + view.true_up * (y.max() + y.min()) / 2
         width = max(float(np.ptp(x)), float(np.ptp(y)) * aspect, 1e-12) / fill
         return replace(view, origin=view.origin + shift, target=view.target + shift, width=width)
-    eye = view.origin
-    forward = view.forward
+    fitted, sx, sy, z = _aimed(view, points)
+    half = max(float(np.ptp(sx)), float(np.ptp(sy)) * aspect) / 2
+    fov = float(np.degrees(2.0 * np.arctan(max(half, 1e-12) / fill)))
+    if not fov < 179.0:
+        raise GshadeError(
+            f"points: a perspective view from this eye needs a field of view of {fov:.4g} "
+            "degrees to show the surfaces (expected below 179)"
+        )
+    target = view.origin + fitted.forward * float(np.median(z))
+    with reported(_AUTOMATIC_TARGET):
+        validate_view(view.origin, target, view.up)
+    return replace(view, target=target, fov=fov)
+
+
+def _aimed(view: View, points: NDArray) -> tuple[View, NDArray, NDArray, NDArray]:
+    """A perspective view turned about its eye until the points' projected bounding box is
+    centred in the image (a few re-aiming steps), with the points' image-plane coordinates
+    x / z, y / z and depths z (the view's target one unit ahead of the eye)."""
+    eye, forward = view.origin, view.forward
     for step in range(_FIT_STEPS + 1):
         fitted = replace(view, target=eye + forward)
         x, y, z = fitted.camera_coordinates(points)
@@ -270,19 +303,9 @@ def fit_view(view: View, points: NDArray, margin: float) -> View:
             )
         sx, sy = x / z, y / z  # the image plane at distance 1
         cx, cy = (sx.max() + sx.min()) / 2, (sy.max() + sy.min()) / 2
-        half = max(float(np.ptp(sx)), float(np.ptp(sy)) * aspect) / 2
+        half = max(float(np.ptp(sx)), float(np.ptp(sy)))
         if max(abs(cx), abs(cy)) <= 1e-12 * max(half, 1e-300) or step == _FIT_STEPS:
             break
         forward = forward + cx * fitted.right + cy * fitted.true_up
         forward /= np.linalg.norm(forward)
-    fov = float(np.degrees(2.0 * np.arctan(max(half, 1e-12) / fill)))
-    if not fov < 179.0:
-        raise GshadeError(
-            f"points: a perspective view from this eye needs a field of view of {fov:.4g} "
-            "degrees to show the surfaces (expected below 179)"
-        )
-    depth = float(np.median(z))
-    target = eye + forward * depth
-    with reported(_AUTOMATIC_TARGET):
-        validate_view(eye, target, view.up)
-    return replace(view, target=target, fov=fov)
+    return fitted, sx, sy, z
