@@ -20,7 +20,7 @@ CHECK = "\n[check]\nwidth = 64\nheight = 48\nspp = 2\n"
 #: automatic framing does, at a size where a change of 1 % of a control point covers many
 #: pixels, not one or two
 TEAPOT_VIEW = (
-    '[camera]\norigin = [7, -5, 5]\ntarget = [0, 0, 1.2]\nup = [0, 0, 1]\n'
+    "[camera]\norigin = [7, -5, 5]\ntarget = [0, 0, 1.2]\nup = [0, 0, 1]\n"
     "\n[check]\nwidth = 128\nheight = 96\nspp = 2\n"
 )
 
