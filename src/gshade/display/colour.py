@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import GshadeError, show, suggest
+from ..errors import GshadeError, show
 from ..runtime.backend import NUMPY_NAN, ArrayOps
+from .colour_maps import validate_colormap
 
 __all__ = [
     "ColourMapped",
@@ -322,25 +323,6 @@ def validate_range(value_range: Any) -> tuple[float, float]:
     if not lo < hi:
         raise GshadeError(f"range: expected [min, max] with min < max, got {show(value_range)}")
     return lo, hi
-
-
-def validate_colormap(name: Any) -> str:
-    """The name of a matplotlib colour map, checked (with the nearest name when it is not one).
-
-    Raises
-    ------
-    GshadeError
-        ``colormap: expected the name of a matplotlib colour map ...``.
-    """
-    import matplotlib
-
-    if not (isinstance(name, str) and name in matplotlib.colormaps):
-        hint = suggest(name, list(matplotlib.colormaps)) if isinstance(name, str) else ""
-        raise GshadeError(
-            f'colormap: expected the name of a matplotlib colour map (e.g. "viridis"), got '
-            f"{show(name)}{hint}"
-        )
-    return name
 
 
 def auto_range(

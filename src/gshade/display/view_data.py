@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from .colour import auto_range
+from .colour_maps import colour_map_table
 
 __all__ = [
     "ENCODING",
@@ -148,9 +149,7 @@ def junction_seams(patch: NDArray, junctions: list[dict]) -> NDArray[np.uint32]:
 
 def colour_table(name: str) -> str:
     """A matplotlib colour map as 256 sRGB colours, hex ``rrggbb`` each, concatenated."""
-    import matplotlib
-
-    table = matplotlib.colormaps[name](np.linspace(0.0, 1.0, 256))[:, :3]
+    table = colour_map_table(name)
     return bytes(np.round(table * 255).astype(np.uint8).ravel()).hex()
 
 

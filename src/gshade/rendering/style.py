@@ -16,8 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..display import Legend, auto_range, validate_colormap, validate_range
+from ..display import Legend, auto_range, validate_range
 from ..display.colour import edge_offset
+from ..display.colour_maps import colour_map_table
 from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
 from .textures import ShapeTextures
 
@@ -114,12 +115,10 @@ def display_style(
         period = period_off_edges((f_hi - f_lo) / shape.stripes, flat, shape.phase, shape.duty)
     lut = colormap = None
     if shape.display != "stripes":
-        import matplotlib
-
         from ..display.colour import srgb_to_linear
 
-        colormap = validate_colormap(shape.colormap or ("coolwarm" if signed else "viridis"))
-        lut = srgb_to_linear(matplotlib.colormaps[colormap](np.linspace(0, 1, 256))[:, :3])
+        colormap = shape.colormap or ("coolwarm" if signed else "viridis")
+        lut = srgb_to_linear(colour_map_table(colormap))
     return DisplayStyle(mapped, signed, value_range, period, colormap, lut)
 
 
