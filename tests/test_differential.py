@@ -241,3 +241,22 @@ def test_normal_curvature_follows_euler_s_formula(name):
         np.testing.assert_allclose(normal_curvature(o.d, n, e), expected, rtol=1e-12, atol=1e-12)
     # a normal of the other side turns every normal curvature over
     np.testing.assert_allclose(normal_curvature(o.d, -n, along_phi), -o.k_along, atol=1e-12)
+
+
+def test_derivative_scales_are_each_groups_own():
+    """Points of two patches of very different sizes: each judged on its own patch's scale
+    (the small patch's regular points stay regular beside a large patch)."""
+    from gshade.geometry.differential import derivative_scale, derivative_scales, irregular_mask
+
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=(2, 2, 2, 50, 3))
+    d[:, :, 1] *= 1e-6  # the second patch a millionth of the first's size
+    groups = np.repeat([[0], [1]], 50, axis=1)
+    scales = derivative_scales(d, groups)
+    for g in (0, 1):
+        assert np.all(scales[g] == derivative_scale(d[:, :, g]))
+        assert np.array_equal(irregular_mask(d, scale=scales)[g], irregular_mask(d[:, :, g]))
+    assert not irregular_mask(d, scale=scales)[1].any()
+    assert irregular_mask(d)[1].all()  # on one scale for both, the small patch is "collapsed"
+    zero = np.zeros((2, 2, 4, 3))
+    assert np.all(derivative_scales(zero, np.arange(4)) == 1.0)  # as derivative_scale of 0

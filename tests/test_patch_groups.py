@@ -16,6 +16,7 @@ from .conftest import TEAPOT
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), order=st.integers(0, 3))
 def test_grouped_grid_equals_per_patch_evaluation(seed, order):
+    """Bézier patches and one-span B-spline patches (grouped), every other patch (alone)."""
     rng = np.random.default_rng(seed)
     patches = []
     for _ in range(5):
@@ -31,8 +32,21 @@ def test_grouped_grid_equals_per_patch_evaluation(seed, order):
     patches.append(
         BSplinePatch(P, (2, 3), ([0, 0, 0, 0.3, 0.6, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]))
     )
+    # one clamped knot span each way (a CAD face's plane, a one-span cylinder): Bézier cells,
+    # polynomial and rational, on knots anywhere; an unclamped span is not one
+    for rational in (False, True):
+        for _ in range(3):
+            p, q = rng.integers(1, 4, 2)
+            a, c = rng.uniform(-5, 5, 2)
+            b, d = a + rng.uniform(0.01, 4.0), c + rng.uniform(0.01, 4.0)
+            knots = ([a] * (p + 1) + [b] * (p + 1), [c] * (q + 1) + [d] * (q + 1))
+            w = rng.uniform(0.3, 3.0, (p + 1, q + 1)) if rational else None
+            patches.append(BSplinePatch(rng.normal(size=(p + 1, q + 1, 3)), (p, q), knots, w))
+    unclamped = ([0, 1, 2, 3, 4, 5], [0, 0, 1, 1])
+    patches.append(BSplinePatch(rng.normal(size=(3, 2, 3)), (2, 1), unclamped))
     rng.shuffle(patches)
-    s = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0, 1, 5)]))
+    points = 5 if seed % 2 else 12  # all points at once (< ALONE_FROM), or patch by patch
+    s = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0, 1, points)]))
     grouped = grid_derivatives(patches, s, order)
     for k, patch in enumerate(patches):
         (u0, u1), (v0, v1) = patch.domain

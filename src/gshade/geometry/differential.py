@@ -34,6 +34,8 @@ __all__ = [
     "Forms",
     "PrincipalCurvatures",
     "cross",
+    "derivative_scale",
+    "derivative_scales",
     "dot",
     "first_form",
     "first_form_det",
@@ -223,16 +225,32 @@ def derivative_scale(d: NDArray) -> float:
     return s if s > 0 else 1.0
 
 
-def irregular_mask(d: ArrayLike, tol: float = IRREGULAR_TOL) -> NDArray[np.bool_]:
+def derivative_scales(d: NDArray, groups: ArrayLike) -> NDArray[np.float64]:
+    """:func:`derivative_scale` of each group of points (``groups``: an integer per point,
+    broadcast to the points' shape, e.g. each point's patch), given at every point: many
+    patches' points at once, each on its own patch's scale."""
+    sizes = np.maximum(np.abs(d[1, 0]).max(axis=-1), np.abs(d[0, 1]).max(axis=-1))
+    keys, place = np.unique(np.broadcast_to(groups, sizes.shape), return_inverse=True)
+    scale = np.zeros(keys.size)
+    np.maximum.at(scale, place.ravel(), sizes.ravel())
+    return np.where(scale > 0, scale, 1.0)[place].reshape(sizes.shape)
+
+
+def irregular_mask(
+    d: ArrayLike, tol: float = IRREGULAR_TOL, scale: ArrayLike | None = None
+) -> NDArray[np.bool_]:
     """True where the parametrisation is irregular: |p_u x p_v| <= tol * scale^2.
 
-    The scale is the largest first-derivative component in ``d``, so that a collapsed
-    edge (where p_u or p_v vanishes up to round-off) is recognised in any units.
+    The scale is the largest first-derivative component in ``d`` (:func:`derivative_scale`),
+    so that a collapsed edge (where p_u or p_v vanishes up to round-off) is recognised in
+    any units; or ``scale``, per point (broadcast to the points' shape), such as
+    :func:`derivative_scales`.
     """
     d = np.asarray(d)
     _order_of(d, 1, "the regularity test")
     N = cross_arrays(d[1, 0], d[0, 1])
-    return np.sqrt(dot_arrays(N, N)) <= tol * derivative_scale(d) ** 2
+    scale2 = derivative_scale(d) ** 2 if scale is None else np.asarray(scale, np.float64) ** 2
+    return np.sqrt(dot_arrays(N, N)) <= tol * scale2
 
 
 class Normal(NamedTuple):
@@ -243,7 +261,10 @@ class Normal(NamedTuple):
 
 
 def unit_normal(
-    d: ArrayLike, toward: ArrayLike | None = None, tol: float = IRREGULAR_TOL
+    d: ArrayLike,
+    toward: ArrayLike | None = None,
+    tol: float = IRREGULAR_TOL,
+    scale: ArrayLike | None = None,
 ) -> Normal:
     """Unit normal n = (p_u x p_v) / |p_u x p_v|, with limits at irregular points.
 
@@ -258,6 +279,9 @@ def unit_normal(
         order needs order 3).  Without it, (1, 1) is used: right on the edges u = u0 and
         v = v0, opposite on u = u1 and v = v1.  ``Patch`` users should call
         :func:`gshade.geometry.patch_normals`, which supplies it.
+    scale : array_like, shape (...), optional
+        The length scale each point's regularity is judged on (default: one for all,
+        :func:`derivative_scale` of ``d``; per patch: :func:`derivative_scales`).
 
     Returns
     -------
@@ -269,7 +293,7 @@ def unit_normal(
     pu, pv = d[1, 0], d[0, 1]
     N = cross_arrays(pu, pv)
     length = np.sqrt(dot_arrays(N, N))
-    scale2 = derivative_scale(d) ** 2
+    scale2 = derivative_scale(d) ** 2 if scale is None else np.asarray(scale, np.float64) ** 2
     regular = length > tol * scale2
     if not regular.all():
         irr = ~regular
@@ -280,6 +304,7 @@ def unit_normal(
         a, b = a[irr], b[irr]
         fixed = N[irr]
         fixed_len = length[irr]
+        scale2 = np.broadcast_to(scale2, irr.shape)[irr]
         order = d.shape[0] - 1
         take = lambda i, j: d[i, j][irr]  # noqa: E731
         terms = []

@@ -1,11 +1,15 @@
-"""Many patches on one grid at once: polynomial Bézier patches of one degree share a basis.
+"""Many patches on one grid at once: Bézier cells of one degree share a basis.
 
 A surface of thousands of bicubic patches (a CAD sheet, a subdivision surface's regular
-faces) is one array of control nets.  :func:`grid_derivatives` evaluates every patch on the
-same grid of normalised parameters with two matrix products per derivative and group of
-Bézier patches of equal degree — the Bernstein bases on the grid times all their nets —
-instead of one call per patch; every other patch is evaluated by its own ``derivatives``.
-Both give the same numbers up to round-off (tested).
+faces, a CAD model's planes and one-span faces) is one array of control nets.
+:func:`grid_derivatives` evaluates every patch on the same grid of normalised parameters
+with two matrix products per derivative and group of patches that are one Bézier cell over
+their domain (:func:`bezier_groups`: Bézier patches, and B-spline patches of one clamped
+knot span each way, whose B-spline basis is the Bernstein basis there) of equal degree and
+kind — the Bernstein bases on the grid times all their (homogeneous) nets, rational ones
+then projected by the quotient rule (:func:`gshade.geometry.rational.project_patch_derivatives`)
+— instead of one call per patch; every other patch is evaluated by its own
+``derivatives``.  Both give the same numbers up to round-off (tested).
 """
 
 from __future__ import annotations
@@ -18,7 +22,9 @@ from numpy.typing import NDArray
 from .bernstein import bernstein_basis
 from .bezier import BezierPatch
 from .blas_threads import single_threaded_blas
-from .patch import Patch, unit_to_domain, validate_order
+from .bspline import BSplinePatch
+from .patch import Patch, TensorProductPatch, homogeneous, unit_to_domain, validate_order
+from .rational import project_patch_derivatives
 from .spline_batches import ALONE_FROM, batch_derivatives
 
 __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
@@ -29,7 +35,8 @@ _CHUNK = 4096
 
 def domain_spans(patches) -> NDArray[np.float64]:
     """(u1 - u0, v1 - v0) of each patch's domain: shape (len(patches), 2)."""
-    return np.array([[np.ptp(p.domain[0]), np.ptp(p.domain[1])] for p in patches]).reshape(-1, 2)
+    domains = np.array([p.domain for p in patches], dtype=np.float64).reshape(-1, 2, 2)
+    return domains[:, :, 1] - domains[:, :, 0]
 
 
 def patch_grid(patch: Patch, s: NDArray, t: NDArray | None = None) -> tuple[NDArray, NDArray]:
@@ -39,16 +46,25 @@ def patch_grid(patch: Patch, s: NDArray, t: NDArray | None = None) -> tuple[NDAr
     return u[:, None], v[None, :]
 
 
-def bezier_groups(patches) -> tuple[dict[tuple[int, int], list[int]], list[int]]:
-    """The indices of the polynomial Bézier patches by degree, and of all other patches."""
-    groups: dict[tuple[int, int], list[int]] = {}
+def bezier_groups(patches) -> tuple[dict[tuple[int, int, bool], list[int]], list[int]]:
+    """The indices of the patches that are one Bézier cell over their domain, by degree and
+    whether they are rational ((m, n, rational)), and of all other patches."""
+    groups: dict[tuple[int, int, bool], list[int]] = {}
     others = []
     for k, patch in enumerate(patches):
-        if type(patch) is BezierPatch and not patch.rational:
-            groups.setdefault(patch.degree, []).append(k)
+        if type(patch) is BezierPatch or (type(patch) is BSplinePatch and _one_span(patch)):
+            groups.setdefault((*patch.degree, patch.rational), []).append(k)
         else:
             others.append(k)
     return groups, others
+
+
+def _one_span(patch: BSplinePatch) -> bool:
+    """Whether each knot vector is one clamped span: [a] * (p + 1) + [b] * (p + 1)."""
+    for knots, p in zip(patch.knots, patch.degree, strict=True):
+        if len(knots) != 2 * (p + 1) or knots[0] != knots[p] or knots[p + 1] != knots[-1]:
+            return False
+    return True
 
 
 @single_threaded_blas
@@ -92,14 +108,20 @@ def grid_derivatives(
         others = []
     for k in others:
         out[k] = patches[k].derivatives(*patch_grid(patches[k], s, t), order)
-    for (m, mv), members in groups.items():
+    for (m, mv, rational), members in groups.items():
         Bu = bernstein_basis(m, s, order)  # (o+1, n, m+1), derivatives in s
         Bv = bernstein_basis(mv, t, order)
         for start in range(0, len(members), _CHUNK):
             chunk = members[start : start + _CHUNK]
-            bezier = [cast(BezierPatch, patches[k]) for k in chunk]  # bezier_groups' members
-            nets = np.stack([p.points for p in bezier])  # (G, m+1, mv+1, 3)
-            span = domain_spans([patches[k] for k in chunk])
+            cells = [cast(TensorProductPatch, patches[k]) for k in chunk]  # one cell each
+            nets = np.stack([homogeneous(p.points, p.weights) for p in cells])  # (G, m+1, n+1, c)
+            span = domain_spans(cells)
+            # rational: (w p, w) and their derivatives first, component-major
+            h = (
+                np.zeros((order + 1, order + 1, 4, len(chunk), s.size, t.size))
+                if rational
+                else None
+            )
             for i in range(order + 1):
                 # rows[g, a, b, c] = sum_i' Bu[i][a, i'] P[g, i', b, c]
                 rows = np.einsum("ai,gibc->gabc", Bu[i], nets, optimize=True)
@@ -107,5 +129,12 @@ def grid_derivatives(
                     value = np.einsum("gabc,tb->gatc", rows, Bv[j], optimize=True)
                     # d/du = d/ds / (u1 - u0): the chain rule per patch
                     scale = span[:, 0] ** -float(i) * span[:, 1] ** -float(j)
-                    out[chunk, i, j] = value * scale[:, None, None, None]
+                    value *= scale[:, None, None, None]
+                    if h is None:
+                        out[chunk, i, j] = value
+                    else:
+                        h[i, j] = np.moveaxis(value, -1, 0)
+            if h is not None:
+                project_patch_derivatives(h[:, :, :3], h[:, :, 3], order)
+                out[chunk] = np.transpose(h[:, :, :3], (3, 0, 1, 4, 5, 2))
     return out

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
+from ..geometry.differential import derivative_scales
 from ..geometry.patch import unit_to_domain
 from ..geometry.patch_groups import domain_spans, grid_derivatives
 from ..geometry.spline_batches import batch_derivatives
@@ -187,16 +188,12 @@ def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, lis
     # the faces' first derivatives all at once; each face's regularity on its own scale,
     # and the limits at its irregular points (poles) from its own higher derivatives
     d = batch_derivatives(patches, index, u, v, 1)
-    normals = np.empty_like(m.positions)
-    order = np.argsort(index, kind="stable")
-    for mine in np.split(order, np.flatnonzero(np.diff(index[order])) + 1):
-        if not mine.size:
-            continue
-        normal = unit_normal(d[:, :, mine])
-        normals[mine] = normal.n
-        if not normal.regular.all():
-            irr = mine[~normal.regular]
-            normals[irr] = patch_normals(patches[int(index[mine[0]])], u[irr], v[irr]).n
+    normal = unit_normal(d, scale=derivative_scales(d, index))
+    normals = normal.n
+    irregular = np.flatnonzero(~normal.regular)
+    for k in np.unique(index[irregular]):
+        irr = irregular[index[irregular] == k]
+        normals[irr] = patch_normals(patches[int(k)], u[irr], v[irr]).n
     P = np.ascontiguousarray(m.positions, dtype=np.float64)
     F = m.triangles
     scale = float(np.ptp(P, axis=0).max()) if len(P) else 1.0

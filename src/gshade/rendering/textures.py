@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
+from ..geometry.differential import derivative_scales
 from ..geometry.patch_groups import domain_spans, grid_derivatives, patch_grid
 from ..shape import ShapeFunction, evaluate
 from .atlas import GEOMETRY, SHAPE, Atlas
@@ -85,7 +86,8 @@ def _chunk_derivatives(patches, chunk, grid, order):
         return rd.d[:, :, None], rd.regular[None], spans
     d = np.moveaxis(grid_derivatives(members, s, order, t), 0, 2)
     # each patch judged on its own scale (as regularised_derivatives judges it)
-    regular = np.stack([~irregular_mask(d[:, :, c]) for c in range(len(members))])
+    scale = derivative_scales(d, np.arange(len(members))[:, None, None])
+    regular = ~irregular_mask(d, scale=scale)
     for c in np.flatnonzero(~regular.all(axis=(1, 2))):
         rd = regularised_derivatives(members[c], *patch_grid(members[c], s, t), order)
         d[:, :, c], regular[c] = rd.d, rd.regular
@@ -149,14 +151,15 @@ def shape_textures(
                 irr = ~regular
                 f_s[irr] = np.gradient(res.f, hs, axis=1)[irr]
                 f_t[irr] = np.gradient(res.f, ht, axis=2)[irr]
-            shaped.append((res, f_s, f_t))
+            # f_st: central differences of f_s along t, one-sided at the tile's borders
+            shaped.append((res, f_s, f_t, np.gradient(f_s, ht, axis=2)))
         for c, k in enumerate(chunk):
             tile = atlas.tile_slices(k)
             # rows follow t (v), columns follow s (u): a tile is the transpose of the grid
             for image, field in zip(geometry, (d[0, 0, c], p_s[c], p_t[c], p_st[c]), strict=True):
                 image[tile] = field.transpose(1, 0, 2)
-            for j, (res, f_s, f_t) in enumerate(shaped):
+            for j, (res, f_s, f_t, f_st) in enumerate(shaped):
                 values[j][tile] = np.stack([res.f[c], f_s[c], f_t[c]], -1).transpose(1, 0, 2)
-                twist[j][tile] = np.gradient(f_s[c], ht, axis=1).T
+                twist[j][tile] = f_st[c].T
                 valid[j][tile] = res.valid[c].T
     return ShapeTextures(atlas, values, twist, valid, *geometry)
