@@ -39,3 +39,34 @@ def test_cells_equal_each_patch_own_derivatives_beside_its_knots():
         scale = np.abs(d).max()
         for got, want in ((s, d[0, 0]), (s_u, d[1, 0]), (s_v, d[0, 1])):
             np.testing.assert_allclose(got[at], want, rtol=0, atol=1e-10 * scale)
+
+
+def test_one_clamped_span_is_its_own_cell():
+    """A B-spline of one clamped knot span is a Bézier curve (patch) over it: its cell is its
+    net, exactly, and the table evaluates it (and past its ends) as the patch does."""
+    from gshade.geometry.bezier_cells import to_bezier
+
+    rng = np.random.default_rng(11)
+    for p in range(1, 6):
+        net = rng.normal(size=(p + 1, 4))
+        breaks, cells = to_bezier(np.array([-1.5] * (p + 1) + [2.0] * (p + 1)), p, net)
+        assert np.array_equal(breaks, [-1.5, 2.0]) and np.array_equal(cells[0], net)
+    splines, patches = Splines(), []
+    for rational in (False, True):
+        for p, q in ((1, 1), (2, 1), (3, 3)):
+            a, c = rng.uniform(-3, 3, 2)
+            knots = ([a] * (p + 1) + [a + 0.7] * (p + 1), [c] * (q + 1) + [c + 2.5] * (q + 1))
+            w = rng.uniform(0.5, 2.0, (p + 1, q + 1)) if rational else None
+            patch = BSplinePatch(rng.normal(size=(p + 1, q + 1, 3)), (p, q), knots, w)
+            splines.add_patch(patch)
+            patches.append(patch)
+    splines.freeze()
+    for k, patch in enumerate(patches):
+        (u0, u1), (v0, v1) = patch.domain
+        u = rng.uniform(u0 - 0.2, u1 + 0.2, 50)  # inside and past the ends
+        v = rng.uniform(v0 - 0.2, v1 + 0.2, 50)
+        s, s_u, s_v = splines.evaluate(np.full(50, k), u, v)
+        d = patch.derivatives_beyond(u, v, 1)
+        scale = np.abs(d).max()
+        for got, want in ((s, d[0, 0]), (s_u, d[1, 0]), (s_v, d[0, 1])):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * scale)

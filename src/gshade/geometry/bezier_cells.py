@@ -162,9 +162,12 @@ def to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
     """The Bézier coefficients of a B-spline (control points ``net``, (n, ...)) on each of
     its knot intervals in the domain: the distinct knots (ends included) and (intervals,
     p + 1, ...), from its values at p + 1 Chebyshev points inside each interval (a
-    polynomial of degree p there: exact to round-off)."""
+    polynomial of degree p there: exact to round-off); one clamped span ([a] * (p + 1) +
+    [b] * (p + 1)) is its own Bézier cell, the net itself."""
     U = np.asarray(knots, dtype=np.float64)
     lo, hi = U[p], U[len(U) - p - 1]
+    if len(U) == 2 * (p + 1) and U[0] == lo and U[-1] == hi and lo < hi:
+        return np.array([lo, hi]), np.asarray(net, dtype=np.float64)[None]
     breaks = np.unique(U[(U >= lo) & (U <= hi)])
     x = _INSIDE[p]
     t = (breaks[:-1, None] + np.diff(breaks)[:, None] * x).ravel()

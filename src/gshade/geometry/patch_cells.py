@@ -47,7 +47,7 @@ from ..runtime.drjit_arrays import drjit_array
 from .bezier import BezierPatch
 from .bezier_cells import CellTable, few_cells, tensor_cells
 from .bspline import BSplinePatch
-from .patch import validate_order
+from .patch import homogeneous, validate_order
 from .rational import project_patch_derivatives
 from .spline_batches import batch_derivatives
 
@@ -79,7 +79,7 @@ def _cells(patch: BezierPatch | BSplinePatch) -> tuple[NDArray, NDArray, NDArray
     kept = _CELLS.get(patch)
     if kept is not None:
         return kept
-    net = np.asarray(patch._net, dtype=np.float64)  # homogeneous (w P, w) if rational
+    net = homogeneous(patch.points, patch.weights)  # (w P, w) if rational
     if isinstance(patch, BezierPatch):
         (a, b), (c, d) = patch.domain
         kept = (np.array([a, b]), np.array([c, d]), net[None])
