@@ -56,9 +56,9 @@ def colour_map_table(name: str, size: int = 256) -> NDArray[np.float64]:
     GshadeError
         If ``name`` is not a colour map's (:func:`validate_colormap`'s message).
     """
-    entry = _entry(name, size)
-    if entry is not None:
-        return entry[1]
+    kept = _kept_table(name, size)
+    if kept is not None:
+        return kept
     own_import = "matplotlib" not in sys.modules
     maps = _matplotlib_maps(name)
     table = np.asarray(maps[name](np.linspace(0.0, 1.0, size))[:, :3], dtype=np.float64)
@@ -76,7 +76,7 @@ def validate_colormap(name: Any) -> str:
     GshadeError
         ``colormap: expected the name of a matplotlib colour map ...``.
     """
-    if isinstance(name, str) and _entry(name, 256) is not None:
+    if isinstance(name, str) and _kept_table(name, 256) is not None:
         return name
     _matplotlib_maps(name)
     return name
@@ -95,9 +95,9 @@ def _matplotlib_maps(name: Any) -> Any:
     return matplotlib.colormaps
 
 
-def _entry(name: Any, size: int) -> tuple[Path, NDArray[np.float64]] | None:
-    """The cached table of ``name`` at ``size`` colours, with its path; None without one
-    (or in a process that has imported matplotlib)."""
+def _kept_table(name: Any, size: int) -> NDArray[np.float64] | None:
+    """The kept table of ``name`` at ``size`` colours; None without one (or in a process
+    that has imported matplotlib)."""
     if "matplotlib" in sys.modules or not isinstance(name, str) or not 1 < size <= MAX_COLOURS:
         return None
     where = _entry_path(name, size)
@@ -109,7 +109,7 @@ def _entry(name: Any, size: int) -> tuple[Path, NDArray[np.float64]] | None:
     table = np.frombuffer(data, dtype="<f8").reshape(size, 3).astype(np.float64)
     if not (np.isfinite(table).all() and (table >= 0).all() and (table <= 1).all()):
         return None
-    return where, table
+    return table
 
 
 def _entry_path(name: str, size: int) -> Path | None:

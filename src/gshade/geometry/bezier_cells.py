@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from .bernstein import bernstein_basis
 from .bspline import BSplinePatch
-from .knots import basis_functions
+from .knots import basis_functions, one_clamped_span
 
 __all__ = ["MAX_CELLS", "CellTable", "Splines", "few_cells", "tensor_cells", "to_bezier"]
 
@@ -166,7 +166,7 @@ def to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
     [b] * (p + 1)) is its own Bézier cell, the net itself."""
     U = np.asarray(knots, dtype=np.float64)
     lo, hi = U[p], U[len(U) - p - 1]
-    if len(U) == 2 * (p + 1) and U[0] == lo and U[-1] == hi and lo < hi:
+    if one_clamped_span(U, p):
         return np.array([lo, hi]), np.asarray(net, dtype=np.float64)[None]
     breaks = np.unique(U[(U >= lo) & (U <= hi)])
     x = _INSIDE[p]

@@ -20,6 +20,7 @@ __all__ = [
     "domain",
     "find_spans",
     "insert_knot",
+    "one_clamped_span",
     "refine_to_bezier",
     "validate_knots",
 ]
@@ -75,6 +76,19 @@ def validate_knots(knots: ArrayLike, degree: int, n_points: int, name: str = "kn
 def domain(knots: NDArray, degree: int) -> tuple[float, float]:
     """Parameter domain [U_p, U_{n+1}] of a B-spline with the given knots and degree."""
     return float(knots[degree]), float(knots[len(knots) - degree - 1])
+
+
+def one_clamped_span(knots: NDArray, degree: int) -> bool:
+    """Whether ``knots`` are one clamped span, [a] * (p + 1) + [b] * (p + 1) with a < b: the
+    B-spline basis is then the Bernstein basis on [a, b], its net one Bézier cell.
+
+    Examples
+    --------
+    >>> one_clamped_span([0, 0, 0, 2, 2, 2], 2), one_clamped_span([0, 0, 1, 2, 2], 1)
+    (True, False)
+    """
+    p = degree
+    return len(knots) == 2 * (p + 1) and knots[0] == knots[p] < knots[p + 1] == knots[-1]
 
 
 def validate_parameters(t: ArrayLike, lo: float, hi: float, name: str = "t") -> NDArray:

@@ -23,6 +23,7 @@ from .bernstein import bernstein_basis
 from .bezier import BezierPatch
 from .blas_threads import single_threaded_blas
 from .bspline import BSplinePatch
+from .knots import one_clamped_span
 from .patch import Patch, TensorProductPatch, homogeneous, unit_to_domain, validate_order
 from .rational import project_patch_derivatives
 from .spline_batches import ALONE_FROM, batch_derivatives
@@ -52,19 +53,16 @@ def bezier_groups(patches) -> tuple[dict[tuple[int, int, bool], list[int]], list
     groups: dict[tuple[int, int, bool], list[int]] = {}
     others = []
     for k, patch in enumerate(patches):
-        if type(patch) is BezierPatch or (type(patch) is BSplinePatch and _one_span(patch)):
+        if type(patch) is BezierPatch or (type(patch) is BSplinePatch and _one_cell(patch)):
             groups.setdefault((*patch.degree, patch.rational), []).append(k)
         else:
             others.append(k)
     return groups, others
 
 
-def _one_span(patch: BSplinePatch) -> bool:
-    """Whether each knot vector is one clamped span: [a] * (p + 1) + [b] * (p + 1)."""
-    for knots, p in zip(patch.knots, patch.degree, strict=True):
-        if len(knots) != 2 * (p + 1) or knots[0] != knots[p] or knots[p + 1] != knots[-1]:
-            return False
-    return True
+def _one_cell(patch: BSplinePatch) -> bool:
+    """Whether a B-spline patch is one Bézier cell: one clamped knot span each way."""
+    return all(one_clamped_span(k, p) for k, p in zip(patch.knots, patch.degree, strict=True))
 
 
 @single_threaded_blas
