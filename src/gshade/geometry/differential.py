@@ -229,11 +229,22 @@ def derivative_scales(d: NDArray, groups: ArrayLike) -> NDArray[np.float64]:
     """:func:`derivative_scale` of each group of points (``groups``: an integer per point,
     broadcast to the points' shape, e.g. each point's patch), given at every point: many
     patches' points at once, each on its own patch's scale."""
-    sizes = np.maximum(np.abs(d[1, 0]).max(axis=-1), np.abs(d[0, 1]).max(axis=-1))
-    keys, place = np.unique(np.broadcast_to(groups, sizes.shape), return_inverse=True)
+    both = np.maximum(np.abs(d[1, 0]), np.abs(d[0, 1]))  # (..., 3)
+    shape = both.shape[:-1]
+    groups = np.asarray(groups)
+    groups = groups.reshape((1,) * (len(shape) - groups.ndim) + groups.shape)
+    # the axes along which the groups do not change are reduced first, with the components
+    # (a group per patch of a grid: one reduction over its trailing axes)
+    alike = tuple(a for a in range(len(shape)) if groups.shape[a] == 1 < shape[a])
+    if alike:
+        largest = both.max(axis=(*alike, len(shape)), keepdims=True)[..., 0]
+    else:  # the largest component, element-wise (a reduction over 3 is slow)
+        largest = np.maximum(np.maximum(both[..., 0], both[..., 1]), both[..., 2])
+    keys, place = np.unique(np.broadcast_to(groups, largest.shape), return_inverse=True)
     scale = np.zeros(keys.size)
-    np.maximum.at(scale, place.ravel(), sizes.ravel())
-    return np.where(scale > 0, scale, 1.0)[place].reshape(sizes.shape)
+    np.maximum.at(scale, place.ravel(), largest.ravel())
+    kept = np.where(scale > 0, scale, 1.0)[place].reshape(largest.shape)
+    return np.broadcast_to(kept, shape)
 
 
 def irregular_mask(

@@ -87,12 +87,16 @@ def grid_derivatives(
     -------
     ndarray, shape (len(patches), order + 1, order + 1, n, m, 3)
         Entry ``[k, i, j, a, b]`` is d^(i+j)p_k / du^i dv^j at (s_a, t_b); zero for
-        i + j > order.
+        i + j > order.  A view of an array stored derivative- and component-major,
+        (order + 1, order + 1, 3, len(patches), n, m): in ``np.moveaxis(result, 0, 2)``
+        each component of each derivative is one contiguous block, the layout the shape
+        functions read (as a patch's own ``derivatives`` on a grid gives it).
     """
     order = validate_order(order)
     s = np.asarray(s, dtype=np.float64).ravel()
     t = s if t is None else np.asarray(t, dtype=np.float64).ravel()
-    out = np.zeros((len(patches), order + 1, order + 1, s.size, t.size, 3))
+    store = np.zeros((order + 1, order + 1, 3, len(patches), s.size, t.size))
+    out = np.moveaxis(store, 2, -1)  # (order + 1, order + 1, patches, n, m, 3)
     groups, others = bezier_groups(patches)
     if s.size * t.size < ALONE_FROM:  # small grids: the B-splines' points at once
         owner = np.repeat(np.asarray(others, dtype=np.int64), s.size * t.size)
@@ -101,38 +105,36 @@ def grid_derivatives(
         hi = np.array([[p.domain[0][1], p.domain[1][1]] for p in patches]).reshape(-1, 2)
         uv = lo[owner] + (hi[owner] - lo[owner]) * np.tile(st, (len(others), 1))
         d = batch_derivatives(patches, owner, uv[:, 0], uv[:, 1], order)
-        d = d.reshape(order + 1, order + 1, len(others), s.size, t.size, 3)
-        out[others] = np.moveaxis(d, 2, 0)
+        out[:, :, others] = d.reshape(order + 1, order + 1, len(others), s.size, t.size, 3)
         others = []
     for k in others:
-        out[k] = patches[k].derivatives(*patch_grid(patches[k], s, t), order)
+        out[:, :, k] = patches[k].derivatives(*patch_grid(patches[k], s, t), order)
     for (m, mv, rational), members in groups.items():
         Bu = bernstein_basis(m, s, order)  # (o+1, n, m+1), derivatives in s
-        Bv = bernstein_basis(mv, t, order)
+        BvT = np.ascontiguousarray(bernstein_basis(mv, t, order).transpose(0, 2, 1))
         for start in range(0, len(members), _CHUNK):
             chunk = members[start : start + _CHUNK]
             cells = [cast(TensorProductPatch, patches[k]) for k in chunk]  # one cell each
             nets = np.stack([homogeneous(p.points, p.weights) for p in cells])  # (G, m+1, n+1, c)
+            G, c = len(chunk), nets.shape[-1]
+            nets = np.ascontiguousarray(nets.transpose(0, 3, 1, 2))  # (G, c, m+1, n+1)
             span = domain_spans(cells)
             # rational: (w p, w) and their derivatives first, component-major
-            h = (
-                np.zeros((order + 1, order + 1, 4, len(chunk), s.size, t.size))
-                if rational
-                else None
-            )
+            h = np.zeros((order + 1, order + 1, c, G, s.size, t.size)) if rational else None
             for i in range(order + 1):
-                # rows[g, a, b, c] = sum_i' Bu[i][a, i'] P[g, i', b, c]
-                rows = np.einsum("ai,gibc->gabc", Bu[i], nets, optimize=True)
+                rows = np.matmul(Bu[i], nets)  # (G, c, n, n+1)
                 for j in range(order + 1 - i):
-                    value = np.einsum("gabc,tb->gatc", rows, Bv[j], optimize=True)
+                    # one product for all: (G c n, n+1) x (n+1, m)
+                    value = (rows.reshape(-1, mv + 1) @ BvT[j]).reshape(G, c, s.size, t.size)
                     # d/du = d/ds / (u1 - u0): the chain rule per patch
-                    scale = span[:, 0] ** -float(i) * span[:, 1] ** -float(j)
-                    value *= scale[:, None, None, None]
+                    value *= (span[:, 0] ** -float(i) * span[:, 1] ** -float(j))[
+                        :, None, None, None
+                    ]
                     if h is None:
-                        out[chunk, i, j] = value
+                        store[i, j][:, chunk] = value.transpose(1, 0, 2, 3)
                     else:
-                        h[i, j] = np.moveaxis(value, -1, 0)
+                        h[i, j] = value.transpose(1, 0, 2, 3)
             if h is not None:
                 project_patch_derivatives(h[:, :, :3], h[:, :, 3], order)
-                out[chunk] = np.transpose(h[:, :, :3], (3, 0, 1, 4, 5, 2))
-    return out
+                store[:, :, :, chunk] = h[:, :, :3]
+    return np.moveaxis(out, 2, 0)

@@ -116,7 +116,7 @@ def exact_channels(
 
 #: Centre rays per block of exact Newton steps to first-order derivatives (halved for each
 #: order more that the functions need: the derivatives' memory stays about the same).
-BLOCK = 1 << 19
+BLOCK = 1 << 17
 #: Newton steps from a neighbour's hit for a centre ray that slipped between two surfaces.
 SLIPPED_STEPS = 4
 

@@ -70,7 +70,7 @@ class ShapeTextures:
 
 #: Texels per shape-function call: small tiles are evaluated many patches at a time (one
 #: kernel launch per chunk), large ones one patch at a time (no copy into a chunk buffer).
-CHUNK_TEXELS = 1 << 17
+CHUNK_TEXELS = 1 << 15
 
 
 def _chunk_derivatives(patches, chunk, grid, order):
