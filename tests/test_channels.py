@@ -8,7 +8,7 @@ from gshade.errors import GshadeError
 from gshade.geometry import BezierPatch
 from gshade.rendering.atlas import Atlas
 from gshade.rendering.camera import View
-from gshade.rendering.channels import exact_channels, refuse_non_finite
+from gshade.rendering.channels import centre_hits, exact_channels, refuse_non_finite
 from gshade.rendering.integrator import SHAPE_FILM
 from gshade.rendering.rendered_image import CHANNELS
 from gshade.shape import get_shape_function
@@ -131,6 +131,29 @@ def test_every_channel_at_its_pixel():
         mean = (E * Nn - 2 * F * M + G * L) / (2 * (E * G - F * F))
         np.testing.assert_allclose(out["f2"][at], mean, atol=1e-5 * max(1.0, np.abs(mean).max()))
     assert not out["f"][missed].any() and not out["f2"][missed].any()
+
+
+def test_centre_hits_found_apart_give_the_same_channels():
+    """The pipeline finds the centre hits while the supersampling pass writes the picture's
+    channels: they read only the centre pass's coordinates, and the channels made from them
+    are those of one call on the finished film."""
+    surfaces, camera = patches(), view()
+    atlas = Atlas.for_patches(2, 9)
+    image, data, centre, *_ = films(atlas, surfaces, camera)
+    film = image.copy()
+    for c in ("x", "y"):
+        film[..., SHAPE_FILM.index(c)] = data[..., SHAPE_FILM.index(c)]
+    functions = {"f": (get_shape_function("mean"), {})}
+    early = film.copy()  # the picture not yet written: only x and y are read
+    for c in ("R", "G", "B", "A", "f"):
+        early[..., SHAPE_FILM.index(c)] = np.nan
+    hits = centre_hits(early, centre, atlas, surfaces, camera, functions)
+    assert hits.pixels.size == int(centre.sum()) and np.isfinite(hits.d).all()
+    apart = exact_channels(film, centre, atlas, surfaces, camera, functions, hits)
+    whole = exact_channels(film, centre, atlas, surfaces, camera, functions)
+    assert list(apart) == list(whole)
+    for name in whole:
+        np.testing.assert_array_equal(apart[name], whole[name], err_msg=name)
 
 
 def test_non_finite_channels_are_refused():

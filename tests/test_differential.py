@@ -260,3 +260,25 @@ def test_derivative_scales_are_each_groups_own():
     assert irregular_mask(d)[1].all()  # on one scale for both, the small patch is "collapsed"
     zero = np.zeros((2, 2, 4, 3))
     assert np.all(derivative_scales(zero, np.arange(4)) == 1.0)  # as derivative_scale of 0
+
+
+def test_derivative_scales_of_groups_along_some_axes():
+    """Groups given per patch of a grid ((n, 1, 1), reduced along the grid's axes first),
+    groups repeated on several patches, and unsorted per-point groups: the same scales as
+    derivative_scale of each group's points."""
+    from gshade.geometry.differential import derivative_scale, derivative_scales
+
+    rng = np.random.default_rng(11)
+    d = rng.normal(size=(2, 2, 4, 5, 6, 3)) * rng.uniform(1e-3, 1e3, size=(4, 1, 1, 1))
+    for groups in (
+        np.arange(4)[:, None, None],  # one per patch
+        np.array([2, 0, 2, 1])[:, None, None],  # patches 0 and 2 one group
+        rng.integers(0, 3, size=(4, 5, 6)),  # per point, unsorted
+        np.array([[0, 1, 1, 0, 2, 2]]),  # along the last grid axis only
+    ):
+        every = np.broadcast_to(groups, (4, 5, 6))
+        scales = derivative_scales(d, groups)
+        assert scales.shape == (4, 5, 6)
+        for g in np.unique(every):
+            mine = every == g
+            assert np.all(scales[mine] == derivative_scale(d[:, :, mine]))

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
+from ..geometry.differential import derivative_scales
 from ..shape import ShapeFunction, evaluate
 
 __all__ = ["centre_values", "highest_order"]
@@ -57,11 +58,11 @@ def highest_order(functions: dict[str, tuple[ShapeFunction, dict]]) -> int:
 
 
 def _regularise(d: NDArray, patches, on: NDArray, u: NDArray, v: NDArray) -> None:
-    """Replace, in place, the derivatives of the patches ``on`` (sorted) that are irregular
+    """Replace, in place, the derivatives of the patches ``on`` that are irregular
     at some of their points by :func:`gshade.geometry.regularised_derivatives` (each patch
     on its own scale, limits from inside)."""
     order = d.shape[0] - 1
-    for at in np.split(np.arange(on.size), np.flatnonzero(np.diff(on)) + 1):
-        if at.size and irregular_mask(d[:, :, at]).any():
-            p = patches[int(on[at[0]])]
-            d[:, :, at] = regularised_derivatives(p, u[at], v[at], order).d
+    irregular = irregular_mask(d, scale=derivative_scales(d, on))
+    for k in np.unique(on[irregular]):
+        at = np.flatnonzero(on == k)
+        d[:, :, at] = regularised_derivatives(patches[int(k)], u[at], v[at], order).d

@@ -11,6 +11,8 @@ the point where that ray meets it.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -24,10 +26,59 @@ from .centre_values import centre_values, highest_order
 from .integrator import SHAPE_FILM
 from .surface_hits import surface_hits
 
-__all__ = ["PICTURE", "exact_channels", "refuse_non_finite"]
+__all__ = ["PICTURE", "CentreHits", "centre_hits", "exact_channels", "refuse_non_finite"]
 
 #: the film's channels that all the pixel's samples make (the rest come from its centre)
 PICTURE = ("R", "G", "B", "A", "f")
+
+
+class CentreHits(NamedTuple):
+    """Where the centre pass's rays meet the exact surface (:func:`centre_hits`): the
+    pixels (flat indices), their patch, (u, v), the derivatives of order <= 1 there,
+    (2, 2, N, 3), and each function's value by channel name."""
+
+    pixels: NDArray[np.int64]
+    patch: NDArray[np.int64]
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    d: NDArray[np.float64]
+    values: dict[str, NDArray[np.float64]]
+
+
+def centre_hits(
+    film: NDArray,
+    hit: NDArray,
+    atlas: Atlas,
+    patches: list[Patch] | tuple[Patch, ...],
+    view: View,
+    functions: dict[str, tuple[ShapeFunction, dict]] | None = None,
+) -> CentreHits:
+    """The exact hits of the rays through the pixel centres that met the surface: one
+    Newton step each from the centre pass's atlas coordinates (the film's ``x``, ``y``;
+    the picture's channels are not read, so the supersampling pass may write them
+    meanwhile), and the functions there (parameters as :func:`exact_channels`'s)."""
+    functions = functions or {}
+    order = highest_order(functions)
+    W = film.shape[1]
+    pixels = np.flatnonzero(hit.ravel())
+    x, y = (film[..., SHAPE_FILM.index(c)].ravel()[pixels] for c in ("x", "y"))
+    patch_index, st = atlas.locate(np.stack([x, y], -1).astype(np.float64))
+    domains = np.array([p.domain for p in patches], dtype=np.float64)
+    u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
+    d = np.empty((2, 2, pixels.size, 3))
+    values = {name: np.empty(pixels.size) for name in functions}
+    by_patch = np.argsort(patch_index, kind="stable")  # a patch's hits in few blocks
+    block = BLOCK >> (order - 1)  # in blocks: the steps' temporaries stay small
+    for first in range(0, pixels.size, block):
+        at = by_patch[first : first + block]
+        rays = view.pixel_rays(pixels[at] // W, pixels[at] % W)
+        u[at], v[at], dk, _ = surface_hits(
+            patches, patch_index[at], u[at], v[at], *rays, order=order
+        )
+        d[:, :, at] = dk[:2, :2]
+        for name, x in centre_values(patches, patch_index[at], u[at], v[at], dk, functions).items():
+            values[name][at] = x
+    return CentreHits(pixels, patch_index, u, v, d, values)
 
 
 def exact_channels(
@@ -37,6 +88,7 @@ def exact_channels(
     patches: list[Patch] | tuple[Patch, ...],
     view: View,
     functions: dict[str, tuple[ShapeFunction, dict]] | None = None,
+    hits: CentreHits | None = None,
 ) -> dict[str, NDArray[np.float32]]:
     """The EXR channels: the picture, coverage and f.mean (f's mean over the samples) from
     the samples; P, N, u, v, the patch index and each of ``functions`` where the ray through
@@ -55,30 +107,18 @@ def exact_channels(
         The atlas the centre pass's coordinates address, its patches, the camera.
     functions : dict, optional
         Channel name (``f``, ``f2``, an AOV's) -> (shape function, its parameters).
+    hits : CentreHits, optional
+        :func:`centre_hits` of the same arguments, where already found.
     """
     functions = functions or {}
     order = highest_order(functions)
     H, W = film.shape[:2]
     A = film[..., SHAPE_FILM.index("A")]
     f = np.where(A > 0, film[..., SHAPE_FILM.index("f")] / np.where(A > 0, A, 1.0), 0.0)
-    hit = np.flatnonzero(hit.ravel())
-    x, y = (film[..., SHAPE_FILM.index(c)].ravel()[hit] for c in ("x", "y"))
-    patch_index, st = atlas.locate(np.stack([x, y], -1).astype(np.float64))
-    domains = np.array([p.domain for p in patches], dtype=np.float64)
-    u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index=patch_index)
-    d = np.empty((2, 2, hit.size, 3))
-    values = {name: np.empty(hit.size) for name in functions}
-    by_patch = np.argsort(patch_index, kind="stable")  # a patch's hits in few blocks
-    block = BLOCK >> (order - 1)  # in blocks: the steps' temporaries stay small
-    for first in range(0, hit.size, block):
-        at = by_patch[first : first + block]
-        rays = view.pixel_rays(hit[at] // W, hit[at] % W)
-        u[at], v[at], dk, _ = surface_hits(
-            patches, patch_index[at], u[at], v[at], *rays, order=order
-        )
-        d[:, :, at] = dk[:2, :2]
-        for name, x in centre_values(patches, patch_index[at], u[at], v[at], dk, functions).items():
-            values[name][at] = x
+    if hits is None:
+        hits = centre_hits(film, hit, atlas, patches, view, functions)
+    hit, patch_index, u, v, d, values = hits
+    values = dict(values)
     slipped = _slipped_through(A, hit, H, W)
     if slipped.size:
         found = _hits_from_neighbours(slipped, hit, patch_index, u, v, patches, view, H, W, order)
@@ -116,7 +156,7 @@ def exact_channels(
 
 #: Centre rays per block of exact Newton steps to first-order derivatives (halved for each
 #: order more that the functions need: the derivatives' memory stays about the same).
-BLOCK = 1 << 17
+BLOCK = 1 << 16
 #: Newton steps from a neighbour's hit for a centre ray that slipped between two surfaces.
 SLIPPED_STEPS = 4
 

@@ -17,7 +17,8 @@
    the picture, and the atlas coordinates of the surface points.
 6. ``supersample``: ``spp`` samples per pixel (box filter, at the strata centres) where the
    picture is discontinuous (``sampling = "edges"``) or everywhere (``"uniform"``, and
-   always for ``soft`` light): R G B A and f there.
+   always for ``soft`` light): R G B A and f there; meanwhile, in numpy, the exact hits of
+   the centre rays (:func:`gshade.rendering.channels.centre_hits`).
 7. ``exact_channels``: P, N, u, v and the patch, exact at the pixel centres
    (:mod:`gshade.rendering.channels`).
 
@@ -30,6 +31,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
 
 import numpy as np
@@ -41,7 +43,7 @@ from ..limits import MAX_SAMPLES
 from ..runtime.variant import select_variant
 from .atlas import Atlas
 from .camera import View
-from .channels import PICTURE, exact_channels, refuse_non_finite
+from .channels import PICTURE, centre_hits, exact_channels, refuse_non_finite
 from .integrator import SHAPE_FILM
 from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
 from .rendered_image import RenderedImage
@@ -110,11 +112,18 @@ def render(scene, **overrides) -> RenderedImage:
     film = render_centres(mitsuba, view, settings)
     lap("render")
     hit = film[..., SHAPE_FILM.index("A")] > 0.5  # where the centre rays meet the surface
-    _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, scene.shape)
+    exact = _exact_functions(scene, settings, functions)
+    # the supersampling pass (Mitsuba's threads) while numpy finds the exact centre hits
+    # (they read the centre pass's coordinates, the pass writes the picture's channels)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        supersampled = pool.submit(
+            _supersample, film, mitsuba, view, settings, silhouettes, atlas, style, scene.shape
+        )
+        hits = centre_hits(film, hit, atlas, scene.patches, view, exact)
+        supersampled.result()
     lap("supersample")
 
-    exact = _exact_functions(scene, settings, functions)
-    channels = exact_channels(film, hit, atlas, scene.patches, view, exact)
+    channels = exact_channels(film, hit, atlas, scene.patches, view, exact, hits)
     lap("exact_channels")
     refuse_non_finite(where, channels)
     if junctions is not None:
