@@ -122,9 +122,9 @@ def grid_derivatives(
             # rational: (w p, w) and their derivatives first, component-major
             h = np.zeros((order + 1, order + 1, c, G, s.size, t.size)) if rational else None
             for i in range(order + 1):
-                rows = np.matmul(Bu[i], nets)  # (G, c, n, n+1)
+                rows = np.matmul(Bu[i], nets)  # (G, c, s.size, mv + 1)
                 for j in range(order + 1 - i):
-                    # one product for all: (G c n, n+1) x (n+1, m)
+                    # one product for all cells: (G c s.size, mv + 1) x (mv + 1, t.size)
                     value = (rows.reshape(-1, mv + 1) @ BvT[j]).reshape(G, c, s.size, t.size)
                     # d/du = d/ds / (u1 - u0): the chain rule per patch
                     value *= (span[:, 0] ** -float(i) * span[:, 1] ** -float(j))[
