@@ -62,7 +62,7 @@ from report import (
 from gshade.analysis.continuity import CLASSES, Tolerances, continuity_report, find_junctions
 from gshade.analysis.continuity import _probe_sides as probe_sides
 from gshade.geometry import BSplinePatch
-from gshade.geometry.subdivision import subdivision_patches
+from gshade.geometry.subdivision.stam import subdivision_patches
 from gshade.io.obj import read_obj_mesh
 
 ROOT = Path(__file__).resolve().parents[1]

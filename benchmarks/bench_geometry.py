@@ -21,7 +21,7 @@ D   W1 and W2 again as users and CI run them: OpenBLAS's default thread pool (on
     (``--default-threads-child``) with OPENBLAS_NUM_THREADS set but empty; once on the quiet
     machine and LOADED_RUNS times with a busy process (``while True: pass``, one core's
     worth, not pinned) running beside it; the samples of the loaded runs are pooled.
-    gshade limits BLAS to one thread during its own calls (``gshade.geometry.blas_threads``);
+    gshade limits BLAS to one thread during its own calls (``gshade.geometry.core.blas_threads``);
     splipy runs with the default pool.
 
 gshade and splipy are timed interleaved (one call of each per repeat), so that both see the

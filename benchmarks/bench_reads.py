@@ -1,7 +1,7 @@
 """Benchmark reading CAD files with two revisions of gshade side by side.
 
 What is measured, per file, round and revision: ``gshade.io.cad.read_cad(path)`` in a fresh
-process, its model built (``model.shape``, the kernel's B-rep: for ``.3dm`` the exact
+process, its model built (``model.brep``, the kernel's B-rep: for ``.3dm`` the exact
 surfaces, edges and fitted pcurves), with the conversion cache off
 (``GSHADE_CACHE_DIR=off``): wall-clock (``time.perf_counter``), from importing gshade to the
 model built, as a user waits (the kernel works in a child process, so the caller's CPU time
@@ -38,7 +38,7 @@ import sys, time
 t = time.perf_counter()
 from gshade.io.cad import read_cad
 model = read_cad(sys.argv[1])
-model.shape
+model.brep
 print(time.perf_counter() - t, len(model.faces))
 """
 

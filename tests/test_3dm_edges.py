@@ -164,7 +164,7 @@ def test_a_face_along_its_side_traces_its_boundary():
     from OCP.gp import gp_Pnt
 
     from gshade.cad import rhino_pcurves as pc
-    from gshade.geometry.bspline import BSplinePatch
+    from gshade.geometry.patches.bspline import BSplinePatch
 
     u = np.linspace(0.0, 1.0, 4)
     points = np.stack(np.meshgrid(u, u, indexing="ij"), -1)

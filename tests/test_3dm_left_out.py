@@ -16,7 +16,7 @@ from gshade.cad.mesh import mesh_faces
 from gshade.errors import GshadeError
 
 r3 = pytest.importorskip("rhino3dm")
-from gshade.cad import rhino, rhino_shape  # noqa: E402
+from gshade.cad import rhino, rhino_brep  # noqa: E402
 
 #: Sphere radii and centres, far enough apart; face k is sphere k.
 SPHERES = [(1.0, (0, 0, 0)), (2.0, (10, 0, 0)), (3.0, (0, 20, 0))]
@@ -102,14 +102,14 @@ def test_a_face_the_reader_cannot_use_is_left_out(tmp_path, monkeypatch):
 def test_a_face_the_kernel_cannot_build_is_left_out(tmp_path, monkeypatch):
     """Face 2 failing on the kernel (building it from its surface and trims) is left out of
     the model and of the kernel's shape; faces 0 and 1 mesh."""
-    real = rhino_shape._face
+    real = rhino_brep._face
 
     def failing(cad, *args):
         if cad.index == 2:
             raise RuntimeError("made to fail")
         return real(cad, *args)
 
-    monkeypatch.setattr(rhino_shape, "_face", failing)
+    monkeypatch.setattr(rhino_brep, "_face", failing)
     model = read_cad(_write(tmp_path / "spheres.3dm"), isolated=False)
     assert [f.index for f in model.faces] == [0, 1]
     assert [f.index for f in model.left_out] == [2]

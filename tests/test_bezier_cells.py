@@ -1,4 +1,4 @@
-"""Many B-splines' Bézier cells (gshade.geometry.bezier_cells.Splines) give each patch's own
+"""Many B-splines' Bézier cells (gshade.geometry.evaluation.bezier_cells.Splines) give each patch's own
 points and first derivatives at its knots, an ulp either side of them and past its ends,
 with the knot lines C0 (a point's cell is the knot interval it lies in, as the patch's own
 span search finds it, however many splines share the table's search)."""
@@ -6,7 +6,7 @@ span search finds it, however many splines share the table's search)."""
 import numpy as np
 
 from gshade.geometry import BSplinePatch
-from gshade.geometry.bezier_cells import Splines
+from gshade.geometry.evaluation.bezier_cells import Splines
 
 
 def test_cells_equal_each_patch_own_derivatives_beside_its_knots():
@@ -44,7 +44,7 @@ def test_cells_equal_each_patch_own_derivatives_beside_its_knots():
 def test_one_clamped_span_is_its_own_cell():
     """A B-spline of one clamped knot span is a Bézier curve (patch) over it: its cell is its
     net, exactly, and the table evaluates it (and past its ends) as the patch does."""
-    from gshade.geometry.bezier_cells import to_bezier
+    from gshade.geometry.evaluation.bezier_cells import to_bezier
 
     rng = np.random.default_rng(11)
     for p in range(1, 6):

@@ -14,8 +14,8 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from gshade.errors import GshadeError
 from gshade.geometry import BezierPatch, BSplinePatch
-from gshade.geometry.blas_threads import BlasSingleThread, blas_single_thread
-from gshade.geometry.patch_groups import grid_derivatives
+from gshade.geometry.core.blas_threads import BlasSingleThread, blas_single_thread
+from gshade.geometry.evaluation.patch_groups import grid_derivatives
 
 
 def blas_pools() -> list[tuple[str, int]]:

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gshade.geometry import BezierPatch, BSplineCurve, BSplinePatch
-from gshade.geometry.knots import basis_functions
+from gshade.geometry.core.knots import basis_functions
 
 from .conftest import interior_parameters, knot_vectors, random_net, random_patch
 

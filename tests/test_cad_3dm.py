@@ -8,7 +8,7 @@ import pytest
 from gshade.cad import read_cad
 from gshade.errors import GshadeError
 from gshade.geometry import gaussian_and_mean_curvature
-from gshade.geometry.bspline import BSplinePatch
+from gshade.geometry.patches.bspline import BSplinePatch
 
 r3 = pytest.importorskip("rhino3dm")
 from gshade.cad import rhino, rhino_trims  # noqa: E402
@@ -245,10 +245,10 @@ def test_closed_box_shape_is_sewn_and_renders_without_holes(tmp_path):
     box = r3.Box(r3.BoundingBox(r3.Point3d(0, 0, 0), r3.Point3d(1, 2, 3)))
     path = _write(tmp_path, "box.3dm", r3.Brep.CreateFromBox(box))
     model = read_cad(path, isolated=False)  # the kernel's shape here
-    assert len(model.faces) == 6 and model.shape is not None
-    faces = shape_faces(model.shape)
-    assert len(faces) == 6 and BRepCheck_Analyzer(model.shape).IsValid()
-    assert _edge_faces(model.shape) == [2] * 12  # every edge shared by exactly two faces
+    assert len(model.faces) == 6 and model.brep is not None
+    faces = shape_faces(model.brep)
+    assert len(faces) == 6 and BRepCheck_Analyzer(model.brep).IsValid()
+    assert _edge_faces(model.brep) == [2] * 12  # every edge shared by exactly two faces
     # the shape's faces are the model's, in order: the same surface at the same (u, v)
     from OCP.BRep import BRep_Tool
 
@@ -269,7 +269,7 @@ def test_sphere_renders_mean_curvature(tmp_path):
     r = 2.0
     path = _write(tmp_path, "ball.3dm", r3.Sphere(r3.Point3d(0, 0, 0), r).ToBrep())
     model = read_cad(path, isolated=False)  # the kernel's shape here
-    assert _edge_faces(model.shape) == [2]  # the seam, used twice by the one face
+    assert _edge_faces(model.brep) == [2]  # the seam, used twice by the one face
     camera = {"origin": [5.0, -6.0, 4.0], "target": [0, 0, 0], "up": [0, 0, 1]}
     image = _render(path, camera, **{"shape.function": "mean", "render.lighting": "flat"})
     A, f = image["A"], image["f"]
@@ -289,7 +289,7 @@ def test_trimmed_disc_leaves_its_corners_open(tmp_path):
     path = _write(tmp_path, "disc.3dm", brep)
     model = read_cad(path, isolated=False)  # the kernel's shape here
     (face,) = model.faces
-    assert face.trimmed and _edge_faces(model.shape) == [1]
+    assert face.trimmed and _edge_faces(model.brep) == [1]
     camera = {"type": "orthographic", "origin": [0, 0, 10], "target": [0, 0, 0]}
     camera |= {"up": [0, 1, 0], "width": 6.0}
     image = _render(path, camera, **{"render.width": 90, "render.height": 90})

@@ -128,7 +128,7 @@ def same(a, b) -> bool:
 
 
 def without_shape(model):
-    return dataclasses.replace(model, shape=None)
+    return dataclasses.replace(model, brep=None)
 
 
 def forget_models_in_use() -> None:
@@ -182,7 +182,7 @@ def test_a_model_in_use_shares_its_kernel_process(cache, requests, parts):
     assert requests == ["read", "keep"]
     assert second.shape is first.shape and second is not first
     assert same(without_shape(second), without_shape(first))
-    first.shape.close()  # an ended process is not shared: a new one is given the read
+    first.brep.close()  # an ended process is not shared: a new one is given the read
     third = read_cad(parts["step"])
     assert third.shape is not first.shape and third.shape.running
     mesh_faces(third, DEFLECTION)
@@ -199,7 +199,7 @@ def test_reads_of_a_cached_file_in_one_process_share_its_faces(cache, requests, 
     read_cad(parts["step"])  # converted and kept
     forget_models_in_use()
     first = read_cad(parts["step"])
-    first.shape.close()  # its kernel process gone: the next read is found in the cache
+    first.brep.close()  # its kernel process gone: the next read is found in the cache
     second = read_cad(parts["step"])
     assert requests == ["read", "keep"]
     assert second is not first and second.notes is not first.notes
@@ -369,7 +369,7 @@ def test_a_file_changed_while_its_cached_read_is_in_use_is_one_line(
     path.write_bytes(parts["cap"].read_bytes())
     with pytest.raises(GshadeError, match=f"^{path}: the file changed while it was in use"):
         mesh_faces(model, DEFLECTION)
-    assert not model.shape.running
+    assert not model.brep.running
 
 
 @pytest.mark.parametrize("kind", ["symlink", "fifo", "folder"])

@@ -174,8 +174,8 @@ def test_shape_kept(box):
     (u, v) is the face's patch at to_patch(u, v) (planes, cylinders and spheres read without
     the kernel's NURBS conversion: the patch's parameters are the arcs' along angles)."""
     model = read_cad(box[0].path, isolated=False)  # the kernel's shape here
-    assert model.shape is not None
-    surfaces = [BRep_Tool.Surface_s(f) for f in shape_faces(model.shape)]
+    assert model.brep is not None
+    surfaces = [BRep_Tool.Surface_s(f) for f in shape_faces(model.brep)]
     assert len(surfaces) == len(model.faces)
     rng = np.random.default_rng(3)
     worst = 0.0

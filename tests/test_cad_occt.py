@@ -104,7 +104,7 @@ def test_patches_match_the_kernel(rounded, brep_model):
 
 
 def test_dropping_the_weights_is_caught(rounded, brep_model):
-    from gshade.geometry.bspline import BSplinePatch
+    from gshade.geometry.patches.bspline import BSplinePatch
 
     for face in brep_model.faces:
         p = face.patch

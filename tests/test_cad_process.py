@@ -106,7 +106,7 @@ def test_the_model_comes_back_and_its_operations_run_in_the_child(parts):
 
 def test_a_dropped_model_ends_its_child(parts):
     model = read_cad(parts["sheet.step"])
-    child = model.shape._child.pid
+    child = model.brep._child.pid
     del model
     import gc
 
@@ -293,8 +293,8 @@ def test_without_the_zygote_a_model_gets_a_process_of_its_own(parts, monkeypatch
     monkeypatch.setenv("GSHADE_CAD_ZYGOTE", "off")
     monkeypatch.setattr(cad_zygote, "_zygotes", {})
     model = read_cad(parts["sheet.step"])
-    assert isinstance(model.shape._child, subprocess.Popen)
-    assert _parent(model.shape._child.pid) == os.getpid()
+    assert isinstance(model.brep._child, subprocess.Popen)
+    assert _parent(model.brep._child.pid) == os.getpid()
     here = read_cad(parts["sheet.step"], isolated=False)
     assert (model.faces[0].patch.points == here.faces[0].patch.points).all()
 
@@ -304,7 +304,7 @@ def test_a_dead_zygote_costs_its_models_only(parts, monkeypatch):
     next model is read all the same (a process of its own, then a new zygote)."""
     monkeypatch.setattr(cad_zygote, "_zygotes", {})  # a zygote of this test's own
     model = read_cad(parts["sheet.step"])
-    child = model.shape._child
+    child = model.brep._child
     child.zygote.process.kill()
     child.zygote.process.wait()
     for _ in range(100):

@@ -1,5 +1,5 @@
 """Planes and quadrics read without the kernel's NURBS conversion: gshade's own exact arcs
-(:func:`gshade.geometry.revolution.arc`) and the map from the kernel's angles to their
+(:func:`gshade.geometry.patches.revolution.arc`) and the map from the kernel's angles to their
 parameters, against the kernel's own evaluation of the same faces."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gshade.geometry.revolution import arc, arc_parameters
+from gshade.geometry.patches.revolution import arc, arc_parameters
 
 pytest.importorskip("OCP")
 

@@ -268,7 +268,7 @@ def test_batched_measures_equal_the_per_junction_oracle():
         measure_all,
     )
     from gshade.analysis.junction_measures import MEASURES
-    from gshade.geometry.subdivision import subdivision_patches
+    from gshade.geometry.subdivision.stam import subdivision_patches
     from gshade.io.obj import read_obj_mesh
 
     mesh = read_obj_mesh(ROOT / "scenes" / "data" / "cube.obj")

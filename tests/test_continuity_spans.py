@@ -28,7 +28,7 @@ from OCP.gp import gp_Pnt
 
 from gshade.analysis.edge_continuity import edge_report, inside_pieces
 from gshade.cad import read_cad
-from gshade.geometry.bspline import BSplinePatch
+from gshade.geometry.patches.bspline import BSplinePatch
 
 from . import kernel_oracle as oracle
 

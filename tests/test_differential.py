@@ -19,7 +19,7 @@ from gshade.geometry import (
     torus,
     unit_normal,
 )
-from gshade.geometry.differential import (
+from gshade.geometry.core.differential import (
     fundamental_forms,
     gaussian_from_forms,
     mean_from_forms,
@@ -27,8 +27,8 @@ from gshade.geometry.differential import (
     principal_half_gap,
 )
 from gshade.io import read_newell
-from gshade.shape.jets import NUMPY, Jet
-from gshade.shape.jets import sqrt as jet_sqrt
+from gshade.geometry.core.jets import NUMPY, Jet
+from gshade.geometry.core.jets import sqrt as jet_sqrt
 
 from . import curvature_oracles
 from .conftest import TEAPOT
@@ -246,7 +246,7 @@ def test_normal_curvature_follows_euler_s_formula(name):
 def test_derivative_scales_are_each_groups_own():
     """Points of two patches of very different sizes: each judged on its own patch's scale
     (the small patch's regular points stay regular beside a large patch)."""
-    from gshade.geometry.differential import derivative_scale, derivative_scales, irregular_mask
+    from gshade.geometry.core.differential import derivative_scale, derivative_scales, irregular_mask
 
     rng = np.random.default_rng(5)
     d = rng.normal(size=(2, 2, 2, 50, 3))
@@ -266,7 +266,7 @@ def test_derivative_scales_of_groups_along_some_axes():
     """Groups given per patch of a grid ((n, 1, 1), reduced along the grid's axes first),
     groups repeated on several patches, and unsorted per-point groups: the same scales as
     derivative_scale of each group's points."""
-    from gshade.geometry.differential import derivative_scale, derivative_scales
+    from gshade.geometry.core.differential import derivative_scale, derivative_scales
 
     rng = np.random.default_rng(11)
     d = rng.normal(size=(2, 2, 4, 5, 6, 3)) * rng.uniform(1e-3, 1e3, size=(4, 1, 1, 1))

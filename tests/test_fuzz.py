@@ -12,7 +12,7 @@ Never another exception, never a hang, never gigabytes.  The cases run in worker
 inside a worker each case runs under SIGALRM (``GSHADE_FUZZ_TIMEOUT`` seconds, default 300),
 which fails it with the Python location where it was.  The alarm is a hang guard, not a
 speed test: the slowest case takes seconds (loading hole-valence-mean-g2-optimised.toml, 10 s
-of shape optimisation without its cache, gshade.shape.hole_shape), ten times that on a busy
+of shape optimisation without its cache, gshade.geometry.holes.fairing), ten times that on a busy
 machine, so only a case that is really stuck reaches it.  A case stuck in native code (where
 SIGALRM cannot get through: measured, a degree-40 patch's Newton kernel in LLVM) or whose
 worker grows past ``GSHADE_FUZZ_MEMORY_GB`` (default 4) resident is failed by the parent,

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 from scipy.interpolate import BSpline
 
 from gshade.geometry import BetaSplineCurve, BSplineCurve, GammaSplineCurve, GammaSplinePatch
-from gshade.geometry.differential import gaussian_and_mean_curvature, unit_normal
-from gshade.geometry.gammaspline import gamma_from_nu, nu_from_gamma
+from gshade.geometry.core.differential import gaussian_and_mean_curvature, unit_normal
+from gshade.geometry.splines.gammaspline import gamma_from_nu, nu_from_gamma
 
 from .spline_checks import (
     NET_7x6,

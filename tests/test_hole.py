@@ -1,4 +1,4 @@
-"""The n-sided hole around an extraordinary vertex (gshade.geometry.hole), against
+"""The n-sided hole around an extraordinary vertex (gshade.geometry.holes.ring), against
 independent oracles.
 
 Oracles: Stam's exact evaluation of the hole's own faces (``subdivision_patches`` of the
@@ -15,9 +15,9 @@ import pytest
 
 from gshade import GshadeError
 from gshade.geometry import BezierCurve
-from gshade.geometry.hole import Hole, find_holes, hole_around
-from gshade.geometry.quad_mesh import MeshTopology
-from gshade.geometry.subdivision import StamPatch, subdivision_patches
+from gshade.geometry.holes.ring import Hole, find_holes, hole_around
+from gshade.geometry.subdivision.quad_mesh import MeshTopology
+from gshade.geometry.subdivision.stam import StamPatch, subdivision_patches
 from gshade.io import parse_obj, read_obj
 
 from .test_subdivision import (
@@ -229,7 +229,7 @@ def test_a_four_sided_hole_in_a_regular_grid():
 
 def _cornered(patches, topo, hole):
     """The hole's faces as patches with (0, 0) at the vertex and u along h_i."""
-    from gshade.geometry.catmull_clark import regular_patch
+    from gshade.geometry.subdivision.catmull_clark import regular_patch
 
     out = dict(enumerate(patches))
     for h in hole.half_edges:

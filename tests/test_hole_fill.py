@@ -1,4 +1,4 @@
-"""G1 and G2 filling of n-sided holes (gshade.geometry.hole_fill, hole_energy), against
+"""G1 and G2 filling of n-sided holes (gshade.geometry.holes.fill, hole_energy), against
 independent checks.
 
 Oracles: the surrounding bicubic patches' own exact derivatives (outer edges), the filling
@@ -15,14 +15,14 @@ import pytest
 
 from gshade import GshadeError
 from gshade.analysis.continuity import continuity_report
-from gshade.geometry.bernstein import bernstein_basis, derivative_matrix, gram_matrix
-from gshade.geometry.bezier import BezierPatch
-from gshade.geometry.catmull_clark import regular_patch
-from gshade.geometry.differential import gaussian_and_mean_curvature
-from gshade.geometry.hole import find_holes, hole_around
-from gshade.geometry.hole_energy import functional_matrix, sector_jacobian
-from gshade.geometry.hole_fill import fill_hole, hole_system, solve_qp
-from gshade.geometry.quad_mesh import MeshTopology
+from gshade.geometry.core.bernstein import bernstein_basis, derivative_matrix, gram_matrix
+from gshade.geometry.patches.bezier import BezierPatch
+from gshade.geometry.subdivision.catmull_clark import regular_patch
+from gshade.geometry.core.differential import gaussian_and_mean_curvature
+from gshade.geometry.holes.ring import find_holes, hole_around
+from gshade.geometry.holes.energy import functional_matrix, sector_jacobian
+from gshade.geometry.holes.fill import fill_hole, hole_system, solve_qp
+from gshade.geometry.subdivision.quad_mesh import MeshTopology
 
 from .test_hole import wavy_fan
 from .test_subdivision import grid_mesh

@@ -1,4 +1,4 @@
-"""Catmull–Clark surfaces with their holes filled (gshade.geometry.hole_surface, the scene
+"""Catmull–Clark surfaces with their holes filled (gshade.geometry.holes.surface, the scene
 type ``hole``), and their shape against the Catmull–Clark limit surface of the same mesh.
 
 Oracles: Stam's exact patches of the same mesh (the surroundings are the same surface; the
@@ -15,12 +15,12 @@ import pytest
 
 from gshade import GshadeError
 from gshade.analysis.continuity import continuity_report
-from gshade.geometry.bezier import BezierPatch
-from gshade.geometry.hole_surface import filled_surface
-from gshade.geometry.subdivision import StamPatch, subdivision_patches
+from gshade.geometry.patches.bezier import BezierPatch
+from gshade.geometry.holes.surface import filled_surface
+from gshade.geometry.subdivision.stam import StamPatch, subdivision_patches
 from gshade.io import read_obj
 from gshade.scene import load_scene
-from gshade.shape.hole_shape import shape_measure
+from gshade.geometry.holes.fairing import fairing_value
 from gshade.shape.registry import evaluate
 
 from .test_subdivision import CUBE, DRUM, grid_mesh, obj_of
@@ -156,7 +156,7 @@ def test_hole_scene_optimised(tmp_path):
         n = len(filling.patches)
         fill, k = optimised[k : k + n], k + n
         x = np.concatenate([p.points.reshape(-1, 3) for p in fill])
-        assert shape_measure(x, n, 5, "mean-gradient") < shape_measure(
+        assert fairing_value(x, n, 5, "mean-gradient") < fairing_value(
             filling.nets, n, 5, "mean-gradient"
         )
     report = continuity_report(optimised)

@@ -6,7 +6,7 @@ import pytest
 from gshade import GshadeError
 from gshade.analysis.continuity import continuity_report
 from gshade.geometry import BezierPatch
-from gshade.geometry.junctions import junction_patch
+from gshade.geometry.splines.junctions import junction_patch
 
 CONNECTIONS = [
     {},

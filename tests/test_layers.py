@@ -75,6 +75,47 @@ def test_imports_only_from_lower_layers(path):
     assert not upward, f"{path.relative_to(SOURCE)} ({own}) imports from {upward}"
 
 
+#: The geometry's subpackages, lowest first: each imports only from its own and earlier ones.
+GEOMETRY_LAYERS = [
+    ("core",),
+    ("patches",),
+    ("evaluation",),
+    ("splines", "subdivision"),
+    ("holes",),
+]
+GEOMETRY_RANK = {name: rank for rank, names in enumerate(GEOMETRY_LAYERS) for name in names}
+GEOMETRY = SOURCE / "geometry"
+
+
+def test_every_geometry_module_is_in_a_family():
+    loose = sorted(p.name for p in GEOMETRY.glob("*.py") if p.name != "__init__.py")
+    families = {p.name for p in GEOMETRY.iterdir() if p.is_dir() and p.name != "__pycache__"}
+    assert not loose, loose
+    assert families == set(GEOMETRY_RANK), sorted(families ^ set(GEOMETRY_RANK))
+
+
+@pytest.mark.parametrize(
+    "path",
+    sorted(p for p in GEOMETRY.rglob("*.py") if p.parent != GEOMETRY),
+    ids=lambda p: str(p.relative_to(SOURCE)),
+)
+def test_geometry_families_import_only_from_lower_ones(path):
+    own = path.relative_to(GEOMETRY).parts[0]
+    found = set()
+    for module, names in _imports(path, top_level_only=False):
+        parts = module.split(".")
+        if parts[:2] != ["gshade", "geometry"]:
+            continue
+        if len(parts) == 2:  # from gshade.geometry import x: the package's re-exports
+            found.add("(the package)")
+        else:
+            found.add(parts[2])
+    upward = sorted(
+        f for f in found if f not in GEOMETRY_RANK or GEOMETRY_RANK[f] > GEOMETRY_RANK[own]
+    )
+    assert not upward, f"{path.relative_to(SOURCE)} ({own}) imports from {upward}"
+
+
 def _module_name(path: Path) -> str:
     parts = list(path.relative_to(SOURCE.parent).with_suffix("").parts)
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)

@@ -1,11 +1,11 @@
-"""Bézier cells in one Dr.Jit kernel (gshade.geometry.patch_cells) give each patch's own
+"""Bézier cells in one Dr.Jit kernel (gshade.geometry.evaluation.patch_cells) give each patch's own
 points and first derivatives, on knot lines, at the domain's ends and past them."""
 
 import numpy as np
 import pytest
 
 from gshade.geometry import BezierPatch, BSplinePatch
-from gshade.geometry.patch_cells import PatchCells, cell_groups
+from gshade.geometry.evaluation.patch_cells import PatchCells, cell_groups
 from gshade.shape.kernels import backend
 
 pytestmark = pytest.mark.skipif(backend() != "drjit", reason="no usable libLLVM here")
@@ -75,7 +75,7 @@ def test_many_patches_equal_each_patch_own_derivatives_with_and_without_drjit():
     """Points on patches of two degrees, rational and not, a sphere (rational B-spline
     with collapsed edges) and a patch of another kind (Coons, by numpy), shuffled."""
     from gshade.geometry import BezierCurve, CoonsPatch, sphere
-    from gshade.geometry.patch_cells import ManyPatches
+    from gshade.geometry.evaluation.patch_cells import ManyPatches
 
     rng = np.random.default_rng(8)
     bezier = BezierPatch(rng.normal(size=(3, 4, 3)))

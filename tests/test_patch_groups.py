@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gshade.geometry import BezierPatch, BSplinePatch, sphere
-from gshade.geometry.patch_groups import grid_derivatives
+from gshade.geometry.evaluation.patch_groups import grid_derivatives
 from gshade.io import read_newell
 from gshade.rendering.tessellate import chord_resolution, max_chord_resolution
 
@@ -123,7 +123,7 @@ def test_chord_resolution_meets_the_tolerance_measured_on_the_surface(make):
 
 
 def test_unit_to_domain_one_domain_and_an_array_of_them():
-    from gshade.geometry.patch import unit_to_domain
+    from gshade.geometry.core.patch import unit_to_domain
 
     s, t = np.array([0.0, 0.25, 1.0]), np.array([1.0, 0.5, 0.0])
     u, v = unit_to_domain(((2.0, 4.0), (-1.0, 1.0)), s, t)

@@ -9,7 +9,7 @@ import itertools
 import numpy as np
 import pytest
 
-from gshade.geometry.revolution import sphere
+from gshade.geometry.patches.revolution import sphere
 from gshade.rendering import render
 from gshade.scene import parse_scene
 

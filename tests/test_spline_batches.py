@@ -1,4 +1,4 @@
-"""Many B-spline patches at once (``gshade.geometry.spline_batches``) against each patch's
+"""Many B-spline patches at once (``gshade.geometry.evaluation.spline_batches``) against each patch's
 own ``derivatives``: the same numbers up to round-off, for any degrees, knots (clamped or
 not), weights and points on any of the patches."""
 
@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gshade.geometry import BezierPatch
-from gshade.geometry.spline_batches import batch_derivatives
+from gshade.geometry.evaluation.spline_batches import batch_derivatives
 
 from .conftest import random_patch
 
@@ -47,8 +47,8 @@ def test_small_grids_of_many_splines_at_once():
     """grid_derivatives on a grid smaller than ALONE_FROM points evaluates the B-splines
     all at once: the same numbers as each patch's own grid evaluation."""
     from gshade.geometry import BSplinePatch
-    from gshade.geometry.patch_groups import grid_derivatives, patch_grid
-    from gshade.geometry.spline_batches import ALONE_FROM
+    from gshade.geometry.evaluation.patch_groups import grid_derivatives, patch_grid
+    from gshade.geometry.evaluation.spline_batches import ALONE_FROM
 
     rng = np.random.default_rng(8)
     U = [0, 0, 0, 0.3, 1, 1, 1]

@@ -26,9 +26,9 @@ from gshade.geometry import (
     patch_normals,
     regularised_derivatives,
 )
-from gshade.geometry.catmull_clark import catmull_clark
-from gshade.geometry.quad_mesh import MeshTopology, validate_mesh
-from gshade.geometry.subdivision import StamPatch, subdivision_patches
+from gshade.geometry.subdivision.catmull_clark import catmull_clark
+from gshade.geometry.subdivision.quad_mesh import MeshTopology, validate_mesh
+from gshade.geometry.subdivision.stam import StamPatch, subdivision_patches
 from gshade.io import parse_obj, read_obj
 from gshade.scene import load_scene
 from gshade.shape import evaluate

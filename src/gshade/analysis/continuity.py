@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError, show
 from ..geometry import Patch
-from ..geometry.patch import unit_to_domain
+from ..geometry.core.patch import unit_to_domain
 from ..limits import MAX_CONTINUITY_SAMPLES
 from .junction_measures import (
     MEASURES,

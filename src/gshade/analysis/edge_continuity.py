@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bspline import BSplinePatch
-from ..geometry.knots import find_spans
-from ..geometry.patch import Patch
+from ..geometry.patches.bspline import BSplinePatch
+from ..geometry.core.knots import find_spans
+from ..geometry.core.patch import Patch
 from .continuity import Junction, Tolerances, classify, validate_samples
 from .junction_measures import (
     SideGeometry,
@@ -316,7 +316,7 @@ def inside_spans(
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]] | None:
     """The knot spans (u, v) to evaluate a face's edge points on, inside the face: per
     point the index k of the u span [U_k, U_k+1] and the v span's, or None where every
-    point keeps its own (:func:`gshade.geometry.knots.find_spans`).
+    point keeps its own (:func:`gshade.geometry.core.knots.find_spans`).
 
     Parameters
     ----------

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bspline import BSplinePatch
+from ..geometry.patches.bspline import BSplinePatch
 from .continuity import Junction, Tolerances, classify
 from .junction_measures import compare_sides, junction_fields, side_derivatives, side_geometry
 

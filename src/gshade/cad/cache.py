@@ -188,7 +188,7 @@ def _remove(path: Path) -> None:
 
 @dataclass
 class ModelEntry:
-    """A cached read: the model (its ``shape`` None), the kernel process's answer it was
+    """A cached read: the model (its ``brep`` None), the kernel process's answer it was
     unpickled from, and the kernel's shape (``BinTools`` bytes) for a new process."""
 
     model: CadModel
@@ -230,7 +230,7 @@ def find_model(key: str, path: str | os.PathLike) -> ModelEntry | None:
     model = _unpickled(answer, header)
     if model is None:
         return None
-    model.path, model.shape = Path(path), None
+    model.path, model.brep = Path(path), None
     with _live_lock:
         _recent[where] = (digest, _copy(model))
         while len(_recent) > RECENT_MODELS:
@@ -340,7 +340,7 @@ def restored_model(answer: bytes, shape: bytes, path: str) -> CadModel:
     faces = 0 if kernel_shape.IsNull() else len(shape_faces(kernel_shape))
     if faces != len(model.kernel_numbers()):
         raise GshadeError(f"{path}: the cached shape has {faces} faces for the model's")
-    model.path, model.shape = Path(path), kernel_shape
+    model.path, model.brep = Path(path), kernel_shape
     return model
 
 
@@ -368,12 +368,12 @@ def live_model(key: str, path: str | os.PathLike) -> CadModel | None:
         faces=list(template.faces),
         left_out=list(template.left_out),
         notes=list(template.notes),
-        shape=kernel,
+        brep=kernel,
     )
 
 
 def remember(key: str, path: str | os.PathLike, model: CadModel) -> CadModel:
-    """Note ``model`` (its ``shape`` a kernel process) as in use, for :func:`live_model`,
+    """Note ``model`` (its ``brep`` a kernel process) as in use, for :func:`live_model`,
     while its kernel process lives; the model."""
     where = (key, str(path), os.getpid())
 
@@ -384,5 +384,5 @@ def remember(key: str, path: str | os.PathLike, model: CadModel) -> CadModel:
 
     ref = weakref.ref(model.shape, gone)
     with _live_lock:
-        _live[where] = (ref, replace(model, shape=None))
+        _live[where] = (ref, replace(model, brep=None))
     return model

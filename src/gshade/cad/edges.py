@@ -83,7 +83,7 @@ def shared_edges(
         One line naming the file: a model without a kernel shape, or an edge whose
         parameter curves the kernel cannot evaluate.
     """
-    if model.shape is None:
+    if model.brep is None:
         raise GshadeError(f"{model.path}: the model has no kernel shape to find edges in")
     try:
         return _shared_edges(model, samples, faces)
@@ -102,7 +102,7 @@ def edges_to_left_out(
     """The edges between one of the faces ``faces`` and one of the faces ``left_out`` (both
     numbered as the model's): (edge number, face, left-out face) each, in the numbering of
     :func:`shared_edges`."""
-    if model.shape is None or not left_out:
+    if model.brep is None or not left_out:
         return []
     wanted, lost = set(faces), set(left_out)
     out: list[tuple[int, int, int]] = []

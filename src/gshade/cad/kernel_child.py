@@ -100,7 +100,7 @@ def serve(parent: int) -> None:
                 model = read_cad(path, sew, tolerance, isolated=False)
                 from dataclasses import replace
 
-                answer: tuple[str, Any] = ("ok", replace(model, shape=None))
+                answer: tuple[str, Any] = ("ok", replace(model, brep=None))
             elif operation == "load":  # a cached read: the model and its shape's bytes
                 from .cache import restored_model
                 from .readers import reader_module
@@ -117,7 +117,7 @@ def serve(parent: int) -> None:
             elif operation == "keep":  # the model's shape, for the cache
                 from .cache import shape_bytes
 
-                if model is None or model.shape is None:
+                if model is None or model.brep is None:
                     raise GshadeError("no model here to keep")
                 _bound(memory, seconds)
                 answer = ("ok", shape_bytes(model.shape))

@@ -1,6 +1,6 @@
 """The trimmed faces of a CAD model as one watertight triangle mesh, from Open CASCADE's mesher.
 
-The kernel meshes the model's NURBS-converted shape (``CadModel.shape``) with
+The kernel meshes the model's NURBS-converted shape (``CadModel.brep``) with
 ``BRepMesh_IncrementalMesh``: its nodes carry the converted faces' parameters (u, v), which
 are those of each :class:`~gshade.cad.CadFace`'s exact patch, and the nodes on an edge
 shared by two faces are the same (bit-identical) in both.  Each face gets its own vertices:
@@ -105,13 +105,13 @@ def mesh_faces(
     from .kernel import exception_text, shape_faces
 
     path = model.path
-    if model.shape is None:
+    if model.brep is None:
         raise GshadeError(f"{path}: meshing needs the kernel's shape (STEP, IGES or BREP files)")
     if not (np.isfinite(deflection) and deflection > 0):
         raise GshadeError(f"deflection: expected a positive number, got {deflection!r}")
     if not (np.isfinite(angle) and angle > 0):
         raise GshadeError(f"angle: expected a positive number of radians, got {angle!r}")
-    shape: Any = model.shape
+    shape: Any = model.brep
     numbers = model.kernel_numbers()
     in_shape = shape_faces(shape)
     if len(in_shape) != len(numbers):
@@ -284,8 +284,8 @@ def _face_nodes(face: Any, cad: Any) -> tuple:
 
 def _node_derivatives(patches: list, raw: list[tuple]) -> NDArray:
     """The first derivatives (2, 2, N, 3) of the faces' surfaces at all their nodes, past
-    the domains too (:func:`gshade.geometry.spline_batches.batch_derivatives`)."""
-    from ..geometry.spline_batches import batch_derivatives
+    the domains too (:func:`gshade.geometry.evaluation.spline_batches.batch_derivatives`)."""
+    from ..geometry.evaluation.spline_batches import batch_derivatives
 
     if not raw:
         return np.empty((2, 2, 0, 3))

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry.bspline import BSplinePatch
+from ..geometry.patches.bspline import BSplinePatch
 
 __all__ = [
     "CadFace",
@@ -72,7 +72,7 @@ class CadFace:
     arcs : ((a0, a1) or None, (b0, b1) or None)
         Per parameter, the angle range when the kernel's parameter is an angle (cylinders,
         cones, spheres, tori read without the kernel's NURBS conversion) and ``patch`` runs
-        along it as :func:`gshade.geometry.revolution.arc`; None when the kernel's parameter
+        along it as :func:`gshade.geometry.patches.revolution.arc`; None when the kernel's parameter
         is the patch's.  :meth:`to_patch` maps the kernel's (u, v) (its mesh, its trimming
         curves) to the patch's.
     """
@@ -141,8 +141,8 @@ class CadModel:
     (``CadFace.index``); ``left_out`` the faces it cannot use (still invalid after the
     kernel's healing, or failing to convert or evaluate: :class:`LeftOutFace`), and
     ``notes`` what the reader changed or passed over, a line each (the kernel's healing,
-    sewing undone, objects hidden in Rhino).  ``shape`` is the kernel's
-    shape, whose faces are all of them, face ``i`` the ``i``-th (STEP, IGES, BREP: as read and
+    sewing undone, objects hidden in Rhino).  ``brep`` is the kernel's
+    B-rep (its shape), whose faces are all of them, face ``i`` the ``i``-th (STEP, IGES, BREP: as read and
     healed, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
     rebuilt from the file's B-rep), or the :class:`~gshade.cad.process.KernelProcess`
     that holds it (a model read ``isolated``); ``kernel_faces`` the numbers of the shape's
@@ -156,7 +156,7 @@ class CadModel:
     faces: list[CadFace]
     unit: str
     bounds: tuple[NDArray[np.float64], NDArray[np.float64]]
-    shape: object | None = None
+    brep: object | None = None
     precision: float = 0.0
     left_out: list[LeftOutFace] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
@@ -193,10 +193,10 @@ def arc_map(
     """Kernel parameters (n, 2) as a patch's whose parameters run along exact rational arcs
     (``arcs``: per parameter its angle range, or None where the kernel's parameter is the
     patch's): exact, the same point of the surface
-    (:func:`gshade.geometry.revolution.arc_parameters` along angles)."""
+    (:func:`gshade.geometry.patches.revolution.arc_parameters` along angles)."""
     if arcs == (None, None):
         return uv
-    from ..geometry.revolution import arc_parameters
+    from ..geometry.patches.revolution import arc_parameters
 
     out = np.array(uv, dtype=np.float64)
     for d, span in enumerate(arcs):
@@ -219,11 +219,11 @@ def faces_trimmed_points(
     faces: list[CadFace], n: int = 17, loop_points: int | None = None, drjit: bool = False
 ) -> list[NDArray[np.float64]]:
     """:func:`trimmed_points` of each face, the surfaces evaluated at all faces' points at
-    once (:class:`gshade.geometry.patch_cells.ManyPatches`; its Dr.Jit kernel with
+    once (:class:`gshade.geometry.evaluation.patch_cells.ManyPatches`; its Dr.Jit kernel with
     ``drjit``, never in a kernel process: it forks)."""
     from skimage.measure import points_in_poly
 
-    from ..geometry.patch_cells import ManyPatches
+    from ..geometry.evaluation.patch_cells import ManyPatches
 
     most = 4 * n if loop_points is None else loop_points
     grids, on_loop, index, u, v = [], [], [], [], []

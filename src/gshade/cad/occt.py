@@ -37,8 +37,8 @@ from OCP.TopExp import TopExp_Explorer
 from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import GshadeError
-from ..geometry.bspline import BSplinePatch
-from ..geometry.revolution import TURN_OVERSHOOT
+from ..geometry.patches.bspline import BSplinePatch
+from ..geometry.patches.revolution import TURN_OVERSHOOT
 from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
 from ..runtime.native import captured_output
@@ -150,7 +150,7 @@ def read(path: str | Path, sew: bool | None = None, tolerance: float | None = No
         faces=out,
         unit=unit,
         bounds=faces_bounds(out),
-        shape=converted,
+        brep=converted,
         precision=precision,
         left_out=[left_out[i] for i in sorted(left_out)],
         notes=healing.changes,
@@ -378,7 +378,7 @@ def _face(index: int, face: Any, conv: Any, own: bool = False) -> CadFace:
 def _refuse_turns(box: tuple, surface: Any) -> None:
     """Raise GshadeError if the face's trims wind round its periodic surface (``surface``,
     its BRepAdaptor_Surface) more than once
-    (by over :data:`~gshade.geometry.revolution.TURN_OVERSHOOT` of a turn: edges that turn
+    (by over :data:`~gshade.geometry.patches.revolution.TURN_OVERSHOOT` of a turn: edges that turn
     through 4 pi round a pin, a helical strip): the kernel's mesher joins its nodes across
     the turns, through the surface, so the face is left out, said in these words."""
     periods = (

@@ -129,7 +129,7 @@ def kernel_time_limit(seconds: float | None) -> Iterator[None]:
 
 
 def kernel_operation(doing: str) -> Callable[[F], F]:
-    """Mark ``function(model, ...)`` as a kernel operation: when ``model.shape`` is a
+    """Mark ``function(model, ...)`` as a kernel operation: when ``model.brep`` is a
     :class:`KernelProcess`, the call runs in that process on its model (``doing`` names it
     in messages: "meshing it"); otherwise here."""
 
@@ -139,7 +139,7 @@ def kernel_operation(doing: str) -> Callable[[F], F]:
 
         @functools.wraps(function)
         def run(model: Any, *args: Any, **kwargs: Any) -> Any:
-            kernel = getattr(model, "shape", None)
+            kernel = getattr(model, "brep", None)
             if isinstance(kernel, KernelProcess):
                 return kernel.call(key, args, kwargs, doing)
             return function(model, *args, **kwargs)
@@ -161,7 +161,7 @@ class AnswerStore(Protocol):
 
 class KernelProcess:
     """A child process holding one CAD model's kernel shape; it stands in for the shape
-    (``CadModel.shape``) in this process.
+    (``CadModel.brep``) in this process.
 
     Parameters
     ----------
@@ -481,8 +481,8 @@ class _Results(pickle.Unpickler):
             ("gshade.cad.model", "LeftOutFace"),
             ("gshade.cad.mesh", "FaceMesh"),
             ("gshade.cad.edges", "CadEdge"),
-            ("gshade.geometry.bspline", "BSplinePatch"),
-            ("gshade.geometry.patch", "BSplineBasis"),
+            ("gshade.geometry.patches.bspline", "BSplinePatch"),
+            ("gshade.geometry.core.patch", "BSplineBasis"),
         }
     )
 

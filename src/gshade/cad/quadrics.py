@@ -17,7 +17,7 @@ C (a line, or a B-spline or Bezier curve: its own poles, weights and knots, the 
 parameter), the extrusion's direction D and the revolution's axis (A, Z) (a right-handed turn
 by u of the curve's poles, which is exact for a rational curve too).  Over the
 face's parameter box, each angle runs along the exact rational arc
-:func:`gshade.geometry.revolution.arc` and each length along a line (degree 1); the
+:func:`gshade.geometry.patches.revolution.arc` and each length along a line (degree 1); the
 surface is their tensor product (P_ij from the arcs' points, weights w_i w_j; Piegl &
 Tiller, 8.5), exact to round-off.  The patch's parameter equals the kernel's along lengths
 and at the arcs' knots; :meth:`gshade.cad.CadFace.to_patch` maps the rest exactly.
@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bspline import BSplinePatch
-from ..geometry.revolution import arc
+from ..geometry.patches.bspline import BSplinePatch
+from ..geometry.patches.revolution import arc
 
 __all__ = ["ANALYTIC_KINDS", "analytic_patch", "builds"]
 

@@ -140,7 +140,7 @@ def _read_afresh(
 
     kernel = KernelProcess(path, None if key is None else cad_cache.Answers(key))
     model, answer = _read_in(kernel, path, sew, tolerance)
-    model.shape = kernel
+    model.brep = kernel
     if key is not None and not _kept(kernel, key, path, sew, tolerance, model, answer):
         return _read_afresh(path, sew, tolerance, None)  # the child went with the keeping
     return model
@@ -213,7 +213,7 @@ def _restored(entry: Any, key: str, sew: bool | None, tolerance: float | None) -
 
     kernel = KernelProcess(path, cad_cache.Answers(key), start=False)
     kernel.later(prepare)
-    model.shape = kernel
+    model.brep = kernel
     return model
 
 

@@ -10,7 +10,7 @@ edge curves back into the NURBS form's (u, v) by point inversion
 (:mod:`gshade.cad.rhino_inversion`).  Where the surface meets itself
 (seams of closed or nearly closed directions, poles) each trim is put on the end that its
 loop's sense asks for (:mod:`gshade.cad.rhino_seams`).  Singular trims at poles are the
-segment between their neighbours.  The kernel's shape: :mod:`gshade.cad.rhino_shape`.
+segment between their neighbours.  The kernel's shape: :mod:`gshade.cad.rhino_brep`.
 """
 
 from __future__ import annotations
@@ -24,11 +24,11 @@ import rhino3dm
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry.bspline import BSplinePatch
+from ..geometry.patches.bspline import BSplinePatch
 from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
 from . import rhino_seams as seams
-from . import rhino_shape as sh
+from . import rhino_brep as brep
 from . import rhino_trims as tr
 from .model import CadFace, CadModel, LeftOutFace, no_usable_face
 from .rhino_inversion import Grid, pull_back
@@ -137,7 +137,7 @@ def read(
             f"{path}: expected surfaces (Breps, extrusions, NURBS), found {tr.found(model)}"
             + (f" ({notes[0]})" if notes else "")
         )
-    shape, built, unbuilt = sh.build_shape(path, faces, parts)
+    shape, built, unbuilt = brep.build_brep(path, faces, parts)
     if unbuilt:
         lost = {f.index for f in unbuilt}
         faces = [f for f in faces if f.index not in lost]
@@ -149,7 +149,7 @@ def read(
         faces=faces,
         unit=_unit(model),
         bounds=(lo, hi),
-        shape=shape,
+        brep=shape,
         left_out=left_out,
         notes=notes,
         kernel_faces=tuple(built),

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bezier_cells import Splines
-from ..geometry.bspline import BSplinePatch
+from ..geometry.evaluation.bezier_cells import Splines
+from ..geometry.patches.bspline import BSplinePatch
 from .rhino_feet import least_squares_step, nearest_points
 
 __all__ = ["Trims", "range_cuts", "sample_feet"]

@@ -1,7 +1,7 @@
 """The points of a face nearest points in space, for the pcurves of Rhino edges
 (:mod:`gshade.cad.rhino_pcurves`): a damped Gauss-Newton over many surfaces at once
 (:func:`nearest_points`, each step one evaluation of all of them by
-:class:`gshade.geometry.bezier_cells.Splines`), its least-squares step
+:class:`gshade.geometry.evaluation.bezier_cells.Splines`), its least-squares step
 (:func:`least_squares_step`), and samples put on one side of a seam (:func:`one_side`).
 """
 
@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bezier_cells import Splines
-from ..geometry.bspline import BSplinePatch
+from ..geometry.evaluation.bezier_cells import Splines
+from ..geometry.patches.bspline import BSplinePatch
 
 __all__ = ["least_squares_step", "nearest_points", "one_side"]
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bspline import BSplinePatch
+from ..geometry.patches.bspline import BSplinePatch
 from . import rhino_seams as seams
 
 __all__ = ["Grid", "pull_back"]

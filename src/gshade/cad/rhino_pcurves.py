@@ -46,9 +46,9 @@ from OCP.collections import Array1_double, Array1_gp_Pnt2d, Array1_int
 from OCP.Geom2d import Geom2d_BSplineCurve
 from OCP.gp import gp_Pnt2d
 
-from ..geometry.bernstein import bernstein_basis
-from ..geometry.bezier_cells import Splines
-from ..geometry.bspline import BSplinePatch
+from ..geometry.core.bernstein import bernstein_basis
+from ..geometry.evaluation.bezier_cells import Splines
+from ..geometry.patches.bspline import BSplinePatch
 from .rhino_cuts import Trims, range_cuts, sample_feet
 from .rhino_feet import least_squares_step, nearest_points, one_side
 

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.bspline import BSplinePatch
+from ..geometry.patches.bspline import BSplinePatch
 
 __all__ = ["closed_directions", "fix_ambiguous", "outward", "seam_widths"]
 

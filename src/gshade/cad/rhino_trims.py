@@ -1,5 +1,5 @@
 """A Rhino ``.3dm`` model's trims as gshade recovers them, before the kernel's shape is
-built from them (:mod:`gshade.cad.rhino` recovers, :mod:`gshade.cad.rhino_shape` builds):
+built from them (:mod:`gshade.cad.rhino` recovers, :mod:`gshade.cad.rhino_brep` builds):
 each loop's trims (:class:`Trim`: its edge, sense, end vertices, samples), each Brep's
 (:class:`BrepPart`), the edges' samples (:func:`edge_points`), the loop's parameters handed
 to its trims (:func:`split_trims`), a face's box shrunk to its loops (:func:`trimmed_box`),

@@ -1,11 +1,26 @@
-"""Exact parametric curves and patches with derivatives, and their differential geometry."""
+"""Exact parametric curves and patches with derivatives, and their differential geometry.
 
-from .bernstein import bernstein_basis, de_casteljau, elevate_degree
-from .betaspline import BetaSplineCurve, BetaSplinePatch
-from .bezier import BezierCurve, BezierPatch
-from .bspline import BSplineCurve, BSplinePatch
-from .coons import CoonsPatch
-from .differential import (
+The modules come in families, one subpackage each, every one importing only from those
+before it:
+
+- :mod:`~gshade.geometry.core`: the patch protocol, Bernstein bases, knots, rational
+  derivatives, differential geometry, first-order jets;
+- :mod:`~gshade.geometry.patches`: Bézier, B-spline (NURBS), Coons and revolved patches;
+- :mod:`~gshade.geometry.evaluation`: many patches at once (grouped grids, scattered
+  points), and the limits where a patch is irregular;
+- :mod:`~gshade.geometry.splines`: the geometric splines (β, γ, ν) and G^k junctions;
+- :mod:`~gshade.geometry.subdivision`: Catmull–Clark meshes and Stam's exact patches;
+- :mod:`~gshade.geometry.holes`: n-sided holes, their G1 / G2 fillings and fairing.
+
+The names below are the public ones; the modules' paths may change between versions.
+"""
+
+from .core.bernstein import bernstein_basis, de_casteljau, elevate_degree
+from .splines.betaspline import BetaSplineCurve, BetaSplinePatch
+from .patches.bezier import BezierCurve, BezierPatch
+from .patches.bspline import BSplineCurve, BSplinePatch
+from .patches.coons import CoonsPatch
+from .core.differential import (
     first_fundamental_form,
     gaussian_and_mean_curvature,
     gaussian_curvature,
@@ -15,12 +30,12 @@ from .differential import (
     second_fundamental_form,
     unit_normal,
 )
-from .gammaspline import GammaSplineCurve, GammaSplinePatch
-from .nuspline import NuSplinePatch, nu_spline
-from .patch import Curve, Patch
-from .regularity import patch_normals, regularised_derivatives, toward_interior
-from .revolution import circle, cylinder, revolve, sphere, torus
-from .subdivision import StamPatch, subdivision_patches
+from .splines.gammaspline import GammaSplineCurve, GammaSplinePatch
+from .splines.nuspline import NuSplinePatch, nu_spline
+from .core.patch import Curve, Patch
+from .evaluation.regularity import patch_normals, regularised_derivatives, toward_interior
+from .patches.revolution import circle, cylinder, revolve, sphere, torus
+from .subdivision.stam import StamPatch, subdivision_patches
 
 __all__ = [
     "BSplineCurve",

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
-from ..geometry.differential import derivative_scales
+from ..geometry.core.differential import derivative_scales
 from ..shape import ShapeFunction, evaluate
 
 __all__ = ["centre_values", "highest_order"]

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
-from ..geometry.patch import unit_to_domain
+from ..geometry.core.patch import unit_to_domain
 from ..shape import ShapeFunction
 from .atlas import Atlas
 from .camera import View

@@ -20,10 +20,10 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..geometry import Patch, patch_normals, unit_normal
-from ..geometry.differential import derivative_scales
-from ..geometry.patch import unit_to_domain
-from ..geometry.patch_groups import domain_spans, grid_derivatives
-from ..geometry.spline_batches import batch_derivatives
+from ..geometry.core.differential import derivative_scales
+from ..geometry.core.patch import unit_to_domain
+from ..geometry.evaluation.patch_groups import domain_spans, grid_derivatives
+from ..geometry.evaluation.spline_batches import batch_derivatives
 
 __all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
 

@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import Patch, irregular_mask, regularised_derivatives
-from ..geometry.differential import derivative_scales
-from ..geometry.patch_groups import domain_spans, grid_derivatives, patch_grid
+from ..geometry.core.differential import derivative_scales
+from ..geometry.evaluation.patch_groups import domain_spans, grid_derivatives, patch_grid
 from ..shape import ShapeFunction, evaluate
 from .atlas import GEOMETRY, SHAPE, Atlas
 

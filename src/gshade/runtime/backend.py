@@ -1,7 +1,7 @@
 """One protocol of array operations, for formulas written once for numpy and Dr.Jit arrays.
 
 gshade writes several formulas once and runs them on two array libraries: the shape
-functions' jets (:mod:`gshade.shape.jets`: numpy, or Dr.Jit's LLVM arrays traced into one
+functions' jets (:mod:`gshade.geometry.core.jets`: numpy, or Dr.Jit's LLVM arrays traced into one
 kernel), the stripe filter (:func:`gshade.display.colour.coverage_formula`: numpy, and Dr.Jit
 in the renderer's integrator), the atlas addressing and lookups
 (:mod:`gshade.rendering.atlas`) and the Newton step onto the exact surface

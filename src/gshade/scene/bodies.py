@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
-from ..geometry.patch_groups import grid_derivatives
+from ..geometry.evaluation.patch_groups import grid_derivatives
 
 __all__ = ["PATCHES", "CadFaces", "PatchBody", "SurfaceBody"]
 
@@ -162,7 +162,7 @@ class CadFaces:
     def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
         """A 9 x 9 grid of each face's surface over its box (the rational arcs' control
         points lie off the surface, overstating it), all faces at once."""
-        from ..geometry.patch_groups import grid_derivatives
+        from ..geometry.evaluation.patch_groups import grid_derivatives
 
         yield from grid_derivatives(list(patches), np.linspace(0.0, 1.0, 9))[:, 0, 0]
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import GshadeError, show
-from ..geometry.regularity import degenerate_patch
+from ..geometry.evaluation.regularity import degenerate_patch
 from ..limits import MAX_MAGNITUDE, MAX_NESTING, MAX_PATCHES, MAX_STRING
 from .data_files import data_roots
 from .model import Scene

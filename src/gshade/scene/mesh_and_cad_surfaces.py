@@ -14,13 +14,13 @@ import numpy as np
 
 from ..errors import GshadeError
 from ..geometry import BSplinePatch, Patch
-from ..geometry.hole_energy import DOMAINS, FUNCTIONALS
-from ..geometry.hole_fill import JUNCTIONS
-from ..geometry.hole_surface import filled_surface
-from ..geometry.subdivision import subdivision_patches
+from ..geometry.holes.energy import DOMAINS, FUNCTIONALS
+from ..geometry.holes.fill import JUNCTIONS
+from ..geometry.holes.surface import filled_surface
+from ..geometry.subdivision.stam import subdivision_patches
 from ..limits import MAX_HOLE_MESH_FACES, MAX_HOLES, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
-from ..shape.hole_shape import SHAPE_MEASURES
-from ..shape.hole_shape_cache import optimise_filling
+from ..geometry.holes.fairing import FAIRING_FUNCTIONALS
+from ..geometry.holes.fairing_cache import optimise_filling
 from .data_files import DataFiles
 from .model import CadFaces
 from .surfaces import surface_type
@@ -86,7 +86,7 @@ def _quad_mesh(t: Table, files: DataFiles) -> tuple[Any, str]:
     Key("domain", alternatives(DOMAINS), "square", "the domain the functional is taken over"),
     Key(
         "optimise",
-        alternatives(tuple(SHAPE_MEASURES)),
+        alternatives(tuple(FAIRING_FUNCTIONALS)),
         None,
         "a measure on the surface lowered",
         "none",
@@ -97,7 +97,7 @@ def _build_hole(t: Table, files: DataFiles) -> list[Patch]:
     continuity = t.choice("continuity", tuple(JUNCTIONS))
     functional = t.choice("functional", tuple(FUNCTIONALS))
     domain = t.choice("domain", DOMAINS)
-    optimise = t.choice("optimise", tuple(SHAPE_MEASURES))
+    optimise = t.choice("optimise", tuple(FAIRING_FUNCTIONALS))
     iterations = t.integer("iterations", minimum=1, maximum=100)
     mesh, source = _quad_mesh(t, files)
     if len(mesh.faces) > MAX_HOLE_MESH_FACES:
@@ -181,7 +181,7 @@ def _scene_patches(faces: list) -> list[tuple[Any, str, str]]:
     sweep's: :func:`gshade.cad.cache.find_model` gives the same faces) renders the same
     patch objects, so that neither they nor what is kept per patch (its Bézier cells) is
     made again."""
-    from ..geometry.regularity import degenerate_patches
+    from ..geometry.evaluation.regularity import degenerate_patches
 
     out: dict[int, tuple[Any, str, str]] = {}
     boxed: list[tuple[int, BSplinePatch]] = []

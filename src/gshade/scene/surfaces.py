@@ -31,10 +31,10 @@ from ..geometry import (
     sphere,
     torus,
 )
-from ..geometry.gammaspline import GammaSplinePatch
-from ..geometry.junctions import CLASSES, junction_patch
-from ..geometry.nuspline import ENDS as NU_ENDS
-from ..geometry.nuspline import NuSplinePatch
+from ..geometry.splines.gammaspline import GammaSplinePatch
+from ..geometry.splines.junctions import CLASSES, junction_patch
+from ..geometry.splines.nuspline import ENDS as NU_ENDS
+from ..geometry.splines.nuspline import NuSplinePatch
 from ..limits import MAX_DEGREE
 from .data_files import DataFiles
 from .model import CadFaces, Surface

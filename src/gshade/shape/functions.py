@@ -16,7 +16,7 @@ table, parameter checking, :func:`~gshade.shape.registry.evaluate`):
 
 1. ``_MINE = Layout(("light", 3), ("scale", 1))``: the numbers the formula needs, by name and
    length (every layout ends with ``irregular``, the threshold ``evaluate`` sets);
-2. ``def _mine(vec, p, form, xp)``: the formula on jets (:mod:`gshade.shape.jets`), reading
+2. ``def _mine(vec, p, form, xp)``: the formula on jets (:mod:`gshade.geometry.core.jets`), reading
    ``p.light``, ``p.scale``, ``p.irregular`` and returning (jet of f, valid or None, eye or
    None); ``vec(i, j)`` is the jet vector of d^(i+j) p / du^i dv^j;
 3. ``def _pack_mine(fn, kw)``: from the checked parameters ``kw`` to
@@ -34,14 +34,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
-from ..geometry.differential import (
+from ..geometry.core.differential import (
     first_form,
     fundamental_forms,
     gaussian_from_forms,
     mean_from_forms,
     principal_half_gap,
 )
-from .jets import arccos, arctan2, cross, dot, jabs, sqrt
+from ..geometry.core.jets import arccos, arctan2, cross, dot, jabs, sqrt
 from .kernels import Formula, Layout
 from .registry import (
     SHAPE_FUNCTIONS,
@@ -278,7 +278,7 @@ register(
 def _curvature(which: str) -> Formula:
     def formula(vec, p, form, xp):
         """K, H and k1,2 = H +- (k1 - k2) / 2 of the forms w.r.t. N = p_u x p_v
-        (:mod:`gshade.geometry.differential`); rms = sqrt(2 H^2 - K)."""
+        (:mod:`gshade.geometry.core.differential`); rms = sqrt(2 H^2 - K)."""
         f = fundamental_forms(vec(1, 0), vec(0, 1), vec(2, 0), vec(1, 1), vec(0, 2))
         valid = f.W2.f > p.irregular * p.irregular
         if which == "gaussian":

@@ -1,7 +1,7 @@
 """Running the shape functions' formulas on whole arrays of points.
 
 The formulas live with their declarations in :mod:`gshade.shape.functions`.  Each reads the
-jets of the surface derivatives (:mod:`gshade.shape.jets`) and its parameters by name through
+jets of the surface derivatives (:mod:`gshade.geometry.core.jets`) and its parameters by name through
 its :class:`Layout`, and returns the jet of f with a mask of the points where f is defined.
 :func:`run` evaluates one on a derivatives array and turns (f, f_u, f_v) into the surface
 gradient.
@@ -24,10 +24,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
-from ..geometry.differential import first_form, first_form_det, solve_first_form
+from ..geometry.core.differential import first_form, first_form_det, solve_first_form
 from ..runtime.drjit_arrays import drjit_array
 from ..runtime.llvm import drjit_llvm_ready
-from .jets import NUMPY, Backend, Jet
+from ..geometry.core.jets import NUMPY, Backend, Jet
 
 __all__ = ["BACKENDS", "Formula", "Layout", "backend", "run"]
 
@@ -126,7 +126,7 @@ def run(
     Returns f (n,), the gradient (3, n) or None, valid (n,), eye (n,): points where the
     eye lies on the surface (reflection lines), and the partials (f_u, f_v) (2, n) or None.
     The gradient is ((G f_u - F f_v) p_u + (E f_v - F f_u) p_v) / (EG - F^2)
-    (:func:`~gshade.geometry.differential.solve_first_form`); f, the gradient
+    (:func:`~gshade.geometry.core.differential.solve_first_form`); f, the gradient
     and the partials are 0 where f is undefined (or not finite).  Derivatives beyond d's
     order are taken as zero.
     """

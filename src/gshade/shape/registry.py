@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError, one_of, show, suggest
-from ..geometry.differential import IRREGULAR_TOL
-from ..geometry.differential import derivative_scale as _derivative_scale
+from ..geometry.core.differential import IRREGULAR_TOL
+from ..geometry.core.differential import derivative_scale as _derivative_scale
 from ..limits import MIN_DIRECTION
 from . import kernels
 from .kernels import Formula, Layout
