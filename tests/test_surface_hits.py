@@ -6,7 +6,7 @@ import pytest
 
 from gshade.geometry import BezierPatch, sphere
 from gshade.io import read_newell
-from gshade.rendering.surface_hits import surface_hits
+from gshade.rendering.surface_hits import patch_evaluator, surface_hits
 from gshade.shape.kernels import backend
 
 from .conftest import TEAPOT
@@ -132,3 +132,20 @@ def test_the_newton_step_is_exact_on_a_plane_for_every_array_library():
         np.testing.assert_allclose(u + np.array(du), u_true, atol=1e-12)
         np.testing.assert_allclose(v + np.array(dv), v_true, atol=1e-12)
         np.testing.assert_allclose(np.array(t + dt), 3.0, atol=1e-12)
+
+
+def test_an_evaluator_kept_across_calls_gives_the_same_hits():
+    """The evaluator built once (as the render's blocks of hits share it) is the one the
+    step evaluates with: the same hits as one built per call, and another set of patches'
+    evaluator lands elsewhere."""
+    patches = read_newell(TEAPOT)
+    rng = np.random.default_rng(5)
+    index, u, v, origin, direction, *_ = aimed_rays(patches, rng, n=500)
+    kept = patch_evaluator(patches)
+    alone = surface_hits(patches, index, u, v, origin, direction)
+    shared = surface_hits(patches, index, u, v, origin, direction, evaluator=kept)
+    for a, b in zip(alone, shared, strict=True):
+        np.testing.assert_array_equal(a, b)
+    moved = [BezierPatch(p.points + 1.0) for p in patches]
+    other = surface_hits(patches, index, u, v, origin, direction, evaluator=patch_evaluator(moved))
+    assert not np.allclose(other[2][0, 0], alone[2][0, 0])

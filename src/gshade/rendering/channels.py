@@ -24,7 +24,7 @@ from .atlas import Atlas
 from .camera import View
 from .centre_values import centre_values, highest_order
 from .integrator import SHAPE_FILM
-from .surface_hits import surface_hits
+from .surface_hits import patch_evaluator, surface_hits
 
 __all__ = ["PICTURE", "CentreHits", "centre_hits", "exact_channels", "refuse_non_finite"]
 
@@ -69,11 +69,12 @@ def centre_hits(
     values = {name: np.empty(pixels.size) for name in functions}
     by_patch = np.argsort(patch_index, kind="stable")  # a patch's hits in few blocks
     block = BLOCK >> (order - 1)  # in blocks: the steps' temporaries stay small
+    evaluator = patch_evaluator(patches)
     for first in range(0, pixels.size, block):
         at = by_patch[first : first + block]
         rays = view.pixel_rays(pixels[at] // W, pixels[at] % W)
         u[at], v[at], dk, _ = surface_hits(
-            patches, patch_index[at], u[at], v[at], *rays, order=order
+            patches, patch_index[at], u[at], v[at], *rays, order=order, evaluator=evaluator
         )
         d[:, :, at] = dk[:2, :2]
         for name, x in centre_values(patches, patch_index[at], u[at], v[at], dk, functions).items():
@@ -182,6 +183,7 @@ def _hits_from_neighbours(
     su, sv = np.zeros(slipped.size), np.zeros(slipped.size)
     d = np.zeros((order + 1, order + 1, slipped.size, 3))
     rows, cols = slipped // W, slipped % W
+    evaluator = patch_evaluator(patches)
     for dr, dc in ((0, -1), (0, 1), (-1, 0), (1, 0), (-1, -1), (-1, 1), (1, -1), (1, 1)):
         r, c = rows + dr, cols + dc
         inside = (r >= 0) & (r < H) & (c >= 0) & (c < W) & (index < 0)
@@ -193,7 +195,14 @@ def _hits_from_neighbours(
         pixels = slipped[todo]
         rays = view.pixel_rays(pixels // W, pixels % W)
         tu, tv, td, settled = surface_hits(
-            patches, patch_index[s], u[s], v[s], *rays, steps=SLIPPED_STEPS, order=order
+            patches,
+            patch_index[s],
+            u[s],
+            v[s],
+            *rays,
+            steps=SLIPPED_STEPS,
+            order=order,
+            evaluator=evaluator,
         )
         done = todo[settled]
         index[done], su[done], sv[done] = patch_index[s][settled], tu[settled], tv[settled]

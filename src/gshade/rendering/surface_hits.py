@@ -27,7 +27,7 @@ from ..runtime.backend import NUMPY
 from ..shape.kernels import backend
 from .newton import newton_step, ray_residual
 
-__all__ = ["surface_hits"]
+__all__ = ["patch_evaluator", "surface_hits"]
 
 #: A Newton step has settled when |p - o - t d| <= SETTLED * |p - o|.
 SETTLED = 1e-7
@@ -63,6 +63,16 @@ def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1, 
     return np.where(settled, uu, u), np.where(settled, vv, v), d, settled
 
 
+def patch_evaluator(
+    patches: list[Patch] | tuple[Patch, ...], backend_name: str = "auto"
+) -> ManyPatches:
+    """The patches' derivatives at scattered points as :func:`surface_hits` evaluates them
+    (Dr.Jit for Bézier and B-spline patches, ``backend_name`` as there): built once for the
+    calls on one set of patches (grouping a CAD model's faces into their cells costs about
+    as much as a block of steps)."""
+    return ManyPatches(patches, drjit=backend(backend_name) == "drjit")
+
+
 def surface_hits(
     patches: list[Patch] | tuple[Patch, ...],
     index: NDArray,
@@ -73,6 +83,7 @@ def surface_hits(
     backend_name: str = "auto",
     steps: int = 1,
     order: int = 1,
+    evaluator: ManyPatches | None = None,
 ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """One exact Newton step for each ray (origin, direction) from (u, v) on patch index
     (``steps`` of them, for starts farther away).
@@ -81,7 +92,8 @@ def surface_hits(
     there (order + 1, order + 1, N, 3) and whether the step settled (N,); unsettled points
     keep their start parameters.
     ``backend_name``: "auto" (Dr.Jit for Bézier and B-spline patches where it works),
-    "drjit" or "numpy" (every patch by numpy).
+    "drjit" or "numpy" (every patch by numpy); ``evaluator``: :func:`patch_evaluator` of
+    the same patches and backend, where the caller keeps one across calls.
     """
     index = np.asarray(index, dtype=np.int64)
     N = index.size
@@ -91,7 +103,7 @@ def surface_hits(
     origin = np.broadcast_to(origin, (N, 3))
     direction = np.broadcast_to(direction, (N, 3))
     if N:
-        many = ManyPatches(patches, drjit=backend(backend_name) == "drjit")
+        many = evaluator or patch_evaluator(patches, backend_name)
         domains = np.array([p.domain for p in patches], dtype=np.float64)[index]
 
         def derivatives(uu, vv, k, at):
