@@ -91,7 +91,7 @@ def _image_error(path) -> tuple[float, int]:
     model = rhino.read(path)
     size = _size(model)
     worst, count = 0.0, 0
-    faces = TopExp_Explorer(model.shape, TopAbs_FACE)
+    faces = TopExp_Explorer(model.brep, TopAbs_FACE)
     while faces.More():
         face = TopoDS.Face(faces.Current())
         surface = BRep_Tool.Surface_s(face)

@@ -6,8 +6,8 @@ import pytest
 
 from gshade.display import stripe_coverage
 from gshade.display.colour import coverage_formula
-from gshade.runtime.backend import NUMPY, NUMPY_NAN, ArrayOps, cross3, dot3, drjit_ops
 from gshade.geometry.core import jets
+from gshade.runtime.backend import NUMPY, NUMPY_NAN, ArrayOps, cross3, dot3, drjit_ops
 from gshade.shape.kernels import backend
 
 

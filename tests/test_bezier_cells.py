@@ -1,5 +1,5 @@
-"""Many B-splines' Bézier cells (gshade.geometry.evaluation.bezier_cells.Splines) give each patch's own
-points and first derivatives at its knots, an ulp either side of them and past its ends,
+"""Many B-splines' Bézier cells (gshade.geometry.evaluation.bezier_cells.Splines) give each
+patch's own points and first derivatives at its knots, an ulp either side of them and past its ends,
 with the knot lines C0 (a point's cell is the knot interval it lies in, as the patch's own
 span search finds it, however many splines share the table's search)."""
 

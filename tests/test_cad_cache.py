@@ -159,7 +159,7 @@ def test_a_second_read_is_a_hit_with_the_same_model_mesh_and_edges(cache, reques
 
     hit = read_cad(path)
     assert requests == []  # the cached read: no parse, and no kernel until one is needed
-    assert hit.shape is not cold.shape and hit.shape.running
+    assert hit.brep is not cold.brep and hit.brep.running
     assert same(without_shape(hit), without_shape(cold))
     assert hit.left_out == cold.left_out and hit.notes == cold.notes
     assert same(mesh_faces(hit, DEFLECTION), cold_mesh)  # its child given the cached shape
@@ -171,7 +171,7 @@ def test_a_second_read_is_a_hit_with_the_same_model_mesh_and_edges(cache, reques
     third = read_cad(path)
     assert same(mesh_faces(third, DEFLECTION), cold_mesh)
     assert same(shared_edges(third, 8), cold_edges)
-    assert requests == [] and repr(third.shape).endswith("(not started)>")
+    assert requests == [] and repr(third.brep).endswith("(not started)>")
     mesh_faces(third, DEFLECTION / 2)  # another call is another answer
     assert requests == ["mesh_faces", "load"]
 
@@ -180,11 +180,11 @@ def test_a_model_in_use_shares_its_kernel_process(cache, requests, parts):
     first = read_cad(parts["step"])
     second = read_cad(parts["step"])
     assert requests == ["read", "keep"]
-    assert second.shape is first.shape and second is not first
+    assert second.brep is first.brep and second is not first
     assert same(without_shape(second), without_shape(first))
     first.brep.close()  # an ended process is not shared: a new one is given the read
     third = read_cad(parts["step"])
-    assert third.shape is not first.shape and third.shape.running
+    assert third.brep is not first.brep and third.brep.running
     mesh_faces(third, DEFLECTION)
     assert requests == ["read", "keep", "mesh_faces", "load"]
 
@@ -205,7 +205,7 @@ def test_reads_of_a_cached_file_in_one_process_share_its_faces(cache, requests, 
     assert second is not first and second.notes is not first.notes
     assert len(second.faces) == len(first.faces) > 0
     assert all(a is b for a, b in zip(first.faces, second.faces, strict=True))
-    second.shape.close()
+    second.brep.close()
     patches = load_scene(parts["step"]).patches
     assert all(a is b for a, b in zip(patches, load_scene(parts["step"]).patches, strict=True))
     (entry,) = cache.glob("*.model")

@@ -235,7 +235,7 @@ def test_healing_a_valid_model_changes_nothing(tmp_path):
     path = write_shape(filleted_box(), tmp_path / "box.brep")
     model = read_cad(path, isolated=False)
     assert model.notes == [] and model.left_out == []
-    assert len(shape_faces(model.shape)) == 26 == len(model.faces)
+    assert len(shape_faces(model.brep)) == 26 == len(model.faces)
 
 
 def test_batch_lists_the_warnings(parts, tmp_path):

@@ -237,7 +237,7 @@ def test_loft_mean_curvature_is_the_kernels(parts, file):
     assert (A > 0).sum() > 3000
     assert not ((A == 0) & _silhouette(A)).any()
     cad = scene.surfaces[0].cad
-    kernel_faces = shape_faces(read_cad(cad.model.path, isolated=False).shape)
+    kernel_faces = shape_faces(read_cad(cad.model.path, isolated=False).brep)
     rows, cols = (a[::2] for a in np.nonzero(_one_face_core(image)))  # every other pixel
     k = patch[rows, cols].astype(int)
     u, v = image["u"][rows, cols].astype(float), image["v"][rows, cols].astype(float)

@@ -86,8 +86,8 @@ def test_the_model_comes_back_and_its_operations_run_in_the_child(parts):
     edges run in the child and give what they give in-process."""
     isolated = read_cad(parts["box.brep"])
     here = read_cad(parts["box.brep"], isolated=False)
-    assert isinstance(isolated.shape, cad_process.KernelProcess)
-    assert not isinstance(here.shape, cad_process.KernelProcess)
+    assert isinstance(isolated.brep, cad_process.KernelProcess)
+    assert not isinstance(here.brep, cad_process.KernelProcess)
     assert len(isolated.faces) == len(here.faces) == 26
     for a, b in zip(isolated.faces, here.faces, strict=True):
         assert a.kind == b.kind and a.box == b.box and a.reversed == b.reversed
@@ -98,9 +98,9 @@ def test_the_model_comes_back_and_its_operations_run_in_the_child(parts):
     e1, e2 = shared_edges(isolated, 8), shared_edges(here, 8)
     assert [e.faces for e in e1] == [e.faces for e in e2]
     assert all((a.uv[0] == b.uv[0]).all() for a, b in zip(e1, e2, strict=True))
-    child = isolated.shape._child.pid
+    child = isolated.brep._child.pid
     assert _alive(child)
-    isolated.shape.close()  # the model's child ends with it
+    isolated.brep.close()  # the model's child ends with it
     assert not _alive(child)
 
 
@@ -282,7 +282,7 @@ def test_models_are_forked_from_one_zygote(parts):
     """The kernel's libraries are loaded once, by the zygote; each model's process is
     forked from it."""
     a, b = read_cad(parts["sheet.step"]), read_cad(parts["box.brep"])
-    first, second = a.shape._child, b.shape._child
+    first, second = a.brep._child, b.brep._child
     assert isinstance(first, cad_zygote.Forked) and isinstance(second, cad_zygote.Forked)
     assert first.zygote is second.zygote and first.pid != second.pid
     assert _parent(first.pid) == _parent(second.pid) == first.zygote.process.pid

@@ -108,7 +108,7 @@ def test_quadric_faces_are_the_kernels_surfaces(tmp_path, kind):
     model = read_cad(write_shape(shape, tmp_path / f"{kind}.brep"), isolated=False)
     assert kind in {f.kind for f in model.faces}
     rng = np.random.default_rng(0)
-    for face, kernel_face in zip(model.faces, shape_faces(model.shape), strict=True):
+    for face, kernel_face in zip(model.faces, shape_faces(model.brep), strict=True):
         _agrees_with_the_kernel(face, kernel_face, rng, 25)
         if face.kind == kind:
             assert face.arcs[0] is not None
@@ -150,7 +150,7 @@ def test_swept_faces_are_the_kernels_surfaces(tmp_path, kind):
     model = read_cad(path, isolated=False)  # the kernel's shape here
     swept = [
         (face, kernel)
-        for face, kernel in zip(model.faces, shape_faces(model.shape), strict=True)
+        for face, kernel in zip(model.faces, shape_faces(model.brep), strict=True)
         if face.kind == kind
     ]
     assert len(swept) == 1
@@ -179,7 +179,7 @@ def test_a_full_turn_written_a_sliver_too_long_is_read(tmp_path):
     (cad,) = model.faces
     assert cad.kind == "cylinder"
     rng = np.random.default_rng(1)
-    _agrees_with_the_kernel(cad, shape_faces(model.shape)[0], rng, 25)
+    _agrees_with_the_kernel(cad, shape_faces(model.brep)[0], rng, 25)
     with pytest.raises(Exception, match="expected a0 < a1"):
         arc(-np.pi, np.pi + 0.1)  # more than a tolerance: still refused
 

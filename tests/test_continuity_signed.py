@@ -38,8 +38,8 @@ from OCP.TopoDS import TopoDS_Compound
 from gshade.analysis.continuity import Tolerances, continuity_report
 from gshade.analysis.edge_continuity import edge_report
 from gshade.cad import read_cad
-from gshade.geometry.patches.bezier import BezierPatch
 from gshade.geometry.core.differential import normal_curvature, unit_normal
+from gshade.geometry.patches.bezier import BezierPatch
 
 from .cad_parts import filleted_box
 

@@ -26,9 +26,9 @@ from gshade.geometry.core.differential import (
     normal_curvature,
     principal_half_gap,
 )
-from gshade.io import read_newell
 from gshade.geometry.core.jets import NUMPY, Jet
 from gshade.geometry.core.jets import sqrt as jet_sqrt
+from gshade.io import read_newell
 
 from . import curvature_oracles
 from .conftest import TEAPOT
@@ -246,7 +246,11 @@ def test_normal_curvature_follows_euler_s_formula(name):
 def test_derivative_scales_are_each_groups_own():
     """Points of two patches of very different sizes: each judged on its own patch's scale
     (the small patch's regular points stay regular beside a large patch)."""
-    from gshade.geometry.core.differential import derivative_scale, derivative_scales, irregular_mask
+    from gshade.geometry.core.differential import (
+        derivative_scale,
+        derivative_scales,
+        irregular_mask,
+    )
 
     rng = np.random.default_rng(5)
     d = rng.normal(size=(2, 2, 2, 50, 3))

@@ -28,18 +28,18 @@ import scipy.optimize
 
 from gshade.errors import GshadeError
 from gshade.geometry.core.bernstein import bernstein_basis
-from gshade.geometry.patches.bezier import BezierPatch
-from gshade.geometry.holes.ring import find_holes
-from gshade.geometry.holes.fill import fill_hole, hole_system
 from gshade.geometry.holes import fairing_cache as hole_shape_cache
 from gshade.geometry.holes.fairing import (
     FAIRING_FUNCTIONALS,
     FairingProblem,
     default_quadrature,
-    optimise_fairing,
     fairing_value,
+    optimise_fairing,
 )
 from gshade.geometry.holes.fairing_cache import optimise_filling
+from gshade.geometry.holes.fill import fill_hole, hole_system
+from gshade.geometry.holes.ring import find_holes
+from gshade.geometry.patches.bezier import BezierPatch
 from gshade.shape.registry import evaluate
 
 from .test_hole import wavy_fan

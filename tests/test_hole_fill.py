@@ -16,12 +16,12 @@ import pytest
 from gshade import GshadeError
 from gshade.analysis.continuity import continuity_report
 from gshade.geometry.core.bernstein import bernstein_basis, derivative_matrix, gram_matrix
-from gshade.geometry.patches.bezier import BezierPatch
-from gshade.geometry.subdivision.catmull_clark import regular_patch
 from gshade.geometry.core.differential import gaussian_and_mean_curvature
-from gshade.geometry.holes.ring import find_holes, hole_around
 from gshade.geometry.holes.energy import functional_matrix, sector_jacobian
 from gshade.geometry.holes.fill import fill_hole, hole_system, solve_qp
+from gshade.geometry.holes.ring import find_holes, hole_around
+from gshade.geometry.patches.bezier import BezierPatch
+from gshade.geometry.subdivision.catmull_clark import regular_patch
 from gshade.geometry.subdivision.quad_mesh import MeshTopology
 
 from .test_hole import wavy_fan

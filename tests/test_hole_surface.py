@@ -15,12 +15,12 @@ import pytest
 
 from gshade import GshadeError
 from gshade.analysis.continuity import continuity_report
-from gshade.geometry.patches.bezier import BezierPatch
+from gshade.geometry.holes.fairing import fairing_value
 from gshade.geometry.holes.surface import filled_surface
+from gshade.geometry.patches.bezier import BezierPatch
 from gshade.geometry.subdivision.stam import StamPatch, subdivision_patches
 from gshade.io import read_obj
 from gshade.scene import load_scene
-from gshade.geometry.holes.fairing import fairing_value
 from gshade.shape.registry import evaluate
 
 from .test_subdivision import CUBE, DRUM, grid_mesh, obj_of

@@ -102,7 +102,7 @@ def test_every_geometry_module_is_in_a_family():
 def test_geometry_families_import_only_from_lower_ones(path):
     own = path.relative_to(GEOMETRY).parts[0]
     found = set()
-    for module, names in _imports(path, top_level_only=False):
+    for module, _ in _imports(path, top_level_only=False):
         parts = module.split(".")
         if parts[:2] != ["gshade", "geometry"]:
             continue

@@ -1,5 +1,5 @@
-"""Many B-spline patches at once (``gshade.geometry.evaluation.spline_batches``) against each patch's
-own ``derivatives``: the same numbers up to round-off, for any degrees, knots (clamped or
+"""Many B-spline patches at once (``gshade.geometry.evaluation.spline_batches``) against each
+patch's own ``derivatives``: the same numbers up to round-off, for any degrees, knots (clamped or
 not), weights and points on any of the patches."""
 
 import numpy as np

@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.patches.bspline import BSplinePatch
 from ..geometry.core.knots import find_spans
 from ..geometry.core.patch import Patch
+from ..geometry.patches.bspline import BSplinePatch
 from .continuity import Junction, Tolerances, classify, validate_samples
 from .junction_measures import (
     SideGeometry,

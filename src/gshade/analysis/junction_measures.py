@@ -38,10 +38,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry.patches.bspline import BSplinePatch
 from ..geometry.core.differential import IRREGULAR_TOL, cross_arrays, dot_arrays, solve_first_form
 from ..geometry.core.patch import Patch, TensorProductPatch
 from ..geometry.evaluation.regularity import toward_interior
+from ..geometry.patches.bspline import BSplinePatch
 from ..shape import evaluate
 
 __all__ = [

@@ -382,7 +382,7 @@ def remember(key: str, path: str | os.PathLike, model: CadModel) -> CadModel:
             if _live.get(where, (None,))[0] is ref:
                 del _live[where]
 
-    ref = weakref.ref(model.shape, gone)
+    ref = weakref.ref(model.brep, gone)
     with _live_lock:
         _live[where] = (ref, replace(model, brep=None))
     return model

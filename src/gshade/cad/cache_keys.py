@@ -51,17 +51,17 @@ SOURCES = (
     "limits.py",
     "runtime/native.py",
     "runtime/drjit_arrays.py",
-    "geometry/bspline.py",
-    "geometry/bezier.py",
-    "geometry/bezier_cells.py",
-    "geometry/bernstein.py",
-    "geometry/blas_threads.py",
-    "geometry/knots.py",
-    "geometry/patch.py",
-    "geometry/patch_cells.py",
-    "geometry/rational.py",
-    "geometry/revolution.py",
-    "geometry/spline_batches.py",
+    "geometry/patches/bspline.py",
+    "geometry/patches/bezier.py",
+    "geometry/evaluation/bezier_cells.py",
+    "geometry/core/bernstein.py",
+    "geometry/core/blas_threads.py",
+    "geometry/core/knots.py",
+    "geometry/core/patch.py",
+    "geometry/evaluation/patch_cells.py",
+    "geometry/core/rational.py",
+    "geometry/patches/revolution.py",
+    "geometry/evaluation/spline_batches.py",
 )
 OCCT_SOURCES = (
     "cad/occt.py",
@@ -77,7 +77,7 @@ READER_SOURCES = {
 #: The modules whose source the kernel's operations depend on, beside the read's, by the
 #: operations' module.
 OPERATION_SOURCES = {
-    "gshade.cad.mesh": ("cad/mesh.py", "geometry/spline_batches.py"),
+    "gshade.cad.mesh": ("cad/mesh.py", "geometry/evaluation/spline_batches.py"),
     "gshade.cad.edges": ("cad/edges.py",),
 }
 

@@ -128,16 +128,16 @@ def _edge_faces(model: CadModel) -> Iterator[tuple[int, Any, list[tuple[int, Any
     from OCP.TopoDS import TopoDS
 
     face_map = ShapeMap()
-    TopExp.MapShapes_s(model.shape, FACE, face_map)
+    TopExp.MapShapes_s(model.brep, FACE, face_map)
     numbers = model.kernel_numbers()
     number: dict[int, int] = {}  # the map's index -> the model's face number (first seen)
-    explorer, position = TopExp_Explorer(model.shape, FACE), 0
+    explorer, position = TopExp_Explorer(model.brep, FACE), 0
     while explorer.More() and position < len(numbers):
         number.setdefault(face_map.FindIndex(explorer.Current()), numbers[position])
         explorer.Next()
         position += 1
     edge_faces = EdgeFaces()
-    TopExp.MapShapesAndUniqueAncestors_s(model.shape, EDGE, FACE, edge_faces)
+    TopExp.MapShapesAndUniqueAncestors_s(model.brep, EDGE, FACE, edge_faces)
     senses: dict[int, dict[int, Any]] = {}  # face map index -> edge index -> orientation
 
     def sense(face: Any, index: int, e: int) -> Any:

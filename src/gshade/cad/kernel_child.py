@@ -120,7 +120,7 @@ def serve(parent: int) -> None:
                 if model is None or model.brep is None:
                     raise GshadeError("no model here to keep")
                 _bound(memory, seconds)
-                answer = ("ok", shape_bytes(model.shape))
+                answer = ("ok", shape_bytes(model.brep))
             else:
                 module, _, _ = operation.partition(":")
                 if module in OPERATION_MODULES:

@@ -138,18 +138,17 @@ class CadModel:
     the trimmed faces, sampled: :func:`faces_bounds`).
 
     ``faces`` are the faces gshade renders, in the file's order, each with its number
-    (``CadFace.index``); ``left_out`` the faces it cannot use (still invalid after the
-    kernel's healing, or failing to convert or evaluate: :class:`LeftOutFace`), and
-    ``notes`` what the reader changed or passed over, a line each (the kernel's healing,
-    sewing undone, objects hidden in Rhino).  ``brep`` is the kernel's
-    B-rep (its shape), whose faces are all of them, face ``i`` the ``i``-th (STEP, IGES, BREP: as read and
-    healed, or NURBS-converted where gshade does not build a face's surface itself; .3dm:
-    rebuilt from the file's B-rep), or the :class:`~gshade.cad.process.KernelProcess`
-    that holds it (a model read ``isolated``); ``kernel_faces`` the numbers of the shape's
-    faces in its order where it lacks some (a .3dm face the kernel could not build), None
-    where face ``i`` is its ``i``-th (:meth:`kernel_numbers`).  ``precision`` is the distance
-    accuracy the file declares (a STEP file's global uncertainty, model units; 0 where none is
-    declared).
+    (``CadFace.index``); ``left_out`` the faces it cannot use (still invalid after the kernel's
+    healing, or failing to convert or evaluate: :class:`LeftOutFace`), and ``notes`` what the
+    reader changed or passed over, a line each (the kernel's healing, sewing undone, objects
+    hidden in Rhino).  ``brep`` is the kernel's B-rep (its shape), whose faces are all of them,
+    face ``i`` the ``i``-th (STEP, IGES, BREP: as read and healed, or NURBS-converted where
+    gshade does not build a face's surface itself; .3dm: rebuilt from the file's B-rep), or the
+    :class:`~gshade.cad.process.KernelProcess` that holds it (a model read ``isolated``);
+    ``kernel_faces`` the numbers of the shape's faces in its order where it lacks some (a .3dm
+    face the kernel could not build), None where face ``i`` is its ``i``-th
+    (:meth:`kernel_numbers`).  ``precision`` is the distance accuracy the file declares (a STEP
+    file's global uncertainty, model units; 0 where none is declared).
     """
 
     path: Path

@@ -27,8 +27,8 @@ from ..errors import GshadeError
 from ..geometry.patches.bspline import BSplinePatch
 from ..io.files import read_bytes
 from ..limits import MAX_DATA_FILE_BYTES
-from . import rhino_seams as seams
 from . import rhino_brep as brep
+from . import rhino_seams as seams
 from . import rhino_trims as tr
 from .model import CadFace, CadModel, LeftOutFace, no_usable_face
 from .rhino_inversion import Grid, pull_back

@@ -16,10 +16,6 @@ The names below are the public ones; the modules' paths may change between versi
 """
 
 from .core.bernstein import bernstein_basis, de_casteljau, elevate_degree
-from .splines.betaspline import BetaSplineCurve, BetaSplinePatch
-from .patches.bezier import BezierCurve, BezierPatch
-from .patches.bspline import BSplineCurve, BSplinePatch
-from .patches.coons import CoonsPatch
 from .core.differential import (
     first_fundamental_form,
     gaussian_and_mean_curvature,
@@ -30,11 +26,15 @@ from .core.differential import (
     second_fundamental_form,
     unit_normal,
 )
-from .splines.gammaspline import GammaSplineCurve, GammaSplinePatch
-from .splines.nuspline import NuSplinePatch, nu_spline
 from .core.patch import Curve, Patch
 from .evaluation.regularity import patch_normals, regularised_derivatives, toward_interior
+from .patches.bezier import BezierCurve, BezierPatch
+from .patches.bspline import BSplineCurve, BSplinePatch
+from .patches.coons import CoonsPatch
 from .patches.revolution import circle, cylinder, revolve, sphere, torus
+from .splines.betaspline import BetaSplineCurve, BetaSplinePatch
+from .splines.gammaspline import GammaSplineCurve, GammaSplinePatch
+from .splines.nuspline import NuSplinePatch, nu_spline
 from .subdivision.stam import StamPatch, subdivision_patches
 
 __all__ = [

@@ -9,8 +9,8 @@ silhouette pixel whose centre ray misses the patch) keep their start values.
 
 The step runs on numpy arrays; the patches' points and first derivatives come two ways:
 Bézier and B-spline patches of one degree and kind all at once from one Dr.Jit kernel over
-their Bézier cells (:class:`gshade.geometry.evaluation.patch_cells.PatchCells`), every other patch (and
-every patch with ``backend_name="numpy"``) by numpy
+their Bézier cells (:class:`gshade.geometry.evaluation.patch_cells.PatchCells`), every other
+patch (and every patch with ``backend_name="numpy"``) by numpy
 (:func:`gshade.geometry.evaluation.spline_batches.batch_derivatives`).  They agree to round-off
 (tested); the kernel saves the gathers' memory traffic (benchmarks/bench_render.py measures
 it).

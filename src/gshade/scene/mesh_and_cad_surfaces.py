@@ -15,12 +15,12 @@ import numpy as np
 from ..errors import GshadeError
 from ..geometry import BSplinePatch, Patch
 from ..geometry.holes.energy import DOMAINS, FUNCTIONALS
+from ..geometry.holes.fairing import FAIRING_FUNCTIONALS
+from ..geometry.holes.fairing_cache import optimise_filling
 from ..geometry.holes.fill import JUNCTIONS
 from ..geometry.holes.surface import filled_surface
 from ..geometry.subdivision.stam import subdivision_patches
 from ..limits import MAX_HOLE_MESH_FACES, MAX_HOLES, MAX_PATCHES, MAX_SUBDIVISION_LEVELS
-from ..geometry.holes.fairing import FAIRING_FUNCTIONALS
-from ..geometry.holes.fairing_cache import optimise_filling
 from .data_files import DataFiles
 from .model import CadFaces
 from .surfaces import surface_type

@@ -1,8 +1,8 @@
 """Running the shape functions' formulas on whole arrays of points.
 
 The formulas live with their declarations in :mod:`gshade.shape.functions`.  Each reads the
-jets of the surface derivatives (:mod:`gshade.geometry.core.jets`) and its parameters by name through
-its :class:`Layout`, and returns the jet of f with a mask of the points where f is defined.
+jets of the surface derivatives (:mod:`gshade.geometry.core.jets`) and its parameters by name
+through its :class:`Layout`, and returns the jet of f with a mask of the points where f is defined.
 :func:`run` evaluates one on a derivatives array and turns (f, f_u, f_v) into the surface
 gradient.
 
@@ -25,9 +25,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import GshadeError
 from ..geometry.core.differential import first_form, first_form_det, solve_first_form
+from ..geometry.core.jets import NUMPY, Backend, Jet
 from ..runtime.drjit_arrays import drjit_array
 from ..runtime.llvm import drjit_llvm_ready
-from ..geometry.core.jets import NUMPY, Backend, Jet
 
 __all__ = ["BACKENDS", "Formula", "Layout", "backend", "run"]
 

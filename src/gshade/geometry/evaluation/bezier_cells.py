@@ -41,8 +41,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.bernstein import bernstein_basis
-from ..patches.bspline import BSplinePatch
 from ..core.knots import basis_functions, one_clamped_span
+from ..patches.bspline import BSplinePatch
 
 __all__ = ["MAX_CELLS", "CellTable", "Splines", "few_cells", "tensor_cells", "to_bezier"]
 

@@ -3,11 +3,12 @@ derivatives at many points in one Dr.Jit kernel.
 
 A CAD model's faces are B-spline patches (rational or not) of a few degrees; an image's
 pixels fall on all of them.  Evaluated by numpy, each point gathers its (m + 1) x (n + 1)
-control points into memory before the products (:mod:`gshade.geometry.evaluation.spline_batches`), and
-that traffic is the cost.  Here each patch is cut once into the Bézier patches of its knot
-intervals (Bézier extraction, :func:`gshade.geometry.evaluation.bezier_cells.tensor_cells`; a Bézier
-patch is one cell), the homogeneous nets of all cells laid end to end and each point's cell
-found as :class:`gshade.geometry.evaluation.bezier_cells.CellTable` lays them out and finds them, and
+control points into memory before the products
+(:mod:`gshade.geometry.evaluation.spline_batches`), and that traffic is the cost.  Here each
+patch is cut once into the Bézier patches of its knot intervals (Bézier extraction,
+:func:`gshade.geometry.evaluation.bezier_cells.tensor_cells`; a Bézier patch is one cell),
+the homogeneous nets of all cells laid end to end and each point's cell found as
+:class:`gshade.geometry.evaluation.bezier_cells.CellTable` lays them out and finds them, and
 one kernel per call evaluates, per point, the Bernstein basis of its cell in closed form and
 sums its control points gathered inside the kernel (no temporaries):
 
@@ -44,11 +45,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...runtime.drjit_arrays import drjit_array
-from ..patches.bezier import BezierPatch
-from .bezier_cells import CellTable, few_cells, tensor_cells
-from ..patches.bspline import BSplinePatch
 from ..core.patch import homogeneous, validate_order
 from ..core.rational import project_patch_derivatives
+from ..patches.bezier import BezierPatch
+from ..patches.bspline import BSplinePatch
+from .bezier_cells import CellTable, few_cells, tensor_cells
 from .spline_batches import batch_derivatives
 
 __all__ = ["ManyPatches", "PatchCells", "cell_groups"]

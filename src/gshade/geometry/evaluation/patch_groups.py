@@ -1,15 +1,15 @@
 """Many patches on one grid at once: Bézier cells of one degree share a basis.
 
-A surface of thousands of bicubic patches (a CAD sheet, a subdivision surface's regular
-faces, a CAD model's planes and one-span faces) is one array of control nets.
-:func:`grid_derivatives` evaluates every patch on the same grid of normalised parameters
-with two matrix products per derivative and group of patches that are one Bézier cell over
-their domain (:func:`bezier_groups`: Bézier patches, and B-spline patches of one clamped
-knot span each way, whose B-spline basis is the Bernstein basis there) of equal degree and
-kind — the Bernstein bases on the grid times all their (homogeneous) nets, rational ones
-then projected by the quotient rule (:func:`gshade.geometry.core.rational.project_patch_derivatives`)
-— instead of one call per patch; every other patch is evaluated by its own
-``derivatives``.  Both give the same numbers up to round-off (tested).
+A surface of thousands of bicubic patches (a CAD sheet, a subdivision surface's regular faces, a
+CAD model's planes and one-span faces) is one array of control nets. :func:`grid_derivatives`
+evaluates every patch on the same grid of normalised parameters with two matrix products per
+derivative and group of patches that are one Bézier cell over their domain
+(:func:`bezier_groups`: Bézier patches, and B-spline patches of one clamped knot span each way,
+whose B-spline basis is the Bernstein basis there) of equal degree and kind — the Bernstein
+bases on the grid times all their (homogeneous) nets, rational ones then projected by the
+quotient rule (:func:`gshade.geometry.core.rational.project_patch_derivatives`) — instead of one
+call per patch; every other patch is evaluated by its own ``derivatives``.  Both give the same
+numbers up to round-off (tested).
 """
 
 from __future__ import annotations
@@ -20,12 +20,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.bernstein import bernstein_basis
-from ..patches.bezier import BezierPatch
 from ..core.blas_threads import single_threaded_blas
-from ..patches.bspline import BSplinePatch
 from ..core.knots import one_clamped_span
 from ..core.patch import Patch, TensorProductPatch, homogeneous, unit_to_domain, validate_order
 from ..core.rational import project_patch_derivatives
+from ..patches.bezier import BezierPatch
+from ..patches.bspline import BSplinePatch
 from .spline_batches import ALONE_FROM, batch_derivatives
 
 __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]

@@ -20,10 +20,10 @@ from typing import cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..patches.bspline import BSplinePatch
 from ..core.knots import basis_functions_in_spans, find_spans
 from ..core.patch import Patch, validate_order
 from ..core.rational import project_patch_derivatives
+from ..patches.bspline import BSplinePatch
 
 __all__ = ["ALONE_FROM", "SplineBatch", "batch_derivatives"]
 

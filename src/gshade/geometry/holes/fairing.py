@@ -89,15 +89,15 @@ from ..core.differential import fundamental_forms, mean_from_forms
 from ..core.jets import Jet
 
 __all__ = [
+    "FAIRING_FUNCTIONALS",
     "FREE",
     "ITERATIONS",
-    "FAIRING_FUNCTIONALS",
     "FairingFunctional",
-    "FairingReport",
     "FairingProblem",
+    "FairingReport",
     "default_quadrature",
-    "optimise_fairing",
     "fairing_value",
+    "optimise_fairing",
 ]
 
 #: How the control points may move (:func:`optimise_fairing`'s ``free``).
@@ -330,9 +330,8 @@ class FairingProblem:
 def _measure(measure: Any) -> FairingFunctional:
     if not (isinstance(measure, str) and measure in FAIRING_FUNCTIONALS):
         hint = suggest(measure, tuple(FAIRING_FUNCTIONALS)) if isinstance(measure, str) else ""
-        raise GshadeError(
-            f"measure: expected one of {one_of(tuple(FAIRING_FUNCTIONALS))}, got {show(measure)}{hint}"
-        )
+        known = one_of(tuple(FAIRING_FUNCTIONALS))
+        raise GshadeError(f"measure: expected one of {known}, got {show(measure)}{hint}")
     return FAIRING_FUNCTIONALS[measure]
 
 

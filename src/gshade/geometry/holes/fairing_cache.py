@@ -33,18 +33,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.blas_threads import single_threaded_blas
-from .fill import HoleFilling, filling_patches
 from ...runtime.cache_folder import CACHE_VARIABLE, read_entry, write_entry
 from ...runtime.cache_folder import cache_folder as shared_cache_folder
+from ..core.blas_threads import single_threaded_blas
 from .fairing import (
+    FAIRING_FUNCTIONALS,
     FREE,
     ITERATIONS,
-    FAIRING_FUNCTIONALS,
     FairingReport,
-    optimise_fairing,
     fairing_value,
+    optimise_fairing,
 )
+from .fill import HoleFilling, filling_patches
 
 __all__ = ["CACHE_ENTRIES", "CACHE_VARIABLE", "cache_folder", "optimise_filling"]
 

@@ -80,10 +80,10 @@ from numpy.typing import NDArray
 
 from ...errors import GshadeError, one_of, show
 from ..core.bernstein import bernstein_basis, elevate_degree
-from ..patches.bezier import BezierPatch
 from ..core.blas_threads import single_threaded_blas
-from .ring import Hole
+from ..patches.bezier import BezierPatch
 from .energy import FUNCTIONALS, functional_matrix
+from .ring import Hole
 
 __all__ = [
     "JUNCTIONS",

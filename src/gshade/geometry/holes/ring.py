@@ -23,20 +23,19 @@ region the hole is n-sided: side i is the pair of segments (2i, 2i + 1), the cur
 f_(i-1) -> e_i -> f_i through the outer end of the EV's i-th edge, and its n corners are
 the f_i.
 
-Regular surroundings.  Across segment j lies a face G_j outside the hole.  Its limit
-surface is an exact bicubic patch if its 4 x 4 B-spline net (the face and the ring of
-faces around it) exists with regular corners (:func:`~gshade.geometry.subdivision.catmull_clark.net_index`,
-here with no phantom points: all 16 points real).  This holds if the EV's 2-ring is regular
-(e_i, f_i and the far corners of the G_j interior of valence 4, no mesh boundary within
-reach).  If it does not, :func:`find_holes` refines the whole mesh once
-(:func:`~gshade.geometry.subdivision.catmull_clark.refine`; the surface does not change, the hole
-shrinks to a quarter and the surrounding faces are the children of v's faces at the e_i,
-whose other corners are edge and face points, always of valence 4: only the e_i still need
-to be interior of valence 4, another EV opposite v in a face is harmless), and if that is
-not enough (an EV adjacent to v, or an e_i on the mesh boundary), twice: then every corner
-of the surrounding faces is a new point inside v's faces and the surroundings are regular
-for any interior EV.  Vertex
-points come first in the refined point list, so v keeps its index.
+Regular surroundings.  Across segment j lies a face G_j outside the hole.  Its limit surface is
+an exact bicubic patch if its 4 x 4 B-spline net (the face and the ring of faces around it)
+exists with regular corners (:func:`~gshade.geometry.subdivision.catmull_clark.net_index`, here
+with no phantom points: all 16 points real).  This holds if the EV's 2-ring is regular (e_i, f_i
+and the far corners of the G_j interior of valence 4, no mesh boundary within reach).  If it
+does not, :func:`find_holes` refines the whole mesh once
+(:func:`~gshade.geometry.subdivision.catmull_clark.refine`; the surface does not change, the
+hole shrinks to a quarter and the surrounding faces are the children of v's faces at the e_i,
+whose other corners are edge and face points, always of valence 4: only the e_i still need to be
+interior of valence 4, another EV opposite v in a face is harmless), and if that is not enough
+(an EV adjacent to v, or an e_i on the mesh boundary), twice: then every corner of the
+surrounding faces is a new point inside v's faces and the surroundings are regular for any
+interior EV.  Vertex points come first in the refined point list, so v keeps its index.
 
 Boundary data.  G_j's patch is stored as the bicubic Bézier patch S_j(u, v) = sum B_a(u)
 B_b(v) N_ab, N = M B M^T (B the B-spline net, M the B-spline-to-Bézier matrix), oriented
@@ -246,7 +245,8 @@ def hole_around(
     Parameters
     ----------
     points : array_like, shape (N, 3)
-        Control points of a valid quad mesh (:func:`~gshade.geometry.subdivision.quad_mesh.validate_mesh`).
+        Control points of a valid quad mesh
+        (:func:`~gshade.geometry.subdivision.quad_mesh.validate_mesh`).
     topology : MeshTopology
         Its connectivity.
     vertex : int

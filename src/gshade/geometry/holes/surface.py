@@ -21,11 +21,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...errors import SurfaceDataError
 from ..core.blas_threads import single_threaded_blas
-from .ring import Hole, find_holes
-from .fill import HoleFilling, fill_hole
 from ..core.patch import Patch
 from ..subdivision.quad_mesh import MeshTopology
 from ..subdivision.stam import face_patches
+from .fill import HoleFilling, fill_hole
+from .ring import Hole, find_holes
 
 __all__ = ["FilledSurface", "filled_surface"]
 

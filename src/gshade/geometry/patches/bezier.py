@@ -11,7 +11,13 @@ from numpy.typing import ArrayLike
 
 from ...errors import GshadeError
 from ..core.bernstein import elevate_degree
-from ..core.patch import BasisCurve, BernsteinBasis, TensorProductPatch, validate_points, validate_weights
+from ..core.patch import (
+    BasisCurve,
+    BernsteinBasis,
+    TensorProductPatch,
+    validate_points,
+    validate_weights,
+)
 
 __all__ = ["BezierCurve", "BezierPatch"]
 

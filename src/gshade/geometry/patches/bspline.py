@@ -14,7 +14,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import GshadeError, show
-from .bezier import BezierCurve, BezierPatch
 from ..core.knots import domain, insert_knot, refine_to_bezier, validate_knots
 from ..core.patch import (
     BasisCurve,
@@ -24,6 +23,7 @@ from ..core.patch import (
     validate_points,
     validate_weights,
 )
+from .bezier import BezierCurve, BezierPatch
 
 __all__ = ["BSplineCurve", "BSplinePatch"]
 

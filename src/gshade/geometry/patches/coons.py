@@ -19,8 +19,8 @@ from numpy.typing import NDArray
 
 from ...errors import GshadeError
 from ..core.bernstein import elevate_degree
-from .bezier import BezierCurve, BezierPatch
 from ..core.patch import Curve, Patch
+from .bezier import BezierCurve, BezierPatch
 
 __all__ = ["CoonsPatch"]
 

@@ -32,9 +32,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import GshadeError
+from ..core.patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 from ..patches.bspline import BSplineCurve, BSplinePatch
 from .cubic_basis import PiecewiseCubicBasis, junction_values, non_negative, positive
-from ..core.patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 
 __all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch"]
 

@@ -45,9 +45,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import GshadeError
+from ..core.patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 from ..patches.bspline import BSplineCurve, BSplinePatch
 from .cubic_basis import PiecewiseCubicBasis, junction_values, positive
-from ..core.patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 
 __all__ = [
     "GammaSplineBasis",

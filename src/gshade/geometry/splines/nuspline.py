@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import GshadeError
-from ..patches.bspline import BSplineCurve, BSplinePatch
 from ..core.patch import show_value, validate_points, value_pair
+from ..patches.bspline import BSplineCurve, BSplinePatch
 
 __all__ = ["ENDS", "NuSplinePatch", "nu_spline"]
 

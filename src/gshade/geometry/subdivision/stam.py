@@ -15,9 +15,9 @@ mesh:
 - if a face has more than one extraordinary vertex the mesh is refined once first (after
   one step every face has at most one).
 
-Meshes must be valid quad meshes (:func:`~gshade.geometry.subdivision.quad_mesh.validate_mesh`), closed or
-open; with faces counter-clockwise seen from outside, every patch's normal p_u x p_v points
-outward.
+Meshes must be valid quad meshes (:func:`~gshade.geometry.subdivision.quad_mesh.validate_mesh`),
+closed or open; with faces counter-clockwise seen from outside, every patch's normal p_u x p_v
+points outward.
 
 References
 ----------
@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...errors import GshadeError
-from .catmull_clark import NotRegular, net_index, net_points, refine, regular_patch
 from ..core.patch import Patch
+from .catmull_clark import NotRegular, net_index, net_points, refine, regular_patch
 from .quad_mesh import MeshTopology, validate_mesh
 
 __all__ = ["StamPatch", "face_patches", "subdivision_patches"]
