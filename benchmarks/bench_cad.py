@@ -122,7 +122,7 @@ CAD_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".3dm")
 #: The report's fixed notes: how the peer is set up, what the error means.
 METHOD_NOTES = (
     'Setup: `.venv/bin/pip install -e ".[bench,cad]"` (pyvista, vtk; OCP without VTK: '
-    "importing both in one process works, `tests/test_cad_occt.py` passes).  Off-screen VTK "
+    "importing both in one process works, `tests/cad/test_cad_occt.py` passes).  Off-screen VTK "
     "without X: the vtk wheel renders through EGL with Mesa's software rasteriser "
     "(llvmpipe); Debian: `apt-get install -y libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri` "
     "(no OSMesa, no Xvfb).  `cad_peer.py` sets `VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`"

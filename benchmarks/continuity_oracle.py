@@ -1,6 +1,6 @@
 """gshade's continuity classes against the kernel's own (issue 26): for each CAD file, run
 ``python -m gshade continuity FILE --json`` (a subprocess of this interpreter) and the
-independent oracle of ``tests/kernel_oracle.py`` (OCP's BRepLProp_SLProps and
+independent oracle of ``tests/support/kernel_oracle.py`` (OCP's BRepLProp_SLProps and
 LocalAnalysis_SurfaceContinuity, no gshade code), pair their edge rows, and print the
 confusion matrices (rows: the oracle's class, columns: gshade's) and the worst
 disagreements.

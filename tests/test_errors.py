@@ -7,7 +7,7 @@ from gshade import GshadeError
 from gshade.errors import ParameterDomainError
 from gshade.geometry import BezierCurve, BezierPatch, BSplineCurve, BSplinePatch, unit_normal
 
-from .conftest import ROOT
+from .support.paths import ROOT
 
 NET = np.zeros((4, 4, 3))
 U4 = [0, 0, 0, 0, 1, 1, 1, 1]

@@ -39,7 +39,7 @@ __all__ = [
 ENTRY_FORMAT = b"gshade cad cache 1\n"
 
 #: The modules (relative to the package, as globs) whose source a read depends on: every
-#: reader's, and each reader's own (tests/test_cad_cache.py checks that these hold what
+#: reader's, and each reader's own (tests/cad/test_cad_cache.py checks that these hold what
 #: the readers import).
 SOURCES = (
     "cad/model.py",

@@ -1,0 +1,111 @@
+"""The scene-key reference (``gshade keys``) and the README's scene file agree: every
+declared key is in the README's "Scene files" block, and every key there is declared."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+from gshade.app.cli import main
+from gshade.scene import SURFACE_TYPES, parse_scene
+from gshade.scene.keys import key_tables, scene_keys
+from gshade.scene.sections import CHECK_KEYS, SHAPE_KEYS
+from gshade.shape import SHAPE_FUNCTIONS
+
+from ..support.paths import ROOT
+
+HEADER = re.compile(r"^(\[\[?)(\w+)\]\]?")
+KEY_AT_START = re.compile(r"^#?\s*([a-z]\w*)\s*=")
+KEYS_IN_TEXT = re.compile(r"(?<![\w.])([a-z]\w*)\s*=(?!=)")
+SURFACE_TYPE_LINE = re.compile(r"^#\s*(\w+):\s")
+
+
+def readme_block() -> str:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text.split("\n## Scene files\n", 1)[1].split("\n## ", 1)[0]
+    return section.split("```toml\n", 1)[1].split("```", 1)[0]
+
+
+def readme_keys() -> dict[str, set[str]]:
+    """Table heading (as the reference writes it) -> the key names the README block shows.
+
+    A key is a name before ``=`` at a line's start, written or commented out (``# key =``);
+    in ``[[surface]]``, a line ``# TYPE: …`` and the comment lines after it (starting in
+    column 0) show that type's keys inline, and the keys written out are those of the
+    ``type = "…"`` above them.  Comments after a value, and their indented continuation
+    lines, are prose."""
+    found: dict[str, set[str]] = {"(top level)": set()}
+    table, kind = "(top level)", None
+    for line in readme_block().splitlines():
+        header = HEADER.match(line)
+        if header:
+            table = "[[surface]]" if header[1] == "[[" else f"[{header[2]}]"
+            kind = None
+            found.setdefault(table, set())
+            continue
+        if table != "[[surface]]":
+            key = KEY_AT_START.match(line)
+            if key:
+                found[table].add(key[1])
+            continue
+        if not line.startswith("#"):
+            key = KEY_AT_START.match(line)
+            if key and key[1] == "type":
+                kind = json.loads(line.split("=", 1)[1].split("#", 1)[0])
+                found[table].add("type")
+            elif key:
+                found.setdefault(f'[[surface]] type = "{kind}"', set()).add(key[1])
+            continue
+        start = SURFACE_TYPE_LINE.match(line)
+        if start:
+            kind, line = start[1], line[start.end() :]
+        found.setdefault(f'[[surface]] type = "{kind}"', set()).update(KEYS_IN_TEXT.findall(line))
+    return found
+
+
+def declared_keys() -> dict[str, set[str]]:
+    return {table.heading: set(table.keys) for table in key_tables()}
+
+
+def test_every_declared_key_is_in_the_readme_and_every_readme_key_is_declared():
+    readme, declared = readme_keys(), declared_keys()
+    # the top level's tables are the README's headers, not keys
+    tables = {name for name in declared["(top level)"] if name != "name"}
+    declared["(top level)"] -= tables
+    assert {h.strip("[]") for h in readme if h.startswith("[") and " " not in h} == tables
+    parameters = {p for fn in SHAPE_FUNCTIONS.values() for p in fn.parameters}
+    readme["[shape]"] -= parameters - set(SHAPE_KEYS)  # "the function's parameters, by name"
+    assert set(readme) == set(declared)
+    for heading in declared:
+        missing = declared[heading] - readme[heading]
+        unknown = readme[heading] - declared[heading]
+        assert not missing, f"README's scene file lacks {heading} {sorted(missing)}"
+        assert not unknown, f"README's scene file shows undeclared {heading} {sorted(unknown)}"
+
+
+def test_the_readme_block_is_a_valid_scene():
+    scene = parse_scene(readme_block(), base=ROOT / "scenes")
+    assert scene.name == "teapot-isophotes" and scene.check == {} and scene.sweep == {}
+
+
+def test_every_surface_type_is_declared_with_its_keys():
+    headings = [t.heading for t in key_tables()]
+    assert [h.split('"')[1] for h in headings if "type =" in h] == list(SURFACE_TYPES)
+    assert all(k.description and k.accepts for t in key_tables() for k in t.keys.values())
+
+
+def test_the_check_defaults_listed_are_gshade_checks():
+    from gshade.regression.check import CHECK_DEFAULTS, DEFAULT_THRESHOLDS
+
+    for key, value in {**CHECK_DEFAULTS, **vars(DEFAULT_THRESHOLDS)}.items():
+        default = CHECK_KEYS[key].default
+        assert default == value or (math.isinf(value) and math.isinf(default)), key
+
+
+def test_gshade_keys_prints_the_reference(capsys):
+    assert main(["keys"]) == 0
+    out = capsys.readouterr().out
+    assert out == scene_keys() + "\n"
+    for heading, keys in declared_keys().items():
+        assert heading in out and all(f"  {k} " in out for k in keys)
