@@ -25,9 +25,3 @@ if "GSHADE_CACHE_DIR" not in os.environ:
 
 
 pytest_plugins = ["tests.support.browser"]
-
-
-def pytest_configure(config):
-    config.addinivalue_line(
-        "markers", "slow: a test (or its module's setup) of a minute or more on two cores"
-    )

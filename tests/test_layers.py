@@ -181,3 +181,27 @@ def test_the_cad_package_imports_without_a_cycle():
 def _targets(module: str, names: list[str]) -> list[str]:
     """The modules an import names: ``from package import module`` names the module."""
     return [module, *(f"{module}.{n}" for n in names)]
+
+
+TESTS = Path(__file__).resolve().parent
+
+
+def test_tests_mirror_the_package_and_share_helpers_through_support():
+    """Every test module sits in the folder of what it tests (a package of gshade, or
+    hostile/ for the whole program under hostile input; the layering checks at the top) and
+    imports no other test module: shared helpers live in tests/support/."""
+    folders = {p.relative_to(TESTS).parts[0] for p in TESTS.rglob("test_*.py")}
+    assert folders <= set(RANK) | {
+        "hostile",
+        "test_layers.py",
+        "test_errors.py",
+        "test_docstring_examples.py",
+    }, sorted(folders)
+    found = []
+    for path in TESTS.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or "", *(a.name for a in node.names)]
+                if any(n.split(".")[-1].startswith("test_") for n in names):
+                    found.append(f"{path.relative_to(TESTS)}:{node.lineno}")
+    assert not found, found

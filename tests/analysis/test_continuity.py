@@ -187,6 +187,7 @@ def scene_patch_sets():
     return list(seen.values())
 
 
+@pytest.mark.slow
 def test_the_kd_tree_search_finds_what_the_brute_force_search_finds():
     from gshade.analysis.continuity import find_junctions
 
@@ -256,6 +257,7 @@ def test_samples_and_pairs_are_bounded():
         continuity_report([a, b], pairs=[(0, "u1", 1, "u0")] * 10001)
 
 
+@pytest.mark.slow
 def test_batched_measures_equal_the_per_junction_oracle():
     """measure_all (each patch evaluated once for all its sides) against measure, junction
     by junction: the teapot, the scenes' surfaces, the subdivision cube, and a pair at two

@@ -193,6 +193,7 @@ def test_dask_cluster_gives_the_same_outputs_as_a_local_run(scenes, tmp_path):
         assert all(np.array_equal(a[c], b[c]) for c in a)
 
 
+@pytest.mark.slow
 def test_unreachable_scheduler_is_one_line(scenes, tmp_path):
     pytest.importorskip("distributed")
     result = cli(scenes, "-o", tmp_path / "o", "--scheduler", "tcp://127.0.0.1:9")

@@ -16,6 +16,8 @@ from gshade.app.cli import main
 
 from ..support.paths import ROOT
 
+pytestmark = pytest.mark.slow  # whole pytest sessions (pytester)
+
 pytest_plugins = ["pytester"]
 
 MARKERS = ("<!-- pytest-example -->", "<!-- /pytest-example -->")

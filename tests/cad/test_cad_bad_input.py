@@ -181,3 +181,21 @@ def test_a_face_healing_cannot_repair_is_left_out(tmp_path):
         "face 26 left out: a trimming wire is not closed "
         "(tried: the kernel's healing (ShapeFix_Shape))"
     ]
+
+
+def test_a_3dm_file_without_rhino3dm_says_how_to_install_it(tmp_path):
+    """Where rhino3dm is missing (a process that cannot import it), a .3dm file is refused in
+    one line naming the file and the install command, exit status 2; nothing is written."""
+    model, out = tmp_path / "model.3dm", tmp_path / "out.exr"
+    model.write_bytes(b"")
+    code = (
+        "import sys; sys.modules['rhino3dm'] = None\n"
+        "from gshade.app.cli import main\n"
+        f"sys.exit(main(['render', {str(model)!r}, '-o', {str(out)!r}]))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(model) in lines[0], lines
+    assert 'pip install "gshade[cad]"' in lines[0] and "rhino3dm" in lines[0]
+    assert not out.exists()

@@ -29,6 +29,8 @@ from ..support.fuzz_scenes import (
     alarm,
 )
 
+pytestmark = pytest.mark.slow  # damaged CAD files, each up to the kernel's time limit
+
 SEEDS = ("box.step", "box.igs", "box.brep", "sheet.step", "sheet.igs", "sheet.brep", "ball.3dm")
 
 _NUMBER = re.compile(rb"(?<![A-Za-z0-9_#.])-?\d+\.\d*(?:E[+-]?\d+)?")

@@ -22,6 +22,8 @@ from gshade.io.image import read_exr, read_exr_planes, write_exr
 from ..support.browser import open_page
 from ..support.view_pages import VIEW_SCENE, H, W, gshade
 
+pytestmark = pytest.mark.slow  # a real browser
+
 HALVES = {"R", "G", "B", "A", "N.X", "N.Y", "N.Z"}
 
 

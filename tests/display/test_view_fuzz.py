@@ -24,6 +24,8 @@ from gshade.io.image import write_exr
 
 from ..support.hostile_headers import HOSTILE
 
+pytestmark = pytest.mark.slow  # hostile pages in a real browser
+
 #: Markup that would set window.__pwned if the page ever made elements of it or ran it.
 PWN = "window.__pwned=1"
 MARKUP = [

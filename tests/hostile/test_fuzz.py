@@ -70,6 +70,8 @@ from ..support.fuzz_scenes import (
     write_variant,
 )
 
+pytestmark = pytest.mark.slow  # every scene mutation through load_scene and a render
+
 COUNT = int(os.environ.get("GSHADE_FUZZ_COUNT", "300"))
 SEED = int(os.environ.get("GSHADE_FUZZ_SEED", "1"))
 JOBS = max(1, int(os.environ.get("GSHADE_FUZZ_JOBS", str(min(2, os.cpu_count() or 1)))))

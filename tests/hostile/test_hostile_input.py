@@ -169,7 +169,9 @@ def test_stale_temporaries_of_dead_processes_are_removed(tmp_path):
     assert sorted(os.listdir(tmp_path)) == sorted([mine.name, other.name, elsewhere.name])
 
 
-@pytest.mark.parametrize("delay", [0.3, 2.5])  # during the imports; during Mitsuba's render
+@pytest.mark.parametrize(
+    "delay", [0.3, pytest.param(2.5, marks=pytest.mark.slow)]
+)  # during the imports; during Mitsuba's render
 def test_sigterm_during_a_render_leaves_no_temporary(tmp_path, delay):
     scene = tmp_path / "big.toml"
     scene.write_text(

@@ -206,6 +206,7 @@ def test_cli_exit_status_and_missing_reference_folder(tmp_path):
     assert result.returncode == 0 and "1 passed, 0 failed" in result.stdout
 
 
+@pytest.mark.slow
 def test_the_project_scenes_match_their_references():
     results = check(find_scenes([str(ROOT / "scenes")]), ROOT / "references")
     bad = [r.line() for r in results if r.status not in ("PASS", "WARNING")]

@@ -678,19 +678,25 @@ def _toml(value) -> str:
     return repr(value).replace("'", '"').replace("(", "[").replace(")", "]")
 
 
-#: (table, keys and values written to the scene, the library's check of the same values):
-#: rules written once, in the library, that the scene applies to its values
+#: (table, keys and values written to the scene, the library's check of the same values, what
+#: the loaded scene holds of them): rules written once, in the library, that the scene applies
+#: to its values
 ONE_RULE = [
     *(
-        ("shape", {"range": r}, lambda r=r: validate_range(r))
+        ("shape", {"range": r}, lambda r=r: validate_range(r), lambda s: s.shape.value_range)
         for r in ([1, 1], [2, 1], [0.0, -0.0], [0, 5e-324], [-1.5, 2])
     ),
     *(
-        ("shape", {"colormap": c}, lambda c=c: validate_colormap(c))
+        ("shape", {"colormap": c}, lambda c=c: validate_colormap(c), lambda s: s.shape.colormap)
         for c in ("viridis", "viridus", "Viridis", "coolwarm")
     ),
     *(
-        ("shape", {"function": fn, key: v}, lambda f=fn, k=key, v=v: validate_parameter(f, k, v))
+        (
+            "shape",
+            {"function": fn, key: v},
+            lambda f=fn, k=key, v=v: validate_parameter(f, k, v),
+            lambda s, k=key: s.shape.params[k],
+        )
         for fn, key, values in (
             ("isophotes", "light", ([0, 0, 0], [1e-13, 0, 0], [0, 1e-12, 0], [0, 0, 1])),
             ("isophotes", "form", ("cos", "sine", "Angle")),
@@ -703,6 +709,7 @@ ONE_RULE = [
             "camera",
             {"origin": o, "target": t, "up": u},
             lambda o=o, t=t, u=u: Camera("perspective", o, t, u, 30.0, None),
+            lambda s: s.camera,
         )
         for o, t, u in (
             ([1, 1, 1], [1, 1, 1], [0, 0, 1]),
@@ -716,19 +723,32 @@ ONE_RULE = [
 ]
 
 
-@pytest.mark.parametrize(("table", "values", "library"), ONE_RULE)
-def test_the_scene_refuses_what_the_library_refuses_with_its_message(table, values, library):
+@pytest.mark.parametrize(("table", "values", "library", "loaded"), ONE_RULE)
+def test_the_scene_refuses_what_the_library_refuses_with_its_message(
+    table, values, library, loaded
+):
     """One rule: the scene passes its values to the library's check and names its file and
-    table before the library's message."""
+    table before the library's message; what the library accepts, the scene loads (as
+    written: a direction is made a unit vector where the function is evaluated)."""
     text = SPHERE + f"[{table}]\n" + "".join(f"{k} = {_toml(v)}\n" for k, v in values.items())
     try:
-        library()
+        expected = library()
     except GshadeError as exc:
         with pytest.raises(GshadeError) as info:
             parse_scene(text)
         assert str(info.value) == f"<string>: [{table}] {exc}"
     else:
-        parse_scene(text)
+        got = loaded(parse_scene(text))
+        if table == "camera":  # the scene's camera is the library's, and perspective
+            assert (got.origin, got.target, got.up) == (
+                expected.origin,
+                expected.target,
+                expected.up,
+            )
+        else:
+            (written,) = (v for k, v in values.items() if k != "function")
+            np.testing.assert_array_equal(np.asarray(got), np.asarray(written, dtype=object))
+            assert expected is not None
 
 
 def test_newell_file_missing(tmp_path):
