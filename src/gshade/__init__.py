@@ -12,7 +12,7 @@ data, images, outputs), ``gshade.runtime`` (LLVM, Mitsuba variant, array backend
 ``gshade.app`` (the command line, batch, figures).
 """
 
-__version__ = "0.9.4"
+__version__ = "0.10.0"
 
 from .errors import GshadeError
 from .runtime.llvm import prepare_llvm
