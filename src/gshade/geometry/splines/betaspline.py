@@ -34,7 +34,13 @@ from numpy.typing import ArrayLike, NDArray
 from ...errors import GshadeError
 from ..core.patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 from ..patches.bspline import BSplineCurve, BSplinePatch
-from .cubic_basis import PiecewiseCubicBasis, junction_values, non_negative, positive
+from .cubic_basis import (
+    PiecewiseCubicBasis,
+    arc_bezier_matrices,
+    junction_values,
+    non_negative,
+    positive,
+)
 
 __all__ = ["BetaSplineBasis", "BetaSplineCurve", "BetaSplinePatch"]
 
@@ -52,20 +58,9 @@ def _segment_bezier_matrices(beta1: NDArray, beta2: NDArray) -> NDArray:
     mu = (P * (1 + P) ** 2 + Q / 2) / (P**2 * (1 + P))
     s = (mu - 1) / (mu * kappa - 1)
     r = kappa * s
-    S = beta1.size - 3
-    M = np.zeros((S, 4, 4))
-    i = np.arange(S)
-    k = i + 1  # index of arc i in s, r
-    M[i, 1, 1], M[i, 1, 2] = 1 - s[k], s[k]
-    M[i, 2, 1], M[i, 2, 2] = 1 - r[k], r[k]
-    b_left, b_right = beta1[i + 1], beta1[i + 2]  # junctions i and i + 1
-    M[i, 0, 0] = b_left * (1 - r[k - 1]) / (1 + b_left)
-    M[i, 0, 1] = (b_left * r[k - 1] + 1 - s[k]) / (1 + b_left)
-    M[i, 0, 2] = s[k] / (1 + b_left)
-    M[i, 3, 1] = b_right * (1 - r[k]) / (1 + b_right)
-    M[i, 3, 2] = (b_right * r[k] + 1 - s[k + 1]) / (1 + b_right)
-    M[i, 3, 3] = s[k + 1] / (1 + b_right)
-    return M
+    # G1 at junction j: b_0 divides b'_2 b_1 in the ratio beta1 : 1
+    w = beta1[1:-1] / (1 + beta1[1:-1])  # junctions 0..S
+    return arc_bezier_matrices(s, r, w[:-1], w[1:])
 
 
 class BetaSplineBasis(PiecewiseCubicBasis):

@@ -24,6 +24,7 @@ from ..core.patch import show_value
 __all__ = [
     "BERNSTEIN_TO_POWER",
     "PiecewiseCubicBasis",
+    "arc_bezier_matrices",
     "junction_values",
     "non_negative",
     "positive",
@@ -89,6 +90,43 @@ def junction_values(
             f"{name}: expected numbers {what}, got {float(v[j])!r} at junction {j + 1} (of {count})"
         )
     return v
+
+
+def arc_bezier_matrices(s: NDArray, r: NDArray, w_start: NDArray, w_end: NDArray) -> NDArray:
+    """The arcs' Bézier matrices M (S, 4, 4) of a G2 cubic spline built on its control legs
+    (Kiciak §2.3: the β- and γ-splines alike).
+
+    Arc k's inner Bézier points lie on its leg d_(k+1) d_(k+2) at the fractions ``s[k]`` and
+    ``r[k]``: b_1 = (1 - s) d_(k+1) + s d_(k+2), b_2 = (1 - r) d_(k+1) + r d_(k+2); its end
+    points divide the segments between neighbouring arcs' inner points, b_0 = w b'_2 +
+    (1 - w) b_1 (b'_2 the previous arc's b_2, w = ``w_start``) and b_3 = w b_2 + (1 - w)
+    b''_1 (the next arc's b_1, w = ``w_end``).  ``s`` and ``r`` hold arcs -1..S (S + 2
+    values: one beyond each end), ``w_start`` and ``w_end`` the S arcs'.  The Bézier points
+    of arc i are ``M[i] @ (d_i, d_(i+1), d_(i+2), d_(i+3))``.
+
+    Examples
+    --------
+    The uniform cubic B-spline: legs cut in thirds, ends at the midpoints.
+
+    >>> third, half = np.full(3, 1 / 3), np.full(1, 0.5)
+    >>> arc_bezier_matrices(third, 2 * third, half, half)[0] * 6
+    array([[1., 4., 1., 0.],
+           [0., 4., 2., 0.],
+           [0., 2., 4., 0.],
+           [0., 1., 4., 1.]])
+    """
+    S = len(w_start)
+    i = np.arange(S)
+    M = np.zeros((S, 4, 4))
+    M[i, 1, 1], M[i, 1, 2] = 1 - s[i + 1], s[i + 1]
+    M[i, 2, 1], M[i, 2, 2] = 1 - r[i + 1], r[i + 1]
+    M[i, 0, 0] = w_start * (1 - r[i])
+    M[i, 0, 1] = w_start * r[i] + (1 - w_start) * (1 - s[i + 1])
+    M[i, 0, 2] = (1 - w_start) * s[i + 1]
+    M[i, 3, 1] = w_end * (1 - r[i + 1])
+    M[i, 3, 2] = w_end * r[i + 1] + (1 - w_end) * (1 - s[i + 2])
+    M[i, 3, 3] = (1 - w_end) * s[i + 2]
+    return M
 
 
 class PiecewiseCubicBasis:

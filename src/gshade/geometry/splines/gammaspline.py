@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from ...errors import GshadeError
 from ..core.patch import BasisCurve, TensorProductPatch, show_value, validate_points, value_pair
 from ..patches.bspline import BSplineCurve, BSplinePatch
-from .cubic_basis import PiecewiseCubicBasis, junction_values, positive
+from .cubic_basis import PiecewiseCubicBasis, arc_bezier_matrices, junction_values, positive
 
 __all__ = [
     "GammaSplineBasis",
@@ -115,21 +115,10 @@ def _bezier_matrices(t: NDArray, g: NDArray) -> NDArray:
     total[~np.isfinite(total)] = np.nan  # overflow: no basis (the caller's message)
     s = np.concatenate([[np.nan, np.nan], left / total])  # indexed by arc k
     r = np.concatenate([[np.nan, np.nan], (left + h[k]) / total])
-    S = n - 3
     k = np.arange(3, n)  # the arcs of the domain
     w0 = h[k] / (h[k - 1] + h[k])  # weight of arc k - 1's last inner point in b_0
     w3 = h[k + 1] / (h[k] + h[k + 1])  # weight of arc k's last inner point in b_3
-    a = np.arange(S)
-    M = np.zeros((S, 4, 4))
-    M[a, 1, 1], M[a, 1, 2] = 1 - s[k], s[k]
-    M[a, 2, 1], M[a, 2, 2] = 1 - r[k], r[k]
-    M[a, 0, 0] = w0 * (1 - r[k - 1])
-    M[a, 0, 1] = w0 * r[k - 1] + (1 - w0) * (1 - s[k])
-    M[a, 0, 2] = (1 - w0) * s[k]
-    M[a, 3, 1] = w3 * (1 - r[k])
-    M[a, 3, 2] = w3 * r[k] + (1 - w3) * (1 - s[k + 1])
-    M[a, 3, 3] = (1 - w3) * s[k + 1]
-    return M
+    return arc_bezier_matrices(s[2:], r[2:], w0, w3)  # arcs 2..n: one beyond each end
 
 
 class GammaSplineBasis(PiecewiseCubicBasis):
