@@ -19,9 +19,9 @@ S   Where the time goes.  A fresh Python process does what the command does, in 
     ("warm": Mitsuba's kernels in memory, variant set).
 I   Import and start-up time of the command's dependencies: ``python -c CODE`` for
     ``pass``, ``import gshade.app.cli``, ``import gshade.scene, gshade.rendering``, ``+
-    mitsuba``, and ``+ select_variant("auto")`` (Mitsuba's ``llvm_ad_rgb`` variant set),
-    median of 5 runs each; and ``python -X importtime`` of the last, top-level modules by
-    cumulative time.
+    mitsuba``, and ``+ use_variant("auto")`` (Mitsuba's ``llvm_ad_rgb`` variant set, gshade's
+    plugins registered), median of 5 runs each; and ``python -X importtime`` of the last,
+    top-level modules by cumulative time.
 N   Scale: one wavy C1 height-field sheet z = 0.2 sin(pi x) cos(pi y) over [-1, 1]^2 made of
     n = 1, 100, 1,000 (40 x 25) and 10,000 bicubic Bézier patches (a grid of cells, each the
     bicubic Hermite interpolant of z's exact corner values, slopes and twists, so that
@@ -139,9 +139,11 @@ IMPORT_CODES = {
     "python -c pass": "pass",
     "import gshade.app.cli": "import gshade.app.cli",
     "import gshade.scene, gshade.rendering": "import gshade.scene, gshade.rendering",
-    "... + mitsuba": "import gshade.scene, gshade.rendering, mitsuba",
-    '... + select_variant("auto")': "import gshade.scene, gshade.rendering, mitsuba\n"
-    "from gshade.runtime.variant import select_variant\nselect_variant('auto')",
+    "... + mitsuba": "import gshade.scene, gshade.rendering, gshade.runtime\n"
+    "gshade.runtime.setup()\nimport mitsuba",
+    '... + use_variant("auto")': "import gshade.scene, gshade.rendering, gshade.runtime\n"
+    "gshade.runtime.setup()\nimport mitsuba\n"
+    "from gshade.rendering.plugins import use_variant\nuse_variant('auto')",
 }
 
 

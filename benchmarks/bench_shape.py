@@ -280,7 +280,10 @@ def main(argv: list[str] | None = None) -> int:
         Row(call, "out=buffer", "-", t_d["out"], informational=True),
     ]
 
-    import drjit as dr  # after gshade, which points it at a usable libLLVM
+    import gshade.runtime
+
+    gshade.runtime.setup()  # Dr.Jit pointed at a usable libLLVM first
+    import drjit as dr
 
     info = machine_info(
         [f"drjit {dr.__version__} (libLLVM {'.'.join(map(str, dr.detail.llvm_version()))})"],

@@ -1,6 +1,7 @@
-"""The test session's settings: hypothesis's profile under CI, gshade's caches in a folder of
-the session's, the fixtures of tests/support/browser.py, and the ``slow`` marker (deselect
-with ``-m "not slow"`` for a quick loop; the README's test command runs everything)."""
+"""The test session's settings: Dr.Jit pointed at gshade's libLLVM (the tests import drjit
+and mitsuba themselves), hypothesis's profile under CI, gshade's caches in a folder of the
+session's, and the fixtures of tests/support/browser.py.  The ``slow`` marker is pyproject's
+(``-m "not slow"``: the quick loop; the README's test command runs everything)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,11 @@ import shutil
 import tempfile
 
 from hypothesis import settings
+
+import gshade.runtime
+
+# the test modules import drjit and mitsuba themselves: the libLLVM gshade would choose first
+gshade.runtime.setup()
 
 # CI runs the same examples every time (a red CI must mean a change, not a new draw);
 # locally each run explores new ones.

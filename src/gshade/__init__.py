@@ -10,14 +10,15 @@ textures, Mitsuba, exact channels); beside them ``gshade.analysis`` (continuity 
 junctions), ``gshade.regression`` (comparisons and reference checks), ``gshade.io`` (surface
 data, images, outputs), ``gshade.runtime`` (LLVM, Mitsuba variant, array backends) and
 ``gshade.app`` (the command line, batch, figures).
+
+Importing gshade changes nothing in the process.  gshade points Dr.Jit at a usable libLLVM
+when it first imports Dr.Jit or Mitsuba itself; a program that imports ``drjit`` or
+``mitsuba`` before that calls :func:`gshade.runtime.setup` first.
 """
 
 __version__ = "0.10.0"
 
 from .errors import GshadeError
-from .runtime.llvm import prepare_llvm
-
-prepare_llvm()  # before anything imports Dr.Jit
 
 __all__ = ["GshadeError", "__version__", "compare", "load_scene", "render"]
 

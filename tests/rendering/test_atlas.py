@@ -144,9 +144,9 @@ def test_packing_names_the_channels():
 @pytest.fixture
 def integrator(atlas):
     from gshade.rendering.integrator import IntegratorSettings, make_integrator
-    from gshade.runtime.variant import select_variant
+    from gshade.rendering.plugins import use_variant
 
-    if select_variant("auto") != "llvm_ad_rgb":
+    if use_variant("auto") != "llvm_ad_rgb":
         pytest.skip("the vectorised Dr.Jit lookup needs the llvm_ad_rgb variant")
     settings = IntegratorSettings(display="stripes", lighting="flat", atlas=atlas)
     return make_integrator(settings, known_textures(atlas), None)

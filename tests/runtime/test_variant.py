@@ -1,11 +1,13 @@
 """Mitsuba variants: finding a usable LLVM, and the scalar fallback with one warning."""
 
+import os
 import subprocess
 import sys
 
 import pytest
 
 from gshade import GshadeError
+from gshade.runtime.llvm import find_llvm
 from gshade.runtime.variant import llvm_version, resolve_variant
 
 
@@ -81,8 +83,8 @@ with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     image = gshade.render(parse_scene('[[surface]]\\ntype = "sphere"\\n'), width=8, height=6,
                           spp=1)
-print("loaded:", loaded, "variant:", image.metadata["variant"],
-      "warned:", any("import gshade before drjit" in str(w.message) for w in caught))
+warned = any("gshade.runtime.setup() before importing drjit" in str(w.message) for w in caught)
+print("loaded:", loaded, "variant:", image.metadata["variant"], "warned:", warned)
 """
 
 
@@ -141,3 +143,32 @@ def test_the_command_line_sets_variants_without_mitsubas_python_integrators(tmp_
     assert "prb: no" in said["cli"]
     picture = [said[m].split("R:")[1].strip() for m in ("cli", "library")]
     assert picture[0] == picture[1]  # the same picture either way
+
+
+IMPORTS = """
+import os, sys
+import gshade, gshade.scene, gshade.rendering, gshade.cad, gshade.analysis, gshade.app.cli
+import gshade.geometry, gshade.shape, gshade.display, gshade.regression
+print("set:", os.environ.get("DRJIT_LIBLLVM_PATH"), "drjit:", "drjit" in sys.modules)
+gshade.runtime.setup()
+print("after setup:", os.environ.get("DRJIT_LIBLLVM_PATH") is not None)
+import mitsuba as mi
+mi.set_variant("llvm_ad_rgb")
+import drjit as dr
+print("llvm:", dr.detail.llvm_version()[0])
+"""
+
+
+def test_importing_gshade_changes_nothing_and_setup_points_drjit_at_its_llvm():
+    """Importing gshade's packages sets no variable and imports no Dr.Jit; a program that
+    imports Mitsuba itself calls gshade.runtime.setup() first and gets a libLLVM >= 17."""
+    if find_llvm() is None:
+        pytest.skip("no libLLVM >= 17 here")
+    env = {k: v for k, v in os.environ.items() if k != "DRJIT_LIBLLVM_PATH"}
+    result = subprocess.run(
+        [sys.executable, "-c", IMPORTS], capture_output=True, text=True, env=env
+    )
+    assert result.returncode == 0, result.stderr
+    assert "set: None drjit: False" in result.stdout
+    assert "after setup: True" in result.stdout
+    assert int(result.stdout.split("llvm:")[1]) >= 17

@@ -288,7 +288,7 @@ def test_samples_per_render_at_most_2_to_the_30(monkeypatch, width, height, spp,
     def reached(*args, **kwargs):
         raise _Reached
 
-    monkeypatch.setattr(pipeline, "select_variant", reached)
+    monkeypatch.setattr(pipeline, "use_variant", reached)
     scene = parse_scene(SPHERE)
     if accepted:
         with pytest.raises(_Reached):

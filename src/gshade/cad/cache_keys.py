@@ -51,6 +51,7 @@ SOURCES = (
     "limits.py",
     "runtime/native.py",
     "runtime/drjit_arrays.py",
+    "runtime/llvm.py",
     "geometry/patches/bspline.py",
     "geometry/patches/bezier.py",
     "geometry/evaluation/bezier_cells.py",

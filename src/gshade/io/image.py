@@ -206,10 +206,10 @@ def write_exr(
     return atomic_write(path, ".exr", exr_writer(path, channels, header, half))
 
 
-@cache
 def _use_all_cores() -> None:
     """Let OpenEXR compress (and decompress) scanline blocks on every usable core: its
-    global pool has no threads by default."""
+    global pool has no threads by default.  Raised, never lowered (a program's larger pool
+    stays), before each read and write: reading the pool's size costs nothing."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux

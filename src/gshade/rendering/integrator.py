@@ -41,6 +41,8 @@ import numpy as np
 
 from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula, settled_on_edges
 from ..runtime.backend import drjit_ops
+from ..runtime.llvm import import_drjit
+from ..runtime.variant import mitsuba
 from .atlas import GEOMETRY, SHAPE, Atlas, bilinear, cell_centre, hermite, locate_cell, tile_bounds
 from .newton import newton_step
 from .textures import ShapeTextures
@@ -50,6 +52,7 @@ __all__ = [
     "SHAPE_PLUGIN",
     "IntegratorSettings",
     "make_integrator",
+    "shape_integrator_class",
 ]
 
 STRIPES, COLORMAP, BOTH = 0, 1, 2
@@ -93,10 +96,6 @@ class IntegratorSettings:
     key_light: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
 
-#: the variants whose integrators are registered with Mitsuba
-_REGISTERED: set[str] = set()
-
-
 def make_integrator(
     settings: IntegratorSettings, textures: ShapeTextures, lut: np.ndarray | None
 ) -> Any:
@@ -106,14 +105,10 @@ def make_integrator(
     primary one first; for ``display == 'both'`` the colour-mapped one second).  ``lut``:
     (256, 3) linear RGB map, or None for stripes alone.
     """
-    import mitsuba as mi
+    mi = mitsuba()
 
-    variant = mi.variant()
-    if variant is None:
-        raise RuntimeError("make_integrator: no Mitsuba variant is set (select_variant first)")
-    if variant not in _REGISTERED:
-        _register(mi)
-        _REGISTERED.add(variant)
+    if mi.variant() is None:
+        raise RuntimeError("make_integrator: no Mitsuba variant is set (use_variant first)")
     geometry = _texture(mi, GEOMETRY.pack(textures.geometry()))
     values = [_texture(mi, SHAPE.pack(textures.function(k))) for k in range(len(textures.values))]
     shape = mi.load_dict({"type": SHAPE_PLUGIN})
@@ -123,7 +118,7 @@ def make_integrator(
 
 def _texture(mi, data: np.ndarray):
     """A Dr.Jit texture of a packed (H, W, channels) float32 image."""
-    import drjit as dr
+    dr = import_drjit()
 
     return mi.Texture2f(
         mi.TensorXf(data),
@@ -133,14 +128,10 @@ def _texture(mi, data: np.ndarray):
     )
 
 
-def _register(mi) -> None:
-    """Define the integrator for the active variant and register it with Mitsuba."""
-    shape = _define(mi)
-    mi.register_integrator(SHAPE_PLUGIN, lambda props: shape(props))
-
-
-def _define(mi):
-    import drjit as dr
+def shape_integrator_class(mi) -> type:
+    """The shape integrator's class for Mitsuba's active variant (registered by
+    :func:`gshade.rendering.plugins.use_variant` as :data:`SHAPE_PLUGIN`)."""
+    dr = import_drjit()
 
     scalar = mi.variant().startswith("scalar")
     ops = drjit_ops(scalar)

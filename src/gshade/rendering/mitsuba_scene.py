@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..runtime.llvm import import_drjit
+from ..runtime.variant import mitsuba
 from .atlas import Atlas
 from .camera import View
 from .integrator import IntegratorSettings, make_integrator
@@ -70,7 +72,7 @@ def mitsuba_scene(
     """The scene of the mesh seen by the view's sensor, with both integrators configured
     from the textures and the display style (``settings``: ``[render]``, ``shape``:
     ``[shape]``)."""
-    import mitsuba as mi
+    mi = mitsuba()
 
     integrator_settings = IntegratorSettings(
         display=shape.display,
@@ -102,7 +104,7 @@ def mitsuba_scene(
 def render_centres(scene: MitsubaScene, view: View, settings) -> NDArray[np.float32]:
     """The centre pass, one ray through each pixel centre: the film (H, W, channels),
     channels :data:`gshade.rendering.integrator.SHAPE_FILM`."""
-    import mitsuba as mi
+    mi = mitsuba()
 
     sensor = mi.load_dict(view.sensor(mi, 1, settings.seed, sampler="centre"))
     mi.render(scene.scene, sensor=sensor, seed=settings.seed, spp=1)
@@ -114,7 +116,7 @@ def render_pixels_of(
 ) -> NDArray[np.float32]:
     """The supersampling pass at ``pixels`` (flat indices): (n, channels), ``spp`` samples
     each, the values a render of the whole film would give there."""
-    import mitsuba as mi
+    mi = mitsuba()
 
     camera = scene.scene.sensors()[0]
     width, height = view.image_width, view.image_height
@@ -126,7 +128,7 @@ def render_pixels_of(
 
 def render_uniform(scene: MitsubaScene, settings) -> NDArray[np.float32]:
     """The supersampling pass at every pixel: the film (H, W, channels)."""
-    import mitsuba as mi
+    mi = mitsuba()
 
     mi.render(scene.scene, seed=settings.seed, spp=settings.spp)
     return _developed(scene.scene.sensors()[0])
@@ -135,7 +137,7 @@ def render_uniform(scene: MitsubaScene, settings) -> NDArray[np.float32]:
 def _developed(sensor) -> NDArray[np.float32]:
     """The sensor's film as a numpy array (H, W, channels); Dr.Jit's memory of the render
     handed back to the system, so that what follows in numpy does not add to it."""
-    import drjit as dr
+    dr = import_drjit()
 
     film = np.asarray(sensor.film().develop())  # a view of Dr.Jit's float32 array, no copy
     dr.sync_thread()

@@ -40,12 +40,12 @@ from numpy.typing import NDArray
 from .. import __version__
 from ..errors import GshadeError
 from ..limits import MAX_SAMPLES
-from ..runtime.variant import select_variant
 from .atlas import Atlas
 from .camera import View
 from .channels import PICTURE, centre_hits, exact_channels, refuse_non_finite
 from .integrator import SHAPE_FILM
 from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
+from .plugins import use_variant
 from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_sizes, validate_memory
 from .style import display_style, legend, shape_functions, trimmed_region
@@ -82,7 +82,7 @@ def render(scene, **overrides) -> RenderedImage:
     scene = _with_overrides(scene, overrides)
     lap = _Laps()
     settings, where = _settings(scene)
-    variant = select_variant(settings.variant)
+    variant = use_variant(settings.variant)
     lap("setup")
 
     framing = frame(scene, settings, where)

@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["PIXELS_PLUGIN", "pixel_list_sensor"]
+from ..runtime.llvm import import_drjit
+from ..runtime.variant import mitsuba
+
+__all__ = ["PIXELS_PLUGIN", "pixel_list_sensor", "pixel_sensor_class"]
 
 PIXELS_PLUGIN = "gshade_pixels"
-#: the variants whose sensor is registered with Mitsuba
-_REGISTERED: set[str] = set()
 
 
 def pixel_list_sensor(
@@ -28,13 +29,7 @@ def pixel_list_sensor(
     """A sensor whose film's first ``len(pixels)`` pixels (row-major) are ``pixels`` (flat
     indices, row-major, into the ``camera``'s ``width`` x ``height`` film), sampled by
     ``sampler`` (a Mitsuba dict)."""
-    import mitsuba as mi
-
-    variant = str(mi.variant())  # set by the caller (the pipeline's select_variant)
-    if variant not in _REGISTERED:
-        sensor_class = _define(mi)
-        mi.register_sensor(PIXELS_PLUGIN, lambda props: sensor_class(props))
-        _REGISTERED.add(variant)
+    mi = mitsuba()
     n = len(pixels)
     # a square film: both coordinates below sqrt(n) <= 2^14 (at most 2^28 pixels listed), so
     # a float32 film position keeps a sample's place to 2^-10 of a pixel or better
@@ -56,8 +51,10 @@ def pixel_list_sensor(
     return sensor
 
 
-def _define(mi):
-    import drjit as dr
+def pixel_sensor_class(mi) -> type:
+    """The sensor's class for Mitsuba's active variant (registered by
+    :func:`gshade.rendering.plugins.use_variant` as :data:`PIXELS_PLUGIN`)."""
+    dr = import_drjit()
 
     scalar = mi.variant().startswith("scalar")
 

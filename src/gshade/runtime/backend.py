@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from .llvm import import_drjit
+
 __all__ = ["NUMPY", "NUMPY_NAN", "ArrayOps", "cross3", "dot3", "drjit_ops"]
 
 #: an elementwise operation of one array library
@@ -62,7 +64,7 @@ def _take(table, index):
 
 def _drjit_gather(table, index):
     """Dr.Jit's gather of ``table`` (an array of the variant) at float indices."""
-    import drjit as dr
+    dr = import_drjit()
 
     return dr.gather(type(table), table, dr.uint32_array_t(type(index))(index))
 
@@ -157,7 +159,7 @@ def _library_defaults(name: str) -> dict[str, Op]:
             "gather": _take,
         }
     if name == "drjit":
-        import drjit as dr
+        dr = import_drjit()
 
         return {
             "floor": dr.floor,
@@ -193,7 +195,7 @@ def drjit_ops(scalar: bool = False, fused: bool = True) -> ArrayOps:
     """The operations for Dr.Jit arrays; ``scalar`` for Mitsuba's scalar variants (Python
     numbers and booleans), ``fused=False`` for dot and cross products written out
     (:func:`dot3`, :func:`cross3`) instead of Dr.Jit's fused multiply-adds."""
-    import drjit as dr
+    dr = import_drjit()
 
     return ArrayOps(
         "drjit",

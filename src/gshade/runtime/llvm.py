@@ -5,7 +5,10 @@ shape-function kernels) with a libLLVM loaded at run time.  LLVM 15 or 16 aborts
 process on Mitsuba's first kernel (``Cannot select ... fmaximum``; see the project's design
 notes), so gshade looks for libLLVM >= 17 itself — the ``karellen-llvm-core`` wheel installed
 with gshade puts one into the environment — and points Dr.Jit at it with
-``DRJIT_LIBLLVM_PATH`` before anything imports Dr.Jit (``import gshade`` does this).
+``DRJIT_LIBLLVM_PATH`` before it imports Dr.Jit (:func:`point_drjit_at_llvm`, the one place
+gshade sets that variable; :func:`import_drjit` is how gshade imports Dr.Jit).  Importing
+gshade sets nothing: a program that imports ``drjit`` or ``mitsuba`` itself before gshade
+does calls :func:`gshade.runtime.setup` first.
 """
 
 from __future__ import annotations
@@ -16,8 +19,16 @@ import re
 import sys
 from functools import lru_cache
 from pathlib import Path
+from types import ModuleType
 
-__all__ = ["MIN_LLVM", "drjit_llvm_ready", "find_llvm", "llvm_version", "prepare_llvm"]
+__all__ = [
+    "MIN_LLVM",
+    "drjit_llvm_ready",
+    "find_llvm",
+    "import_drjit",
+    "llvm_version",
+    "point_drjit_at_llvm",
+]
 
 MIN_LLVM = 17
 
@@ -63,12 +74,21 @@ def find_llvm() -> str | None:
     return best[1] if best else None
 
 
-def prepare_llvm() -> None:
-    """Point Dr.Jit at a usable LLVM before anything imports it (called by ``import gshade``)."""
+def point_drjit_at_llvm() -> None:
+    """Set ``DRJIT_LIBLLVM_PATH`` to the libLLVM :func:`find_llvm` finds, unless Dr.Jit is
+    imported already (it has chosen) or the variable is set (the user has); idempotent."""
     if "drjit" not in sys.modules and "DRJIT_LIBLLVM_PATH" not in os.environ:
         llvm = find_llvm()
         if llvm is not None:
             os.environ["DRJIT_LIBLLVM_PATH"] = llvm
+
+
+def import_drjit() -> ModuleType:
+    """Dr.Jit, imported after :func:`point_drjit_at_llvm`: how gshade imports it."""
+    point_drjit_at_llvm()
+    import drjit
+
+    return drjit
 
 
 @lru_cache(maxsize=1)
@@ -78,8 +98,7 @@ def drjit_llvm_ready() -> bool:
     if find_llvm() is None and "DRJIT_LIBLLVM_PATH" not in os.environ:
         return False
     try:
-        import drjit as dr
-
+        dr = import_drjit()
         return bool(dr.has_backend(dr.JitBackend.LLVM)) and dr.detail.llvm_version()[0] >= MIN_LLVM
     except (ImportError, AttributeError, RuntimeError):
         return False

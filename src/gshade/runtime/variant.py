@@ -21,14 +21,13 @@ from __future__ import annotations
 
 import importlib.abc
 import importlib.machinery
-import os
 import sys
 import warnings
 from functools import cache
 from types import ModuleType
 
 from ..errors import GshadeError
-from .llvm import MIN_LLVM, find_llvm, llvm_version, prepare_llvm
+from .llvm import MIN_LLVM, find_llvm, import_drjit, llvm_version, point_drjit_at_llvm
 
 __all__ = [
     "MIN_LLVM",
@@ -38,7 +37,6 @@ __all__ = [
     "leave_out_python_integrators",
     "llvm_version",
     "mitsuba",
-    "prepare_llvm",
     "resolve_variant",
     "select_variant",
 ]
@@ -55,7 +53,7 @@ _leaving_out = [False]
 @cache
 def resolve_variant(requested: str = "auto") -> str:
     """The Mitsuba variant that ``requested`` means here (auto | llvm_ad_rgb | scalar_rgb |
-    cuda_ad_rgb), pointing Dr.Jit at a usable LLVM on the way.
+    cuda_ad_rgb).
 
     ``auto`` gives ``llvm_ad_rgb`` when a libLLVM >= 17 is found and otherwise
     ``scalar_rgb``, with one warning.  Raises GshadeError for an unknown name or an explicit
@@ -79,7 +77,6 @@ def resolve_variant(requested: str = "auto") -> str:
             stacklevel=3,
         )
         return "scalar_rgb"
-    os.environ["DRJIT_LIBLLVM_PATH"] = llvm
     return "llvm_ad_rgb"
 
 
@@ -90,14 +87,13 @@ def select_variant(requested: str = "auto") -> str:
     if mi.variant() == variant:
         return variant
     if variant == "llvm_ad_rgb":
-        import drjit as dr
-
+        dr = import_drjit()
         loaded = dr.detail.llvm_version()[0]
         if loaded < MIN_LLVM:  # Dr.Jit was imported before gshade could point it elsewhere
             message = (
                 f"Dr.Jit has loaded libLLVM {loaded}, which aborts on Mitsuba's kernels "
-                f"(it needs >= {MIN_LLVM}); import gshade before drjit or mitsuba, or set "
-                "DRJIT_LIBLLVM_PATH"
+                f"(it needs >= {MIN_LLVM}); call gshade.runtime.setup() before importing "
+                "drjit or mitsuba, or set DRJIT_LIBLLVM_PATH"
             )
             if requested == "llvm_ad_rgb":
                 raise GshadeError(f"variant: {message}")
@@ -112,8 +108,7 @@ def select_variant(requested: str = "auto") -> str:
     except (ImportError, AttributeError, RuntimeError) as exc:
         raise GshadeError(f"variant: {variant} is not available here ({exc})") from None
     if variant == "cuda_ad_rgb":
-        import drjit as dr
-
+        dr = import_drjit()
         try:
             dr.eval(mi.Float(1.0) + 1.0)
         except RuntimeError as exc:
@@ -168,8 +163,10 @@ def _set_variant(mi, variant: str) -> None:
         package.__spec__ = spec
 
 
-def mitsuba():
-    """Import Mitsuba (after any DRJIT_LIBLLVM_PATH has been set)."""
+def mitsuba() -> ModuleType:
+    """Mitsuba, imported after :func:`gshade.runtime.llvm.point_drjit_at_llvm` (Mitsuba
+    imports Dr.Jit): how gshade imports it."""
+    point_drjit_at_llvm()
     import mitsuba as mi
 
     return mi

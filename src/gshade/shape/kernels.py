@@ -27,7 +27,7 @@ from ..errors import GshadeError
 from ..geometry.core.differential import first_form, first_form_det, solve_first_form
 from ..geometry.core.jets import NUMPY, Backend, Jet
 from ..runtime.drjit_arrays import drjit_array
-from ..runtime.llvm import drjit_llvm_ready
+from ..runtime.llvm import drjit_llvm_ready, import_drjit
 
 __all__ = ["BACKENDS", "Formula", "Layout", "backend", "run"]
 
@@ -135,7 +135,7 @@ def run(
     params: list[Any]  # Dr.Jit or numpy numbers, as the backend's formulas take them
     zero: Any
     if name == "drjit":
-        import drjit as dr
+        dr = import_drjit()
         from drjit.llvm import Float64
 
         xp = _drjit()

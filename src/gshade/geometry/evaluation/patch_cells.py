@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...runtime.drjit_arrays import drjit_array
+from ...runtime.llvm import import_drjit
 from ..core.patch import homogeneous, validate_order
 from ..core.rational import project_patch_derivatives
 from ..patches.bezier import BezierPatch
@@ -109,7 +110,7 @@ class PatchCells:
         """Derivatives up to total order ``order`` of patch ``member[i]`` at (u[i], v[i]):
         shape (order + 1, order + 1, N, 3), as ``Patch.derivatives(u, v, order)`` (zero for
         i + j > order)."""
-        import drjit as dr
+        dr = import_drjit()
         from drjit.llvm import Float64, UInt32
 
         order = validate_order(order)
