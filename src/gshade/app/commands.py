@@ -109,6 +109,7 @@ def info(args: argparse.Namespace) -> int:
     """``gshade info``: the surfaces, patch count, bounding box and irregular points."""
 
     from ..geometry import irregular_mask
+    from ..geometry.core.patch import EXTENT_GRID
     from ..rendering.sizing import extent_points
     from ..scene import load_scene
 
@@ -131,7 +132,7 @@ def info(args: argparse.Namespace) -> int:
     for surface in scene.surfaces:
         numbers = surface.body.patch_numbers(index, len(surface.patches))
         for patch, number in zip(surface.patches, numbers, strict=True):
-            u, v = patch.parameter_grid(17, 17)
+            u, v = patch.parameter_grid(EXTENT_GRID, EXTENT_GRID)
             mask = irregular_mask(patch.derivatives(u, v, 1))
             if mask.any():
                 sides = (("u0", mask[0]), ("u1", mask[-1]), ("v0", mask[:, 0]), ("v1", mask[:, -1]))

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
+from ..geometry.core.patch import EXTENT_GRID
 from ..geometry.patches.bspline import BSplinePatch
 
 __all__ = [
@@ -34,6 +35,11 @@ __all__ = [
     "trimmed_points",
     "usable",
 ]
+
+#: Samples per side of a face's box for the model's bounding box (tight to the sampling).
+BOUNDS_GRID = 65
+#: Samples per side of a face's box where it must evaluate to finite points (else left out).
+USABLE_GRID = 5
 
 
 @dataclass
@@ -205,7 +211,7 @@ def arc_map(
 
 
 def trimmed_points(
-    face: CadFace, n: int = 17, loop_points: int | None = None
+    face: CadFace, n: int = EXTENT_GRID, loop_points: int | None = None
 ) -> NDArray[np.float64]:
     """Points (m, 3) of a face's trimmed region, standing for its extent: the points of its
     loops (at most ``loop_points`` a loop, default 4 n; all with 0) and of the n x n grid of
@@ -215,7 +221,10 @@ def trimmed_points(
 
 
 def faces_trimmed_points(
-    faces: list[CadFace], n: int = 17, loop_points: int | None = None, drjit: bool = False
+    faces: list[CadFace],
+    n: int = EXTENT_GRID,
+    loop_points: int | None = None,
+    drjit: bool = False,
 ) -> list[NDArray[np.float64]]:
     """:func:`trimmed_points` of each face, the surfaces evaluated at all faces' points at
     once (:class:`gshade.geometry.evaluation.patch_cells.ManyPatches`; its Dr.Jit kernel with
@@ -271,11 +280,11 @@ def faces_extents(faces: list[CadFace], drjit: bool = False) -> list[NDArray[np.
 def faces_bounds(faces: list[CadFace]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The bounding box (lo, hi) of the faces' trimmed regions, from their
     :func:`trimmed_points` (points on the exact surfaces: tight up to the sampling)."""
-    points = np.concatenate(faces_trimmed_points(faces, 65, 0))
+    points = np.concatenate(faces_trimmed_points(faces, BOUNDS_GRID, 0))
     return points.min(axis=0), points.max(axis=0)
 
 
-def usable(face: CadFace, n: int = 5) -> CadFace:
+def usable(face: CadFace, n: int = USABLE_GRID) -> CadFace:
     """The face, checked to evaluate to finite points and first derivatives at an n x n
     grid of its box; a GshadeError saying what does not (the reader leaves it out)."""
     (u0, u1), (v0, v1) = face.box

@@ -80,6 +80,9 @@ _EXACT |= {"revolution", "extrusion"}
 _NAMES = {".step": "a STEP file", ".stp": "a STEP file", ".iges": "an IGES file"}
 _NAMES |= {".igs": "an IGES file", ".brep": "a BREP file"}
 
+#: Points along a trimming curve before it is refined where it bends.
+PCURVE_SAMPLES = 9
+
 
 def read(path: str | Path, sew: bool | None = None, tolerance: float | None = None) -> CadModel:
     """Read a STEP, IGES or BREP file into exact faces (see :func:`gshade.cad.read_cad`).
@@ -451,7 +454,7 @@ def _edge_points(edge: Any, face: Any, tol: float) -> list[NDArray[np.float64]]:
     if curve.GetType() == GeomAbs_Line:
         ts = [t0, t1]
     else:
-        ts = list(np.linspace(t0, t1, 9))
+        ts = list(np.linspace(t0, t1, PCURVE_SAMPLES))
         out = [ts[0]]
         for a, b in itertools.pairwise(ts):
             _refine(at, a, b, at(a), at(b), tol, out, 0)

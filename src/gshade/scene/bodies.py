@@ -24,12 +24,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
+from ..geometry.core.patch import EXTENT_GRID
 from ..geometry.evaluation.patch_groups import grid_derivatives
 
 __all__ = ["PATCHES", "CadFaces", "PatchBody", "SurfaceBody"]
 
-#: Per side, the samples of a patch's parameter grid standing for its extent.
-EXTENT_GRID = 17
+#: Per side, the samples of a face's grid standing for its projected size (tile sizes).
+TILE_GRID = 9
 
 
 class SurfaceBody(Protocol):
@@ -160,11 +161,11 @@ class CadFaces:
         return np.concatenate(faces_extents(faces, drjit=backend() == "drjit"))
 
     def tile_extents(self, patches: Sequence[Patch]) -> Iterator[NDArray[np.float64]]:
-        """A 9 x 9 grid of each face's surface over its box (the rational arcs' control
-        points lie off the surface, overstating it), all faces at once."""
+        """A TILE_GRID x TILE_GRID grid of each face's surface over its box (the rational
+        arcs' control points lie off the surface, overstating it), all faces at once."""
         from ..geometry.evaluation.patch_groups import grid_derivatives
 
-        yield from grid_derivatives(list(patches), np.linspace(0.0, 1.0, 9))[:, 0, 0]
+        yield from grid_derivatives(list(patches), np.linspace(0.0, 1.0, TILE_GRID))[:, 0, 0]
 
     def size_points(self, patches: Sequence[Patch]) -> NDArray[np.float64]:
         """The corners of the model's bounding box."""

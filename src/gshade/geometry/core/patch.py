@@ -26,10 +26,13 @@ from .blas_threads import single_threaded_blas
 from .knots import basis_functions, basis_matrix, validate_parameters
 from .rational import project_curve_derivatives, project_patch_derivatives
 
-__all__ = ["Curve", "Patch", "TensorProductPatch", "unit_to_domain"]
+__all__ = ["EXTENT_GRID", "Curve", "Patch", "TensorProductPatch", "unit_to_domain"]
 
 Domain = tuple[tuple[float, float], tuple[float, float]]
 
+#: Samples per side of a patch's parameter grid standing for the whole patch: its extent
+#: (bounding boxes, framing) and, in ``gshade info``, its collapsed edges.
+EXTENT_GRID = 17
 #: Points are evaluated in chunks of this many, to bound temporary memory.
 _CHUNK = 1 << 15
 
