@@ -99,13 +99,27 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"gshade {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_SubcommandParser)
+    for add in SUBCOMMANDS:
+        add(sub)
+    return parser
+
+
+def _add_shapes(sub: argparse._SubParsersAction) -> None:
+    """The ``shapes`` subcommand's arguments."""
     shapes = sub.add_parser("shapes", help="list the shape functions, their order and parameters")
     shapes.set_defaults(run=commands.shapes)
+
+
+def _add_keys(sub: argparse._SubParsersAction) -> None:
+    """The ``keys`` subcommand's arguments."""
     keys = sub.add_parser(
         "keys", help="list the scene files' keys: types, ranges, defaults, meanings"
     )
     keys.set_defaults(run=commands.keys)
 
+
+def _add_render(sub: argparse._SubParsersAction) -> None:
+    """The ``render`` subcommand's arguments."""
     render = sub.add_parser("render", help="render a scene file to EXR (and PNG)")
     render.add_argument("scene", help=SCENE_HELP)
     render.add_argument("-o", "--output", help="EXR file (default: <scene name>.exr here)")
@@ -141,6 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
     _cache_flag(render)
     render.set_defaults(run=commands.render)
 
+
+def _add_view(sub: argparse._SubParsersAction) -> None:
+    """The ``view`` subcommand's arguments."""
     view = sub.add_parser(
         "view",
         help="one self-contained HTML page to inspect EXRs: zoom, every channel under the "
@@ -151,6 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--title", help="the page's title (default: the file names)")
     view.set_defaults(run=commands.view)
 
+
+def _add_compare(sub: argparse._SubParsersAction) -> None:
+    """The ``compare`` subcommand's arguments."""
     cmp = sub.add_parser(
         "compare",
         help="compare an EXR with a reference (exit 0 pass, 1 warning, 2 failure, "
@@ -190,6 +210,9 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("--json", action="store_true", help="print the metrics as JSON")
     cmp.set_defaults(run=commands.compare, error_status=COMPARE_USAGE)
 
+
+def _add_check(sub: argparse._SubParsersAction) -> None:
+    """The ``check`` subcommand's arguments."""
     chk = sub.add_parser(
         "check", help="render scenes at their check settings and diff them with references"
     )
@@ -214,6 +237,9 @@ def build_parser() -> argparse.ArgumentParser:
     _cache_flag(chk)
     chk.set_defaults(run=commands.check)
 
+
+def _add_batch(sub: argparse._SubParsersAction) -> None:
+    """The ``batch`` subcommand's arguments."""
     bat = sub.add_parser("batch", help="render many scenes (and sweeps) into a folder")
     bat.add_argument("scenes", nargs="+", help="scene files, folders or glob patterns")
     bat.add_argument("-o", "--output", required=True, help="output folder")
@@ -242,12 +268,18 @@ def build_parser() -> argparse.ArgumentParser:
     _cache_flag(bat)
     bat.set_defaults(run=commands.batch)
 
+
+def _add_figure(sub: argparse._SubParsersAction) -> None:
+    """The ``figure`` subcommand's arguments."""
     fig = sub.add_parser("figure", help="a multi-panel figure from a figure spec")
     fig.add_argument("spec", help="figure spec (TOML)")
     fig.add_argument("-o", "--output", required=True, help="OUT.png, OUT.pdf or OUT.svg")
     _cache_flag(fig)
     fig.set_defaults(run=commands.figure)
 
+
+def _add_continuity(sub: argparse._SubParsersAction) -> None:
+    """The ``continuity`` subcommand's arguments."""
     cont = sub.add_parser("continuity", help="measure and classify the patch junctions")
     cont.add_argument("scene", help=SCENE_HELP)
     cont.add_argument("--json", action="store_true", help="print JSON")
@@ -273,13 +305,30 @@ def build_parser() -> argparse.ArgumentParser:
     _cache_flag(cont)
     cont.set_defaults(run=commands.continuity)
 
+
+def _add_info(sub: argparse._SubParsersAction) -> None:
+    """The ``info`` subcommand's arguments."""
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help=SCENE_HELP)
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     _strict_flag(info)
     _cache_flag(info)
     info.set_defaults(run=commands.info)
-    return parser
+
+
+#: The subcommands' argument builders, in the order ``gshade --help`` lists them.
+SUBCOMMANDS = (
+    _add_shapes,
+    _add_keys,
+    _add_render,
+    _add_view,
+    _add_compare,
+    _add_check,
+    _add_batch,
+    _add_figure,
+    _add_continuity,
+    _add_info,
+)
 
 
 _signalled: list[int] = []
