@@ -90,99 +90,101 @@ def parse_obj(text: str, source: str = "<string>") -> ObjMesh:
     SurfaceDataError
         One line naming the source, the line number, what was expected and what was found.
     """
-
-    def fail(line: int | None, message: str) -> SurfaceDataError:
-        where = f"{source}, line {line}" if line is not None else source
-        return SurfaceDataError(f"{where}: {message}")
-
     vertices: list[tuple[float, float, float]] = []
     faces: list[tuple[int, ...]] = []
     face_lines: list[int] = []
-    pending: list[tuple[int, int, int]] = []  # (face, line, 1-based index) to check at the end
+    pending: list[tuple[int, int]] = []  # (line, 1-based index) to check at the end
     for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0]
-        fields = line.split()
+        fields = raw.split("#", 1)[0].split()
         if not fields:
             continue
-        word, args = fields[0], fields[1:]
+        word = fields[0]
+        where = f"{source}, line {number}"
         if word == "v":
-            try:
-                if not 3 <= len(args) <= 7:
-                    raise ValueError
-                numbers = [float(a) for a in args]
-                xyz = (numbers[0], numbers[1], numbers[2])
-            except ValueError:
-                raise fail(
-                    number,
-                    f"expected a vertex 'v x y z' (3 numbers, optionally w or r g b), found "
-                    f"{describe_fields(fields)}",
-                ) from None
-            if not all(abs(x) <= MAX_MAGNITUDE for x in xyz):
-                raise fail(number, f"expected finite coordinates within ±{MAX_MAGNITUDE:g}")
-            vertices.append(xyz)
+            vertices.append(_vertex(fields, where))
         elif word == "f":
-            if len(args) < 3:
-                raise fail(
-                    number,
-                    f"expected a face 'f a b c ...' (at least 3 vertex references), found "
-                    f"{describe_fields(fields)}",
-                )
-            refs = []
-            for arg in args:
-                parts = arg.split("/")
-                ok = 1 <= len(parts) <= 3 and all(
-                    _is_int(p) or (k > 0 and p == "") for k, p in enumerate(parts)
-                )
-                if not ok:
-                    raise fail(
-                        number,
-                        "expected vertex references a, a/t, a/t/n or a//n (integers), found "
-                        "one that is not (not shown)",
-                    )
-                index = int(parts[0])
-                if index == 0:
-                    raise fail(number, "expected a vertex index other than 0 (OBJ counts from 1)")
-                if index < 0:
-                    if -index > len(vertices):
-                        raise fail(
-                            number,
-                            f"expected a relative vertex index from -1 to -{len(vertices)} "
-                            f"({len(vertices)} vertices so far), found {index}",
-                        )
-                    refs.append(len(vertices) + index)
-                else:
-                    refs.append(index - 1)
-                    pending.append((len(faces), number, index))
-            faces.append(tuple(refs))
+            refs, absolute = _face(fields, len(vertices), where)
+            pending += [(number, index) for index in absolute]
+            faces.append(refs)
             face_lines.append(number)
-        elif word in _IGNORED:
-            continue
-        elif word in _FREE_FORM:
-            raise fail(
-                number,
-                f"expected a polygon mesh (v and f statements), found free-form geometry "
-                f"{word!r}, which gshade does not read",
-            )
-        else:
-            raise fail(
-                number,
-                "expected an OBJ statement such as 'v' or 'f', found "
-                + (
-                    repr(word)
-                    if word.isalpha() and len(word) <= 12
-                    else "an unknown one (not shown)"
-                ),
-            )
-    for _, number, index in pending:
+        elif word not in _IGNORED:
+            raise SurfaceDataError(f"{where}: {_unread(word)}")
+    for number, index in pending:
         if index > len(vertices):
-            raise fail(
-                number,
-                f"expected vertex indices from 1 to {len(vertices)}, found {index}",
+            raise SurfaceDataError(
+                f"{source}, line {number}: expected vertex indices from 1 to {len(vertices)}, "
+                f"found {index}"
             )
     if not faces:
-        raise fail(None, "expected at least one face ('f' statement), found none")
+        raise SurfaceDataError(f"{source}: expected at least one face ('f' statement), found none")
     V = np.array(vertices, dtype=np.float64).reshape(-1, 3)
     return ObjMesh(V, faces, face_lines)
+
+
+def _vertex(fields: list[str], where: str) -> tuple[float, float, float]:
+    """A ``v x y z [w | r g b]`` statement's point; SurfaceDataError at ``where``."""
+    try:
+        if not 3 <= len(fields) - 1 <= 7:
+            raise ValueError
+        numbers = [float(a) for a in fields[1:]]
+        xyz = (numbers[0], numbers[1], numbers[2])
+    except ValueError:
+        raise SurfaceDataError(
+            f"{where}: expected a vertex 'v x y z' (3 numbers, optionally w or r g b), found "
+            f"{describe_fields(fields)}"
+        ) from None
+    if not all(abs(x) <= MAX_MAGNITUDE for x in xyz):
+        raise SurfaceDataError(f"{where}: expected finite coordinates within ±{MAX_MAGNITUDE:g}")
+    return xyz
+
+
+def _face(fields: list[str], vertex_count: int, where: str) -> tuple[tuple[int, ...], list[int]]:
+    """An ``f a b c ...`` statement's 0-based vertex indices (relative ones resolved against
+    the ``vertex_count`` vertices so far), and its positive 1-based indices, which the whole
+    file must reach; SurfaceDataError at ``where``."""
+    if len(fields) < 4:
+        raise SurfaceDataError(
+            f"{where}: expected a face 'f a b c ...' (at least 3 vertex references), found "
+            f"{describe_fields(fields)}"
+        )
+    refs, absolute = [], []
+    for arg in fields[1:]:
+        parts = arg.split("/")
+        ok = 1 <= len(parts) <= 3 and all(
+            _is_int(p) or (k > 0 and p == "") for k, p in enumerate(parts)
+        )
+        if not ok:
+            raise SurfaceDataError(
+                f"{where}: expected vertex references a, a/t, a/t/n or a//n (integers), found "
+                "one that is not (not shown)"
+            )
+        index = int(parts[0])
+        if index == 0:
+            raise SurfaceDataError(
+                f"{where}: expected a vertex index other than 0 (OBJ counts from 1)"
+            )
+        if index < 0:
+            if -index > vertex_count:
+                raise SurfaceDataError(
+                    f"{where}: expected a relative vertex index from -1 to -{vertex_count} "
+                    f"({vertex_count} vertices so far), found {index}"
+                )
+            refs.append(vertex_count + index)
+        else:
+            refs.append(index - 1)
+            absolute.append(index)
+    return tuple(refs), absolute
+
+
+def _unread(word: str) -> str:
+    """Why a statement other than ``v``, ``f`` and those passed over is refused."""
+    if word in _FREE_FORM:
+        return (
+            f"expected a polygon mesh (v and f statements), found free-form geometry "
+            f"{word!r}, which gshade does not read"
+        )
+    shown = repr(word) if word.isalpha() and len(word) <= 12 else "an unknown one (not shown)"
+    return f"expected an OBJ statement such as 'v' or 'f', found {shown}"
 
 
 def _is_int(text: str) -> bool:
