@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..scene import validate_view
+from ..scene.model import Camera
 from ..scene.tables import reported
 
 __all__ = ["View", "fit_view", "frame_view"]
@@ -160,7 +161,7 @@ def _centre_in_view(points: NDArray, up: NDArray) -> NDArray:
     return centre + right * (x.max() + x.min()) / 2 + true_up * (y.max() + y.min()) / 2
 
 
-def frame_view(camera, points: NDArray, width: int, height: int) -> View:
+def frame_view(camera: Camera, points: NDArray, width: int, height: int) -> View:
     """Resolve a scene's camera (a :class:`gshade.scene.Camera`: its vectors are valid) for
     surface points (N, 3) sampled densely enough to stand for the surfaces' extent.  The
     view is checked as the Camera checks given vectors (:func:`gshade.scene.validate_view`)

@@ -128,7 +128,7 @@ def _texture(mi, data: np.ndarray):
     )
 
 
-def shape_integrator_class(mi) -> type:
+def shape_integrator_class(mi: Any) -> type:
     """The shape integrator's class for Mitsuba's active variant (registered by
     :func:`gshade.rendering.plugins.use_variant` as :data:`SHAPE_PLUGIN`)."""
     dr = import_drjit()

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ..runtime.llvm import import_drjit
 from ..runtime.variant import mitsuba
+from ..scene.model import RenderSettings, Shape
 from .atlas import Atlas
 from .camera import View
 from .integrator import IntegratorSettings, make_integrator
@@ -66,8 +67,8 @@ def mitsuba_scene(
     tex: ShapeTextures,
     style: DisplayStyle,
     view: View,
-    settings,
-    shape,
+    settings: RenderSettings,
+    shape: Shape,
 ) -> MitsubaScene:
     """The scene of the mesh seen by the view's sensor, with both integrators configured
     from the textures and the display style (``settings``: ``[render]``, ``shape``:
@@ -101,7 +102,9 @@ def mitsuba_scene(
     return MitsubaScene(scene, sensor["sampler"])
 
 
-def render_centres(scene: MitsubaScene, view: View, settings) -> NDArray[np.float32]:
+def render_centres(
+    scene: MitsubaScene, view: View, settings: RenderSettings
+) -> NDArray[np.float32]:
     """The centre pass, one ray through each pixel centre: the film (H, W, channels),
     channels :data:`gshade.rendering.integrator.SHAPE_FILM`."""
     mi = mitsuba()
@@ -112,7 +115,7 @@ def render_centres(scene: MitsubaScene, view: View, settings) -> NDArray[np.floa
 
 
 def render_pixels_of(
-    scene: MitsubaScene, view: View, settings, pixels: NDArray[np.int64]
+    scene: MitsubaScene, view: View, settings: RenderSettings, pixels: NDArray[np.int64]
 ) -> NDArray[np.float32]:
     """The supersampling pass at ``pixels`` (flat indices): (n, channels), ``spp`` samples
     each, the values a render of the whole film would give there."""
@@ -126,7 +129,7 @@ def render_pixels_of(
     return film.reshape(-1, film.shape[-1])[: len(pixels)]
 
 
-def render_uniform(scene: MitsubaScene, settings) -> NDArray[np.float32]:
+def render_uniform(scene: MitsubaScene, settings: RenderSettings) -> NDArray[np.float32]:
     """The supersampling pass at every pixel: the film (H, W, channels)."""
     mi = mitsuba()
 

@@ -31,8 +31,10 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +42,7 @@ from numpy.typing import NDArray
 from .. import __version__
 from ..errors import GshadeError
 from ..limits import MAX_SAMPLES
+from ..scene.model import Scene
 from .atlas import Atlas
 from .camera import View
 from .channels import PICTURE, centre_hits, exact_channels, refuse_non_finite
@@ -71,7 +74,7 @@ class _Laps:
         self.clock = now
 
 
-def render(scene, **overrides) -> RenderedImage:
+def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
     """Render a scene (a :class:`gshade.scene.Scene` or a path) to an image.
 
     Keyword overrides replace ``[render]`` settings (width, height, spp, lighting, sampling,
@@ -174,7 +177,7 @@ def _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, shape
         film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
 
 
-def _with_overrides(scene, overrides: dict):
+def _with_overrides(scene: Scene | str | os.PathLike, overrides: dict) -> Scene:
     """The scene (loaded from a path, with ``set``'s dotted keys) with the ``[render]``
     overrides applied and checked."""
     dotted = overrides.pop("set", None) or {}
@@ -291,7 +294,7 @@ def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
     return mesh, atlas, (lost, said)
 
 
-def cad_notes(scene, meshed=()) -> list:
+def cad_notes(scene: Scene, meshed: Iterable = ()) -> list:
     """What the readers of the scene's CAD models noted (``CadModel.notes``: the healing,
     sewing undone, objects passed over) and ``meshed``, the mesher's notes: (model path,
     line) each, a model's once."""
@@ -299,7 +302,7 @@ def cad_notes(scene, meshed=()) -> list:
     return list(said) + list(meshed)
 
 
-def left_out_faces(scene, unmeshed=()) -> list:
+def left_out_faces(scene: Scene, unmeshed: Iterable = ()) -> list:
     """The CAD faces a render of ``scene`` leaves out, (model path, LeftOutFace) each in
     order: those the scene's ``cad`` surfaces left out (:attr:`CadFaces.left_out`) and
     ``unmeshed``, those the mesher left without triangles."""

@@ -51,7 +51,7 @@ def pixel_list_sensor(
     return sensor
 
 
-def pixel_sensor_class(mi) -> type:
+def pixel_sensor_class(mi: Any) -> type:
     """The sensor's class for Mitsuba's active variant (registered by
     :func:`gshade.rendering.plugins.use_variant` as :data:`PIXELS_PLUGIN`)."""
     dr = import_drjit()

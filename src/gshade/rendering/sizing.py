@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..limits import MIN_CHORD_TOLERANCE, gigabytes, memory_budget, render_memory
+from ..scene.model import RenderSettings, Scene
 from .atlas import BLOCK
 from .camera import View, frame_view
 from .surface_meshes import gridded_patches
@@ -77,7 +78,7 @@ class Framing:
     view: View
 
 
-def frame(scene, settings, where: str) -> Framing:
+def frame(scene: Scene, settings: RenderSettings, where: str) -> Framing:
     """The bounding box of the patches (sampled on a 17 x 17 grid each; a CAD face at its
     loops and the grid points inside them), checked to be renderable in single precision,
     and the resolved camera."""
@@ -98,7 +99,7 @@ def _patch_extents(scene):
         yield from surface.body.tile_extents(surface.patches)
 
 
-def extent_points(scene) -> NDArray:
+def extent_points(scene: Scene) -> NDArray:
     """Points standing for the surfaces' extent
     (:meth:`gshade.scene.bodies.SurfaceBody.extent_points`: a patch's 17 x 17 grid, a CAD
     face's trimmed region)."""
@@ -114,7 +115,7 @@ def _nearest_distance(view: View, lo: NDArray, hi: NDArray) -> float:
     return float(max(depth.min(), NEAREST_FRACTION * np.linalg.norm(hi - lo)))
 
 
-def chord_tolerance(scene, settings, framing: Framing) -> float:
+def chord_tolerance(scene: Scene, settings: RenderSettings, framing: Framing) -> float:
     """The chord-error tolerance in scene units: ``chord_tolerance`` times the diagonal, at
     most half a pixel at the nearest point, and no finer than single precision resolves (a
     tiny view must not ask for more)."""
@@ -125,7 +126,7 @@ def chord_tolerance(scene, settings, framing: Framing) -> float:
     return max(tol, MIN_CHORD_TOLERANCE * diag)
 
 
-def mesh_resolution(scene, settings, framing: Framing) -> int:
+def mesh_resolution(scene: Scene, settings: RenderSettings, framing: Framing) -> int:
     """Vertices per patch side: ``tessellation`` if set, else the coarsest grid within the
     chord tolerance (no finer than single precision resolves, and within the budget) of
     the patches meshed on it (:func:`gshade.rendering.surface_meshes.gridded_patches`; 2
@@ -141,7 +142,7 @@ def mesh_resolution(scene, settings, framing: Framing) -> int:
     return min(resolution, max(2, int(np.sqrt(budget / len(patches)))))
 
 
-def tile_sizes(scene, framing: Framing) -> NDArray[np.int64]:
+def tile_sizes(scene: Scene, framing: Framing) -> NDArray[np.int64]:
     """Texels per tile, (columns along s, rows along t) per patch: ``texture_resolution``
     for all if set, else from the patches' projected sizes.  While every patch can have the
     largest one's square tile (about one texel every :data:`PIXELS_PER_TEXEL` pixels of its
@@ -215,7 +216,7 @@ def _validate_scale(where: str, lo: NDArray, hi: NDArray) -> float:
     return diag
 
 
-def validate_memory(where: str, settings, vertices: int, texels: int) -> None:
+def validate_memory(where: str, settings: RenderSettings, vertices: int, texels: int) -> None:
     """Refuse a render whose estimated peak memory exceeds :func:`gshade.limits.memory_limit`
     (the message says what set the limit: ``GSHADE_MEMORY_LIMIT``, the machine's memory, the
     container's limit or ``ulimit -v``)."""

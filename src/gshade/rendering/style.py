@@ -19,7 +19,9 @@ from numpy.typing import NDArray
 from ..display import Legend, auto_range, validate_range
 from ..display.colour import edge_offset
 from ..display.colour_maps import colour_map_table
+from ..scene.model import Shape
 from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
+from .atlas import Atlas
 from .textures import ShapeTextures
 
 __all__ = [
@@ -48,7 +50,7 @@ def _units(function: str, params: dict) -> str:
     return "length"
 
 
-def shape_functions(shape) -> tuple[list[tuple[ShapeFunction, dict]], str]:
+def shape_functions(shape: Shape) -> tuple[list[tuple[ShapeFunction, dict]], str]:
     """The functions to evaluate with their parameters (the striped or primary one first,
     then for ``display = "both"`` the colour-mapped one) and the colour-mapped one's name."""
     functions = [(get_shape_function(shape.function), shape.params_for(shape.function))]
@@ -73,7 +75,7 @@ class DisplayStyle:
     lut: np.ndarray | None
 
 
-def trimmed_region(atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> NDArray:
+def trimmed_region(atlas: Atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> NDArray:
     """The texels that lie on the surface: every texel of an untrimmed patch's tile, and of
     a trimmed patch (``trimmed[k]``: a CAD face, whose tile covers its parameter box) the
     texels around the mesh's vertices (``patch``, ``params`` = (s, t)), which lie in the
@@ -91,7 +93,7 @@ def trimmed_region(atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> 
 
 
 def display_style(
-    shape, mapped: str, tex: ShapeTextures, region: NDArray | None = None
+    shape: Shape, mapped: str, tex: ShapeTextures, region: NDArray | None = None
 ) -> DisplayStyle:
     """The range, period and colour map of a scene's ``[shape]`` for its textures, from the
     texels in ``region`` (default: all; see :func:`trimmed_region`).  With a region (a scene
@@ -111,6 +113,7 @@ def display_style(
     f_lo, f_hi = auto_range(tex.values[0][..., 0], valid[0], percentiles=span, weights=area)
     period = shape.period
     if period is None:
+        assert shape.stripes is not None  # a Shape holds exactly one of period and stripes
         flat = constant_values(tex.values[0][..., 0], valid[0], tex.atlas.all_tile_slices())
         period = period_off_edges((f_hi - f_lo) / shape.stripes, flat, shape.phase, shape.duty)
     lut = colormap = None
@@ -208,7 +211,7 @@ def _area_element(tex: ShapeTextures) -> NDArray | None:
     return area if (area > 0).any() else None
 
 
-def legend(shape, style: DisplayStyle, length: str = "length") -> Legend:
+def legend(shape: Shape, style: DisplayStyle, length: str = "length") -> Legend:
     """The legend of a render: the function, its colour map and range, its stripes; the
     units in terms of ``length``, the scene's length unit (e.g. ``"mm"``: 1/mm), where one
     is known."""

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..scene.bodies import CadFaces, PatchBody
+from ..scene.model import Scene
 from .tessellate import TriangleMesh, tessellate, tessellate_faces
 
 __all__ = ["MESHERS", "MeshPart", "Mesher", "gridded_patches", "mesh_parts", "planned_vertices"]
@@ -94,7 +95,7 @@ def _members(scene) -> dict[type, list[tuple[Any, NDArray[np.int32]]]]:
     return out
 
 
-def gridded_patches(scene) -> list:
+def gridded_patches(scene: Scene) -> list:
     """The patches meshed on the common grid (:attr:`Mesher.on_grid`), whose chord errors
     set its resolution."""
     return [
@@ -106,12 +107,12 @@ def gridded_patches(scene) -> list:
     ]
 
 
-def planned_vertices(scene, resolution: int) -> int:
+def planned_vertices(scene: Scene, resolution: int) -> int:
     """The vertices the render mesh will have that are known before meshing."""
     return sum(MESHERS[kind].planned(m, resolution) for kind, m in _members(scene).items())
 
 
-def mesh_parts(scene, resolution: int, deflection: float, where: str) -> list[MeshPart]:
+def mesh_parts(scene: Scene, resolution: int, deflection: float, where: str) -> list[MeshPart]:
     """The scene's surfaces meshed, by body, in the order their bodies first appear.
 
     ``where`` names the scene in messages; a CAD model's error is said about the scene's

@@ -13,6 +13,7 @@ parameters) deviates from the surface by at most h^2 / 8 (|p_ss| + 2 |p_st| + |p
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -24,6 +25,7 @@ from ..geometry.core.differential import derivative_scales
 from ..geometry.core.patch import unit_to_domain
 from ..geometry.evaluation.patch_groups import domain_spans, grid_derivatives
 from ..geometry.evaluation.spline_batches import batch_derivatives
+from ..scene.bodies import CadFaces
 
 __all__ = ["TriangleMesh", "chord_resolution", "max_chord_resolution", "tessellate"]
 
@@ -73,7 +75,7 @@ def _normalised_second_derivatives(patches, samples: int = 9) -> NDArray:
     return total.reshape(len(patches), -1).max(axis=1)
 
 
-def max_chord_resolution(patches, tolerance: float) -> int:
+def max_chord_resolution(patches: Sequence[Patch], tolerance: float) -> int:
     """Grid points per side so that the chord error of every patch stays below
     ``tolerance``: a bilinear cell of h x h deviates by at most h^2 / 8 times the bound."""
     if not tolerance > 0:
@@ -154,8 +156,10 @@ def tessellate(patches: list[Patch] | tuple[Patch, ...], resolution: int) -> Tri
     )
 
 
-def tessellate_faces(cad, patches, deflection: float) -> tuple[TriangleMesh, list, list[str]]:
-    """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.model.CadFaces`) as a
+def tessellate_faces(
+    cad: CadFaces, patches: Sequence[Patch], deflection: float
+) -> tuple[TriangleMesh, list, list[str]]:
+    """The trimmed faces of a ``cad`` surface (:class:`gshade.scene.bodies.CadFaces`) as a
     triangle mesh from the kernel's mesher (:func:`gshade.cad.mesh.mesh_faces`), within
     ``deflection`` (model units) of the faces, but no finer than :data:`MIN_FACE_DEFLECTION`
     of the model's diagonal (nor the kernel's :data:`KERNEL_CONFUSION`).
