@@ -55,24 +55,24 @@ __all__ = [
 ]
 
 
-def atlas_coordinate(start, s, tile: int, size: int):
+def atlas_coordinate(start: Any, s: Any, tile: int, size: int) -> Any:
     """Atlas coordinate of normalised parameter ``s`` in [0, 1] of a tile whose first texel
     is ``start``: (start + 0.5 + s (T - 1)) / size."""
     return (start + 0.5 + s * (tile - 1)) / size
 
 
-def texel_coordinate(x, size: int):
+def texel_coordinate(x: Any, size: int) -> Any:
     """Continuous texel coordinate of atlas coordinate x: X = x size - 0.5 (texel centres at
     whole numbers)."""
     return x * size - 0.5
 
 
-def tile_bounds(start, tile, size: int) -> tuple[Any, Any]:
+def tile_bounds(start: Any, tile: Any, size: int) -> tuple[Any, Any]:
     """Atlas coordinates of a tile's first and last texel centres (s = 0 and s = 1)."""
     return atlas_coordinate(start, 0.0, tile, size), atlas_coordinate(start, 1.0, tile, size)
 
 
-def cell_centre(i, size: int):
+def cell_centre(i: Any, size: int) -> Any:
     """Atlas coordinate halfway between texels i and i + 1: a bilinear lookup there reads
     exactly those two texels (along each axis)."""
     return (i + 1.0) / size
@@ -115,7 +115,7 @@ class Cell(NamedTuple):
         return 1.0 / (self.columns - 1.0), 1.0 / (self.rows - 1.0)
 
 
-def tile_of(X, Y, tiles: Tiles, ops: ArrayOps):
+def tile_of(X: Any, Y: Any, tiles: Tiles, ops: ArrayOps) -> Any:
     """The patch whose tile holds texel coordinates (X, Y): the patch of the block
     (floor((X + 0.5) / B), floor((Y + 0.5) / B)), clipped into the atlas."""
     B = tiles.block
@@ -124,7 +124,7 @@ def tile_of(X, Y, tiles: Tiles, ops: ArrayOps):
     return ops.gather(tiles.patch_of_block, by * tiles.blocks_wide + bx)
 
 
-def locate_cell(x, y, width: int, height: int, tiles: Tiles, ops: ArrayOps) -> Cell:
+def locate_cell(x: Any, y: Any, width: int, height: int, tiles: Tiles, ops: ArrayOps) -> Cell:
     """The cell of atlas coordinates (x, y) in an atlas of ``width`` x ``height`` texels:
     i = clip(floor(X), c0, c0 + S - 2), a = clip(X - i, 0, 1) with X the texel coordinate
     and c0, S its tile's first column and columns (rows likewise)."""
@@ -144,7 +144,7 @@ def locate_cell(x, y, width: int, height: int, tiles: Tiles, ops: ArrayOps) -> C
 CORNERS = ((0, 0), (1, 0), (0, 1), (1, 1))
 
 
-def hermite(corners: Sequence, a, b, spacing: tuple, channels: Sequence[int]):
+def hermite(corners: Sequence, a: Any, b: Any, spacing: tuple, channels: Sequence[int]) -> Any:
     """Bicubic Hermite interpolation at (a, b) of a cell from the value, d/ds, d/dt and
     d2/dsdt at its corners (``channels`` of each corner texel, in that order), with
     ``spacing`` = (1 / (S - 1), 1 / (T - 1)) the texel spacings in the normalised parameters
@@ -165,7 +165,7 @@ def hermite(corners: Sequence, a, b, spacing: tuple, channels: Sequence[int]):
     return total
 
 
-def bilinear(corners: Sequence, a, b, channel: int):
+def bilinear(corners: Sequence, a: Any, b: Any, channel: int) -> Any:
     """Bilinear interpolation at (a, b) of one channel of a cell's corner texels."""
     c = [texel[channel] for texel in corners]
     return (c[0] * (1 - a) + c[1] * a) * (1 - b) + (c[2] * (1 - a) + c[3] * a) * b

@@ -22,7 +22,7 @@ from ..runtime.backend import ArrayOps
 __all__ = ["newton_step", "ray_residual"]
 
 
-def ray_residual(p, origin, direction, ops: ArrayOps) -> tuple[Any, Any]:
+def ray_residual(p: Any, origin: Any, direction: Any, ops: ArrayOps) -> tuple[Any, Any]:
     """The ray parameter t = <p - o, d> of p's projection onto the ray (d a unit vector) and
     the residual r = o + t d - p."""
     t = ops.dot(p - origin, direction)
@@ -30,7 +30,7 @@ def ray_residual(p, origin, direction, ops: ArrayOps) -> tuple[Any, Any]:
 
 
 def newton_step(
-    pu, pv, direction, r, ops: ArrayOps, tiny: float, with_t: bool = True
+    pu: Any, pv: Any, direction: Any, r: Any, ops: ArrayOps, tiny: float, with_t: bool = True
 ) -> tuple[Any, Any, Any, Any]:
     """One Newton step onto the ray: (du, dv, dt) solving [p_u p_v -d] (du, dv, dt) = r.
 
