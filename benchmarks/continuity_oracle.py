@@ -89,7 +89,7 @@ def gshade_midpoints(path: Path) -> dict:
         model = read(path)
         return {
             (m["edge"], tuple(sorted(m["faces"]))): np.array(m["midpoint"])
-            for m in oracle.edge_midpoints(model.shape)
+            for m in oracle.edge_midpoints(model.brep)
         }
     except Exception as exc:  # gshade could not read it (then neither could continuity)
         print(f"  (gshade's shape not read for midpoints: {exc})", file=sys.stderr)
