@@ -16,14 +16,22 @@ when it first imports Dr.Jit or Mitsuba itself; a program that imports ``drjit``
 ``mitsuba`` before that calls :func:`gshade.runtime.setup` first.
 """
 
+from __future__ import annotations
+
 __version__ = "0.10.0"
 
+from typing import TYPE_CHECKING
+
 from .errors import GshadeError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from typing import Any
 
 __all__ = ["GshadeError", "__version__", "compare", "load_scene", "render"]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Callable[..., Any]:
     # lazy: importing gshade stays cheap; Mitsuba and the kernels load when first used
     if name == "render":
         from .rendering import render

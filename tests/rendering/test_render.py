@@ -155,3 +155,23 @@ def test_the_integrator_and_the_pixel_sensor_are_mitsuba_plugins_by_name():
     assert list(shape.aov_names()) == list(SHAPE_FILM[4:]) == ["f", "x", "y", "flags", "f_x", "f_y"]
     film = {"type": "hdrfilm", "width": 2, "height": 1}
     assert "PixelSensor" in str(mi.load_dict({"type": PIXELS_PLUGIN, "film": film}))
+
+
+def test_the_plugins_are_their_methods_on_the_variants_base():
+    """variant_class copies a plugin's methods onto the variant's Mitsuba class (nanobind
+    takes one base): the class has them and the variant's parts, and no method calls a
+    zero-argument super(), which would name the methods' class, not the variant's."""
+    import inspect
+
+    import mitsuba as mi
+
+    from gshade.rendering.plugins import PLUGINS, use_variant, variant_class
+
+    variant = use_variant("auto")
+    for methods, base in ((m, b) for _, m, b in PLUGINS.values()):
+        cls = variant_class(methods, base, mi)
+        assert issubclass(cls, getattr(mi, base)) and cls.__name__ == methods.__name__
+        assert cls.mi is mi and cls.scalar == variant.startswith("scalar")
+        for name, member in inspect.getmembers(methods, inspect.isfunction):
+            assert getattr(cls, name) is member
+            assert "__class__" not in member.__code__.co_freevars, name

@@ -41,6 +41,8 @@ from .junction_measures import (
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from .knot_lines import KnotLine
 
 __all__ = [
@@ -70,7 +72,7 @@ class Tolerances:
     g3: float = 1e-3
 
     @classmethod
-    def for_size(cls, diagonal: float, **given) -> Tolerances:
+    def for_size(cls, diagonal: float, **given: float | None) -> Tolerances:
         """Defaults scaled to a surface of the given bounding-box diagonal."""
         d = diagonal or 1.0
         base = {"g0": 1e-7 * d, "g1": 1e-3, "g2": 1e-5 / d, "g3": 1e-4 / d**2}
@@ -152,7 +154,7 @@ def _sides_params(patch: Patch, t: NDArray) -> tuple[NDArray, NDArray]:
     )
 
 
-def _probe_sides(patches, tolerance: float, probes: int) -> tuple[list, NDArray]:
+def _probe_sides(patches: Sequence[Patch], tolerance: float, probes: int) -> tuple[list, NDArray]:
     """Every boundary that is not collapsed: its (patch, side) and its probe points."""
     t = np.linspace(0.0, 1.0, probes)
     points = np.empty((len(patches), len(SIDES), probes, 3))
@@ -164,7 +166,9 @@ def _probe_sides(patches, tolerance: float, probes: int) -> tuple[list, NDArray]
     return names, points[kept[:, 0], kept[:, 1]].reshape(-1, probes, 3)
 
 
-def _verified(points: NDArray, a: NDArray, b: NDArray, tolerance: float):
+def _verified(
+    points: NDArray, a: NDArray, b: NDArray, tolerance: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Which candidate pairs (a, b) of sides coincide, and which of those reversed."""
     same = np.empty(len(a), dtype=bool)
     flipped = np.empty(len(a), dtype=bool)
@@ -176,7 +180,7 @@ def _verified(points: NDArray, a: NDArray, b: NDArray, tolerance: float):
 
 
 def find_junctions(
-    patches, tolerance: float, probes: int = 5, max_partners: int = MAX_PARTNERS
+    patches: Sequence[Patch], tolerance: float, probes: int = 5, max_partners: int = MAX_PARTNERS
 ) -> list[tuple[int, str, int, str, bool]]:
     """(i, side_i, j, side_j, reversed) for every pair of coinciding patch boundaries.
 
@@ -236,7 +240,13 @@ def find_junctions(
 
 
 def junction_between(
-    patches, i: int, side_i: str, j: int, side_j: str, tolerance: float, probes: int = 9
+    patches: Sequence[Patch],
+    i: int,
+    side_i: str,
+    j: int,
+    side_j: str,
+    tolerance: float,
+    probes: int = 9,
 ) -> tuple[int, str, int, str, bool]:
     """The junction (i, side_i, j, side_j, reversed) of two given boundaries.
 
@@ -284,7 +294,9 @@ def flips_orientation(side_i: str, side_j: str, reversed_: bool) -> bool:
     return _LOOP[side_i] * _LOOP[side_j] * (-1 if reversed_ else 1) == 1
 
 
-def _side_geometry(patches, sides: list[tuple[int, str]], t: NDArray) -> SideGeometry:
+def _side_geometry(
+    patches: Sequence[Patch], sides: list[tuple[int, str]], t: NDArray
+) -> SideGeometry:
     """Side geometry (:func:`~gshade.analysis.junction_measures.side_geometry`, p_u x p_v
     normals) of many (patch, side)s at ``t``: arrays (4, 4, S, n, 3), (S, n, 3), ...
 
@@ -308,12 +320,18 @@ def _side_geometry(patches, sides: list[tuple[int, str]], t: NDArray) -> SideGeo
     return side_geometry(d, error)
 
 
-def measure(patches, junction, samples: int = 32) -> dict:
+def measure(
+    patches: Sequence[Patch], junction: tuple[int, str, int, str, bool], samples: int = 32
+) -> dict:
     """The measures of one junction (:func:`measure_all` of it alone)."""
     return measure_all(patches, [junction], samples)[0]
 
 
-def measure_all(patches, junctions, samples: int = 32) -> list[dict]:
+def measure_all(
+    patches: Sequence[Patch],
+    junctions: Sequence[tuple[int, str, int, str, bool]],
+    samples: int = 32,
+) -> list[dict]:
     """The four measures of every junction (i, side_i, j, side_j, reversed), batched, each
     a dict of the measures, ``round_off`` and ``max_at``
     (:func:`~gshade.analysis.junction_measures.junction_fields`; ``t`` along side i, as
@@ -388,7 +406,7 @@ def validate_samples(samples: object) -> int:
 
 
 def continuity_report(
-    patches,
+    patches: Sequence[Patch],
     *,
     samples: int = 32,
     tolerances: Tolerances | None = None,

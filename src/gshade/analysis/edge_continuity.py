@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +43,9 @@ from .junction_measures import (
     side_derivatives,
     side_geometry,
 )
+
+if TYPE_CHECKING:
+    from ..cad.model import CadModel
 
 __all__ = [
     "EdgeLine",
@@ -62,7 +65,7 @@ class EdgeLine:
 
 
 def edge_report(
-    model,
+    model: CadModel,
     faces: list[int] | None = None,
     *,
     samples: int = 32,
@@ -176,7 +179,7 @@ class _Face:
 
 
 def _measure_edges(
-    model, edges: list, samples: int, kept: dict[int, _Face]
+    model: CadModel, edges: list, samples: int, kept: dict[int, _Face]
 ) -> list[tuple[dict, dict, dict]]:
     """Each edge's measures, round-off and ``max_at``
     (:func:`~gshade.analysis.junction_measures.junction_fields`); ``kept`` holds what is
@@ -211,7 +214,7 @@ def _tangent(uv: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.gradient(uv, axis=0)
 
 
-def _face_geometry(model, edges: list, samples: int, kept: dict[int, _Face]) -> dict:
+def _face_geometry(model: CadModel, edges: list, samples: int, kept: dict[int, _Face]) -> dict:
     """(face, edge) -> the face's geometry at the edge's points on it
     (:class:`~gshade.analysis.junction_measures.SideGeometry`, outward normals) and its
     derivative scales: each face's derivatives evaluated once, at the points of all its

@@ -303,7 +303,9 @@ def side_round_off(d: NDArray, error: NDArray, kappa: NDArray, slope: NDArray) -
     return np.where(np.isfinite(out), out, np.inf)
 
 
-def shape_operator_jump(side_i: SideGeometry, side_j: SideGeometry, along: NDArray):
+def shape_operator_jump(
+    side_i: SideGeometry, side_j: SideGeometry, along: NDArray
+) -> tuple[NDArray, NDArray]:
     """The curvature jump max_e |k_i(e) - k_j(e)| exactly, and the direction e (in side i's
     tangent plane) where it is reached.
 

@@ -23,6 +23,7 @@ region is not listed.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +31,13 @@ from numpy.typing import NDArray
 from ..geometry.patches.bspline import BSplinePatch
 from .continuity import Junction, Tolerances, classify
 from .junction_measures import compare_sides, junction_fields, side_derivatives, side_geometry
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from ..cad.model import CadFace
+    from ..geometry import Patch
+    from ..scene.bodies import CadFaces
 
 __all__ = [
     "KNOT_LINE_KINDS",
@@ -234,7 +242,9 @@ def _spread(lo: float, hi: float, samples: int) -> NDArray:
     return lo + (hi - lo) * (np.arange(samples) + 0.5) / samples
 
 
-def patch_knot_lines(patches, *, samples: int, tolerances: Tolerances) -> list[Junction]:
+def patch_knot_lines(
+    patches: Sequence[Patch], *, samples: int, tolerances: Tolerances
+) -> list[Junction]:
     """The interior knot lines of the B-spline patches among ``patches`` (:func:`interior_knots`
     of each direction, over the whole patch), measured at ``samples`` points each along the
     line (the middles of equal parts) and classed; ``patches`` the patch numbers."""
@@ -262,7 +272,9 @@ def _inside_loops(loops: list[NDArray], uv: NDArray) -> NDArray[np.bool_]:
     return around % 2 == 1
 
 
-def trimmed_along(face, direction: str, knot: float, lo: float, hi: float, samples: int):
+def trimmed_along(
+    face: CadFace, direction: str, knot: float, lo: float, hi: float, samples: int
+) -> NDArray | None:
     """``samples`` parameters along the knot line of a CAD face spread over its part inside
     the trimming loops (None when no part is): the line [lo, hi] cut in ``samples`` x
     :data:`TRIM_PROBES` cells, those whose middle is inside kept, and the samples at the
@@ -282,7 +294,10 @@ def trimmed_along(face, direction: str, knot: float, lo: float, hi: float, sampl
     return lo + (kept[cell] + (position - cell)) * width
 
 
-def _clipped(box, dom) -> tuple[tuple[float, float], tuple[float, float]]:
+def _clipped(
+    box: tuple[tuple[float, float], tuple[float, float]],
+    dom: tuple[tuple[float, float], tuple[float, float]],
+) -> tuple[tuple[float, float], tuple[float, float]]:
     """A face's parameter box clipped into its patch's domain."""
     (u0, u1), (v0, v1) = box
     (a0, a1), (b0, b1) = dom
@@ -290,7 +305,7 @@ def _clipped(box, dom) -> tuple[tuple[float, float], tuple[float, float]]:
 
 
 def cad_knot_lines(
-    cad, start: int, *, samples: int, tolerances: Tolerances, lines: int = 0
+    cad: CadFaces, start: int, *, samples: int, tolerances: Tolerances, lines: int = 0
 ) -> tuple[list[Junction], list]:
     """The knot lines of a ``cad`` surface's faces (:class:`gshade.scene.model.CadFaces`:
     the model, the faces rendered), measured along their parts inside the trimmed regions

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,11 +19,14 @@ from .continuity import Junction, Tolerances, continuity_report, validate_sample
 from .edge_continuity import EdgeLine, edge_report
 from .knot_lines import cad_knot_lines
 
+if TYPE_CHECKING:
+    from ..scene.model import Scene
+
 __all__ = ["JUNCTIONS", "scene_continuity", "scene_diagonal", "unmeasured_edges"]
 
 
 def scene_continuity(
-    scene,
+    scene: Scene,
     *,
     samples: int = 32,
     tolerances: Tolerances | None = None,
@@ -100,7 +103,7 @@ JUNCTIONS: dict[type, Callable[..., tuple[list[Junction], list[EdgeLine]]]] = {
 }
 
 
-def unmeasured_edges(scene) -> list[dict]:
+def unmeasured_edges(scene: Scene) -> list[dict]:
     """The B-rep edges between a face that a ``cad`` surface of the scene renders and one it
     leaves out (:attr:`gshade.scene.model.CadFaces.left_out`), whose continuity is not
     measured: ``{"file", "edge", "faces": [face, left-out face], "why"}`` each, ``why`` the
@@ -124,7 +127,7 @@ def unmeasured_edges(scene) -> list[dict]:
     return out
 
 
-def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine]:
+def _lines(cad: CadFaces, start: int, report: list[Junction], lines: int) -> list[EdgeLine]:
     """The measured edges' parameter curves in the scene patches' (u, v), densely."""
     from ..cad.edges import CadEdge, shared_edges
 
@@ -143,7 +146,7 @@ def _lines(cad, start: int, report: list[Junction], lines: int) -> list[EdgeLine
     return out
 
 
-def scene_diagonal(scene) -> float:
+def scene_diagonal(scene: Scene) -> float:
     """The scene's size: the diagonal of its surfaces' size points
     (:meth:`gshade.scene.bodies.SurfaceBody.size_points`: CAD models' bounding boxes, the
     other patches' 9 x 9 grids)."""

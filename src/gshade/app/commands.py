@@ -16,10 +16,16 @@ import argparse
 import sys
 from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import GshadeError
 from .flags import in_flags, parameter
 from .terminal import printable, say
+
+if TYPE_CHECKING:
+    from ..analysis.continuity import Junction
+    from ..regression.check import CheckResult
+    from ..scene.model import Scene
 
 __all__ = [
     "batch",
@@ -97,7 +103,7 @@ def _tell(notes: list[str], warnings: list[str]) -> None:
         say(f"gshade: warning: {line}", file=sys.stderr)
 
 
-def _cad_notes(scene) -> tuple[list[str], list[str]]:
+def _cad_notes(scene: Scene) -> tuple[list[str], list[str]]:
     """The notes and warnings of a scene's CAD models once read (:func:`_tell`)."""
     from ..rendering.pipeline import cad_notes, left_out_faces
 
@@ -228,7 +234,7 @@ def continuity(args: argparse.Namespace) -> int:
     return 0
 
 
-def _largest_at(j) -> str:
+def _largest_at(j: Junction) -> str:
     """The table's last column: where the measure deciding the class is largest."""
     from ..analysis.junction_lines import deciding_place
 
@@ -383,7 +389,7 @@ def check(args: argparse.Namespace) -> int:
         # if the report cannot be)
         with staged([junit] if junit else []) as names:
 
-            def progress(result) -> None:
+            def progress(result: CheckResult) -> None:
                 result.message = in_flags(result.message)  # for the report too
                 say(result.line(), flush=True)
 

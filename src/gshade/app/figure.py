@@ -53,12 +53,21 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import __version__
 from ..errors import GshadeError, show
+
+if TYPE_CHECKING:
+    from types import ModuleType
+
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ..rendering.rendered_image import RenderedImage
+    from ..scene.model import Scene
 
 __all__ = ["FRAMES", "MARGIN", "FigureSpec", "load_figure_spec", "make_figure", "row_camera"]
 
@@ -282,7 +291,7 @@ def _flatten(table: dict, prefix: str = "") -> dict:
     return out
 
 
-def _load(scene_path: Path, overrides: dict, spec: FigureSpec):
+def _load(scene_path: Path, overrides: dict, spec: FigureSpec) -> Scene:
     """The row's scene with the figure's size and camera keys and the given overrides."""
     from ..scene import load_scene
 
@@ -362,7 +371,7 @@ def row_camera(spec: FigureSpec, row: Path) -> dict:
     return camera
 
 
-def _display_rgb(image) -> np.ndarray:
+def _display_rgb(image: RenderedImage) -> np.ndarray:
     """sRGB picture over white, for the panels."""
     from ..io.image import linear_to_srgb
 
@@ -420,7 +429,7 @@ _PANEL_WIDTH, _GAP, _EDGE = 3.2, 0.2, 0.08
 _TITLE_BAND, _NOTES_BAND, _BAR_BAND, _BAR_HEIGHT, _SUPTITLE_BAND = 0.28, 0.24, 0.55, 0.09, 0.4
 
 
-def _draw(plt, spec: FigureSpec, panels: list[list[Panel]]):
+def _draw(plt: ModuleType, spec: FigureSpec, panels: list[list[Panel]]) -> Figure:
     """The matplotlib figure: the panels in a grid, every picture of one size (the bands
     under a row are as tall as its panels' notes and colour bars need)."""
     nrows, ncols = len(panels), len(panels[0])
@@ -460,7 +469,7 @@ def _draw(plt, spec: FigureSpec, panels: list[list[Panel]]):
     return fig
 
 
-def _notes(image) -> list[str]:
+def _notes(image: Any) -> list[str]:
     """The notes under a panel: the stripes' period, the junction classes drawn."""
     legend = image.legend
     notes = []
@@ -474,11 +483,13 @@ def _notes(image) -> list[str]:
     return notes
 
 
-def _has_bar(image) -> bool:
+def _has_bar(image: Any) -> bool:
     return image.legend.value_range is not None and bool(image.legend.colormap)
 
 
-def _draw_panel(fig, ax, image, title: str, bar: tuple[float, ...]) -> None:
+def _draw_panel(
+    fig: Figure, ax: Axes, image: Any, title: str, bar: tuple[float, float, float, float]
+) -> None:
     """A panel: the picture, its title, the notes under it and, for a colour-mapped
     picture, the colour bar in its own axes at ``bar`` (figure fractions)."""
     from matplotlib.cm import ScalarMappable
@@ -505,7 +516,7 @@ def _draw_panel(fig, ax, image, title: str, bar: tuple[float, ...]) -> None:
         colourbar.ax.tick_params(labelsize=7)
 
 
-def _junction_classes(image) -> list[str]:
+def _junction_classes(image: RenderedImage) -> list[str]:
     """The continuity classes of the junctions drawn over a panel (in the legend's order)."""
     if "junctions" not in image.metadata:
         return []

@@ -280,7 +280,9 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
         state.report_error = str(exc)
 
 
-def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
+def pytest_terminal_summary(
+    terminalreporter: pytest.TerminalReporter, config: pytest.Config
+) -> None:
     """The references written, and where the report is."""
     state = config.stash.get(_SESSION, None)
     if state is None or not (state.written or state.results):

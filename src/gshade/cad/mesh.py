@@ -313,7 +313,7 @@ def _on_surface(
 
 def _split_poles(
     d: NDArray, nodes: NDArray, exact: NDArray, uv: NDArray, triangles: NDArray, boundary: NDArray
-):
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
     """A pole node (where p_u or p_v vanishes, by the patch's derivatives ``d`` at the
     nodes: the sphere's apex, a cone's tip) once per triangle around it, its free parameter
     that of the triangle's other corners (their mean): one node for all would spread its one

@@ -202,7 +202,7 @@ def _layers_on(model: Any) -> list[bool]:
     return on
 
 
-def _unit(model) -> str:
+def _unit(model: Any) -> str:
     """The model's length unit as a short name, or ``"unknown"``."""
     try:
         name = model.Settings.ModelUnitSystem.name
@@ -211,11 +211,11 @@ def _unit(model) -> str:
     return _UNITS.get(name, "unknown")
 
 
-def _xyz(p) -> NDArray[np.float64]:
+def _xyz(p: Any) -> NDArray[np.float64]:
     return np.array([p.X, p.Y, p.Z], dtype=np.float64)
 
 
-def nurbs_patch(nurbs, where: Path | str = "surface") -> BSplinePatch:
+def nurbs_patch(nurbs: Any, where: Path | str = "surface") -> BSplinePatch:
     """A rhino3dm ``NurbsSurface`` as a :class:`BSplinePatch` (the same surface exactly).
 
     Raises
@@ -247,11 +247,11 @@ def nurbs_patch(nurbs, where: Path | str = "surface") -> BSplinePatch:
         raise GshadeError(f"{where}: unusable NURBS surface ({exc})") from None
 
 
-def _homogeneous(c) -> tuple[float, float, float, float]:
+def _homogeneous(c: Any) -> tuple[float, float, float, float]:
     return (c.X, c.Y, c.Z, c.W)
 
 
-def _kind(surface, scale: float) -> str:
+def _kind(surface: Any, scale: float) -> str:
     """The surface type that openNURBS recognises within 1e-9 x the surface's size."""
     tol = max(1e-9 * scale, 1e-12)
     for name, test in (
@@ -271,7 +271,7 @@ def _scale(patch: BSplinePatch) -> float:
     return float(np.ptp(P, axis=0).max()) or 1.0
 
 
-def _surface_face(path: Path, surface, nurbs, index: int) -> CadFace:
+def _surface_face(path: Path, surface: Any, nurbs: Any, index: int) -> CadFace:
     """A free surface object: one untrimmed face over its whole domain."""
     patch = nurbs_patch(nurbs, f"{path}: object surface {index}")
     (u0, u1), (v0, v1) = patch.domain
@@ -286,7 +286,7 @@ def _surface_face(path: Path, surface, nurbs, index: int) -> CadFace:
 
 
 def _brep_face(
-    path: Path, part: tr.BrepPart, face, index: int
+    path: Path, part: tr.BrepPart, face: Any, index: int
 ) -> tuple[CadFace, list[list[tr.Trim]]]:
     """One Brep face: its NURBS form, the mapped parameter box, the recovered loops (and
     their trims)."""
@@ -327,7 +327,7 @@ def _brep_face(
 
 
 def _loops(
-    part: tr.BrepPart, face, grid: Grid
+    part: tr.BrepPart, face: Any, grid: Grid
 ) -> tuple[list[NDArray[np.float64]], float, list[list[tr.Trim]]]:
     """The face's loops in the NURBS form's (u, v), outer first, their tolerance, and the
     loops' trims (each trim's samples at its edge's parameters, for the kernel's shape)."""

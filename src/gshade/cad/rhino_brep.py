@@ -31,7 +31,7 @@ Free surface objects become untrimmed faces over their whole domain.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,6 +72,9 @@ from . import rhino_pcurves as pc
 from .kernel import exception_text, shape_faces
 from .model import CadFace, LeftOutFace
 from .rhino_trims import BrepPart, Trim
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 __all__ = ["build_brep"]
 
@@ -395,7 +398,7 @@ def _fit(jobs: list[tuple[Any, list[tuple[Trim, Any]]]], size: float) -> dict[in
     return out
 
 
-def _needed(loops: list[list[Trim]], edge) -> list[Trim]:
+def _needed(loops: list[list[Trim]], edge: Callable[[Trim], Any]) -> list[Trim]:
     """The trims of a face that need a pcurve (a seam's both, the forward one first, else
     an edge's first), their edges made (``edge``: the kernel edge of a trim)."""
     seams: dict[int, list[Trim]] = {}
@@ -412,7 +415,13 @@ def _needed(loops: list[list[Trim]], edge) -> list[Trim]:
 
 
 def _face(
-    cad: CadFace, loops: list[list[Trim]], builder: Any, tol: float, edge, vertex, pcurve
+    cad: CadFace,
+    loops: list[list[Trim]],
+    builder: Any,
+    tol: float,
+    edge: Callable[[Trim], Any],
+    vertex: Callable[[int], Any],
+    pcurve: dict[int, Any],
 ) -> Any:
     """One face on its exact surface, bounded by wires of the shared edges (``pcurve``: the
     pcurves of the trims that need one, by ``id``)."""
@@ -454,7 +463,7 @@ def _segment(ends: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np
     return np.array([0.0, length]), ends[:2]
 
 
-def _degenerated(trim: Trim, builder: Any, tol: float, vertex) -> Any:
+def _degenerated(trim: Trim, builder: Any, tol: float, vertex: Callable[[int], Any]) -> Any:
     """A degenerated edge (a pole) at the trim's vertex."""
     e = TopoDS_Edge()
     builder.MakeEdge(e)

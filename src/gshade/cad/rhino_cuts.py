@@ -53,13 +53,17 @@ class Trims:
     def box(self, trim: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self.reach_lo[trim], self.reach_hi[trim]
 
-    def edge(self, trim: NDArray[np.intp], t: NDArray[np.float64]):
+    def edge(
+        self, trim: NDArray[np.intp], t: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """C(t) and C'(t) of the trims' edges."""
         c, dc, _ = self.splines.evaluate(self.curve[trim], t)
         return c, dc
 
 
-def sample_feet(trims: Trims, small: float):
+def sample_feet(
+    trims: Trims, small: float
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """The face's points nearest the edge at the samples of all trims: per sample its trim,
     t, (u, v) and the speeds |S_u|, |S_v| there.  The samples within ``_NEAR_SIDE`` of a
     side of the domain (in parameter) again by Newton on the continued surface (the
@@ -84,7 +88,23 @@ def sample_feet(trims: Trims, small: float):
     return owner, t, uv, speed
 
 
-def _brackets(index, owner, t, value, level, along):
+def _brackets(
+    index: NDArray[np.intp],
+    owner: NDArray[np.intp],
+    t: NDArray[np.float64],
+    value: NDArray[np.float64],
+    level: NDArray[np.float64],
+    along: int,
+) -> tuple[
+    NDArray[np.intp],
+    NDArray[np.intp],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.intp],
+    NDArray[np.intp],
+]:
     """Where ``value`` (per sample ``index``, in t order within each trim) crosses zero
     between consecutive samples of a trim with a nonzero sign: (trim, direction ``along``,
     the crossed level, t low, t high, first estimate, the two samples), an array each."""
@@ -106,7 +126,13 @@ def _brackets(index, owner, t, value, level, along):
     )
 
 
-def range_cuts(trims: Trims, patches: list[BSplinePatch], feet, accuracy: float, small: float):
+def range_cuts(
+    trims: Trims,
+    patches: list[BSplinePatch],
+    feet: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    accuracy: float,
+    small: float,
+) -> tuple[list[NDArray[np.float64]], list[list[tuple]]]:
     """Per trim, the edge parameters where the face's nearest point (``feet``, at the
     samples: :func:`sample_feet`) crosses a side of the domain (beyond it, the side's
     nearest point is the face's: pinned there) or an interior knot line of the face (there
@@ -172,7 +198,7 @@ def range_cuts(trims: Trims, patches: list[BSplinePatch], feet, accuracy: float,
         return cuts, sides
     # each crossing in its samples' boxes: where a knot line's crossing and a side's share an
     # interval between samples, in both (the one off its region an extra cut, harmless)
-    parts = []
+    parts: list[tuple[NDArray, ...]] = []
     for k in keep:
         x = found[k]
         parts.append((*x, box[k][0][x[6]], box[k][1][x[6]]))
@@ -194,7 +220,18 @@ def range_cuts(trims: Trims, patches: list[BSplinePatch], feet, accuracy: float,
     return cuts, sides
 
 
-def _locate(trims: Trims, owner, along, level, tl, th, tc, uv, box, small: float):
+def _locate(
+    trims: Trims,
+    owner: NDArray[np.intp],
+    along: NDArray[np.intp],
+    level: NDArray[np.float64],
+    tl: NDArray[np.float64],
+    th: NDArray[np.float64],
+    tc: NDArray[np.float64],
+    uv: NDArray[np.float64],
+    box: tuple[NDArray[np.float64], NDArray[np.float64]],
+    small: float,
+) -> NDArray[np.float64]:
     """Newton on t for the crossings of coordinate ``along`` of the face's nearest point
     (within ``box``) with ``level``, within [tl, th] (from tc, the nearest point from uv):
     t <- t - (c_d(t) - level) / c_d'(t), the nearest point's speed c' = (J^T J)^-1 J^T C'(t)

@@ -22,7 +22,9 @@ _ROUND_OFF = 1e-15
 _SAME_POINT = 1e-6
 
 
-def least_squares_step(su, sv, w):
+def least_squares_step(
+    su: NDArray[np.float64], sv: NDArray[np.float64], w: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """(J^T J)^-1 J^T w per row, J = [su sv] (n, 3, 2), lightly regularised (poles)."""
     a11, a12, a22 = (su * su).sum(1), (su * sv).sum(1), (sv * sv).sum(1)
     g1, g2 = (su * w).sum(1), (sv * w).sum(1)

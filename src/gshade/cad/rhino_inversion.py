@@ -51,7 +51,12 @@ class Grid:
     """A patch sampled over ``box`` (per knot span), for starting points of the inversion;
     its domain, closed directions and seams' widths (:func:`.rhino_seams.seam_widths`)."""
 
-    def __init__(self, patch: BSplinePatch, box, closed: tuple[bool, bool]):
+    def __init__(
+        self,
+        patch: BSplinePatch,
+        box: tuple[tuple[float, float], tuple[float, float]],
+        closed: tuple[bool, bool],
+    ) -> None:
         self.patch = patch
         (u0, u1), (v0, v1) = patch.domain
         self.lo = np.array([u0, v0])

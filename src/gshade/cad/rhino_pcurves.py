@@ -150,7 +150,19 @@ def fit_faces(
     return [out[bounds[f] : bounds[f + 1]] for f in range(len(faces))]
 
 
-def _pieces(trims: Trims, cuts: list[NDArray[np.float64]], sides: list[list[tuple]], feet):
+def _pieces(
+    trims: Trims,
+    cuts: list[NDArray[np.float64]],
+    sides: list[list[tuple]],
+    feet: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+) -> tuple[
+    NDArray[np.intp],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+]:
     """The first pieces between each trim's cuts: (trim, start, end, the Newton starts at
     their nodes (the samples' nearest points interpolated), the box each stays in: the
     trim's, pinned to the sides it runs beyond at the piece's middle)."""
@@ -185,7 +197,9 @@ def _pieces(trims: Trims, cuts: list[NDArray[np.float64]], sides: list[list[tupl
     return owner, a, b, start, lo, hi
 
 
-def _hermite(x: NDArray[np.float64], t: NDArray[np.float64], y: NDArray[np.float64]):
+def _hermite(
+    x: NDArray[np.float64], t: NDArray[np.float64], y: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """The cubic Hermite interpolant of the points ``y`` (n, 2) at the increasing ``t``
     (slopes by central differences: Catmull-Rom) at ``x``; linear with two points."""
     if len(t) < 3:
@@ -206,7 +220,17 @@ def _hermite(x: NDArray[np.float64], t: NDArray[np.float64], y: NDArray[np.float
     )
 
 
-def _refine(trims: Trims, owner, a, b, start, lo, hi, accuracy: float, small: float):
+def _refine(
+    trims: Trims,
+    owner: NDArray[np.intp],
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    start: NDArray[np.float64],
+    lo: NDArray[np.float64],
+    hi: NDArray[np.float64],
+    accuracy: float,
+    small: float,
+) -> list[NDArray]:
     """Fit every piece (its nearest points within its box ``lo``, ``hi``), halve those not
     within the accuracy (their halves started from their polynomials), until all are kept;
     the kept pieces as arrays (trim, start, end, poles, error, distance, the surface's

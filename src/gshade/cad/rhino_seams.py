@@ -37,7 +37,7 @@ _NEAR_CLOSED = 1e-2
 _SAMPLES = 17
 
 
-def closed_directions(nurbs, patch: BSplinePatch) -> tuple[bool, bool]:
+def closed_directions(nurbs: Any, patch: BSplinePatch) -> tuple[bool, bool]:
     """The directions in which the face's trims may run along either end of the domain:
     openNURBS's closed ones, and those whose two ends lie within ``_NEAR_CLOSED`` of the
     surface's width across the direction of each other (a seam edge used twice, or two

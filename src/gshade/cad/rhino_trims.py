@@ -94,7 +94,7 @@ def split_trims(
             trim.uv = np.array([end, start])
 
 
-def edge_points(edge) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def edge_points(edge: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Parameters t and points C(t) along an edge curve, both ends included, dense enough
     that every chord's midpoint lies within ``_CHORD_TOLERANCE`` of the edge's size from the
     curve (intervals halved where it does not, up to ``_MAX_EDGE_POINTS`` points)."""
@@ -120,7 +120,7 @@ def _xyz(p: Any) -> NDArray[np.float64]:
     return np.array([p.X, p.Y, p.Z], dtype=np.float64)
 
 
-def found(model) -> str:
+def found(model: Any) -> str:
     """What a file without surfaces holds, in a few words: "only 1 brep object without
     faces", "only 2 curve objects, 1 mesh object"."""
     kinds: dict[tuple[str, str], int] = {}

@@ -44,13 +44,13 @@ LIGHT = (0.92, 0.92, 0.90)
 UNDEFINED = (0.25, 0.1, 0.3)
 
 
-def _primitive(x, duty, ops):
+def _primitive(x: Any, duty: float, ops: ArrayOps) -> Any:
     """Q(x) = floor(x) duty + min(fract(x), duty): the integral of the stripe indicator."""
     fl = ops.floor(x)
     return fl * duty + ops.minimum(x - fl, duty)
 
 
-def _periodic_part(x, duty, ops):
+def _periodic_part(x: Any, duty: float, ops: ArrayOps) -> Any:
     """B(x): the second primitive Q2(x) = int_0^x Q less its quadratic and linear trend,
     Q2(x) = duty x^2 / 2 + c x + B(x) with c = duty (1 - duty) / 2.  B has period 1 and
     |B| <= 1/32, so it is evaluated at fract(x): no large terms to cancel."""
@@ -61,14 +61,14 @@ def _periodic_part(x, duty, ops):
     return ops.select(tau <= duty, dark, light) - c * tau
 
 
-def _two_sum(p, q):
+def _two_sum(p: Any, q: Any) -> tuple[Any, Any]:
     """p + q as the rounded sum and its exact rounding error (Knuth's TwoSum: no FMA)."""
     total = p + q
     q_part = total - p
     return total, (p - (total - q_part)) + (q - q_part)
 
 
-def _nearest_edge(t, duty, ops):
+def _nearest_edge(t: Any, duty: float, ops: ArrayOps) -> tuple[Any, Any]:
     """For t in [0, 1]: the offset ``edge - t`` of the nearest stripe edge (a fall from dark
     to light at ``duty``, or a rise at 0 or 1) and whether that edge is a fall."""
     rise = ops.select(t < 0.5 * (1.0 + duty), 0.0, 1.0)
@@ -83,7 +83,7 @@ def _nearest_edge(t, duty, ops):
 SETTLE_ULPS = 64
 
 
-def edge_offset(s, duty, ops: ArrayOps = NUMPY_NAN):
+def edge_offset(s: Any, duty: float, ops: ArrayOps = NUMPY_NAN) -> Any:
     """The offset (in periods) from stripe coordinates s to their nearest stripe edge (a
     rise at a whole number, a fall at a whole number + ``duty``): edge - s.
 
@@ -96,7 +96,9 @@ def edge_offset(s, duty, ops: ArrayOps = NUMPY_NAN):
     return _nearest_edge(s - ops.floor(s), duty, ops)[0]
 
 
-def settled_on_edges(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
+def settled_on_edges(
+    s: Any, a: Any, b: Any, duty: float, ops: ArrayOps = NUMPY_NAN
+) -> tuple[Any, Any, Any]:
     """The stripe coordinate s (f / period + phase) and the pixel's footprint (``a``, ``b``,
     as for :func:`coverage_formula`) with s put exactly on its nearest stripe edge, and the
     footprint set to 0, where s lies within :data:`SETTLE_ULPS` single-precision ulps of s
@@ -131,12 +133,12 @@ def settled_on_edges(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
     )
 
 
-def _dark_side(cdf, at_fall, ops):
+def _dark_side(cdf: Any, at_fall: Any, ops: ArrayOps) -> Any:
     """The dark fraction of a distribution whose mass left of an edge is ``cdf``."""
     return ops.select(at_fall, cdf, 1.0 - cdf)
 
 
-def coverage_formula(s, a, b, duty, ops: ArrayOps = NUMPY_NAN):
+def coverage_formula(s: Any, a: Any, b: Any, duty: float, ops: ArrayOps = NUMPY_NAN) -> Any:
     """The box-filtered stripe coverage (see :func:`stripe_coverage`), written once for any
     array library through ``ops`` (:class:`gshade.runtime.backend.ArrayOps`; floor, minimum,
     maximum, abs, select): numpy's here, Dr.Jit's in the renderer.  Use float64.
@@ -268,8 +270,8 @@ def stripes(
     footprint: ArrayLike = 0.0,
     duty: float = 0.5,
     phase: float = 0.0,
-    dark=DARK,
-    light=LIGHT,
+    dark: ArrayLike = DARK,
+    light: ArrayLike = LIGHT,
 ) -> tuple[NDArray, NDArray]:
     """Anti-aliased stripes of f.
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +23,9 @@ from ..errors import SurfaceDataError
 from ..geometry import BezierPatch
 from ..limits import MAX_DATA_FILE_BYTES, MAX_MAGNITUDE
 from .files import describe_fields, read_bytes
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 __all__ = ["parse_newell", "read_newell"]
 
@@ -33,7 +37,7 @@ _TO_Z_UP = {
 }
 
 
-def _lines(text: str):
+def _lines(text: str) -> Iterator[tuple[int, list[str]]]:
     for number, line in enumerate(text.splitlines(), start=1):
         fields = line.replace(",", " ").split()
         if fields:

@@ -35,6 +35,8 @@ from .comparison import (
 from .statistical import z_test
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ..rendering.rendered_image import RenderedImage
     from ..scene.model import Scene
 
@@ -123,7 +125,7 @@ def _thresholds(settings: dict) -> Thresholds:
     return Thresholds(**{k: given.get(k, getattr(base, k)) for k in keys})
 
 
-def _write_reference(image, path: Path) -> None:
+def _write_reference(image: RenderedImage, path: Path) -> None:
     from ..io.image import write_exr
 
     # variances (statistical references) are kept exactly: they scale the z-test
@@ -135,7 +137,7 @@ def _write_reference(image, path: Path) -> None:
     write_exr(path, image.channels, header=image.metadata, half=half)
 
 
-def _render_runs(scene, settings: dict):
+def _render_runs(scene: Scene, settings: dict) -> RenderedImage:
     """Render ``runs`` times with independent seeds: the mean of each channel, and for the
     compared channels the variance of that mean in ``C.var`` (for :func:`z_test`)."""
     from ..rendering import render
@@ -274,7 +276,7 @@ def check(
     update: bool = False,
     update_all: bool = False,
     statistical: bool = False,
-    progress=None,
+    progress: Callable[[CheckResult], object] | None = None,
 ) -> list[CheckResult]:
     """Check every scene; ``progress(result)`` is called after each.
 

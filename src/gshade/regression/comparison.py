@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,6 +58,11 @@ from .metrics import (
     reduced_metrics,
     value_metrics,
 )
+
+if TYPE_CHECKING:
+    import os
+
+    from ..rendering.rendered_image import RenderedImage
 
 __all__ = [
     "DEFINITIONS",
@@ -252,7 +258,7 @@ def _box(window: ExrWindow | None) -> list[int] | None:
     return [window.x_min, window.y_min, window.x_max, window.y_max]
 
 
-def _plain(x):
+def _plain(x: Any) -> Any:
     """``x`` with numpy scalars as Python numbers and non-finite floats as None."""
     if isinstance(x, dict):
         return {k: _plain(v) for k, v in x.items()}
@@ -308,8 +314,8 @@ def _compared(image: LoadedImage, channels: list[str]) -> LoadedImage:
 
 
 def compare(
-    test,
-    reference,
+    test: str | os.PathLike | RenderedImage | dict[str, NDArray],
+    reference: str | os.PathLike | RenderedImage | dict[str, NDArray],
     *,
     channels: list[str] | tuple[str, ...] = ("R", "G", "B"),
     thresholds: Thresholds | None = None,

@@ -10,12 +10,18 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import GshadeError
 from ..io.outputs import atomic_write, staged, write_to
 from .comparison import Comparison, Thresholds, UsageError, compare
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from ..rendering.rendered_image import RenderedImage
 
 __all__ = [
     "compare_and_write_diffs",
@@ -97,8 +103,8 @@ class _Unwanted(Exception):
 
 
 def compare_and_write_diffs(
-    test,
-    reference,
+    test: str | os.PathLike | RenderedImage | dict[str, NDArray],
+    reference: str | os.PathLike | RenderedImage | dict[str, NDArray],
     *,
     channels: list[str] | tuple[str, ...] = ("R", "G", "B"),
     thresholds: Thresholds | None = None,

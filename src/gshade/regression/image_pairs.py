@@ -9,12 +9,16 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GshadeError
 from ..io.image import ExrWindow
+
+if TYPE_CHECKING:
+    from ..rendering.rendered_image import RenderedImage
 
 __all__ = [
     "ChannelMismatch",
@@ -35,7 +39,9 @@ class UnreadableImage(GshadeError):
     """An image file could not be read."""
 
 
-def load_channels(image) -> tuple[dict[str, NDArray], str]:
+def load_channels(
+    image: str | os.PathLike | RenderedImage | dict[str, NDArray],
+) -> tuple[dict[str, NDArray], str]:
     """Channels of a path (EXR), a :class:`~gshade.rendering.rendered_image.RenderedImage`
     or a dict of arrays."""
     loaded = load_image(image)
@@ -51,7 +57,9 @@ class LoadedImage:
     display: ExrWindow | None = None
 
 
-def load_image(image, *, half: bool = False) -> LoadedImage:
+def load_image(
+    image: str | os.PathLike | RenderedImage | dict[str, NDArray], *, half: bool = False
+) -> LoadedImage:
     """An EXR path, a rendered image or a dict of arrays as a :class:`LoadedImage`; an EXR's
     channels as float32 arrays, or with ``half`` its HALF channels as float16 ones."""
     if isinstance(image, (str, os.PathLike)):

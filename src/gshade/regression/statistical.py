@@ -3,19 +3,28 @@ Welch z-test of two images' means against their variances, as Mitsuba's own rend
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .comparison import Comparison, Thresholds, pixel_metrics
 from .image_pairs import ChannelMismatch, aligned_channels, load_image
 
+if TYPE_CHECKING:
+    import os
+
+    from numpy.typing import NDArray
+
+    from ..rendering.rendered_image import RenderedImage
+
 __all__ = ["z_test"]
 
 
 def z_test(
-    test,
-    reference,
+    test: str | os.PathLike | RenderedImage | dict[str, NDArray],
+    reference: str | os.PathLike | RenderedImage | dict[str, NDArray],
     *,
-    channels=("R", "G", "B"),
+    channels: list[str] | tuple[str, ...] = ("R", "G", "B"),
     significance: float = 0.01,
     required_percent: float = 99.75,
 ) -> Comparison:

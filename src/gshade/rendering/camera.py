@@ -11,6 +11,7 @@ tightly on the surfaces (for figures: the projected extent fills the image up to
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -112,7 +113,7 @@ class View:
         x, y, z = (float(c) for c in d / np.linalg.norm(d))
         return x, y, z
 
-    def sensor(self, mi, spp: int, seed: int, sampler: str = "jittered") -> dict:
+    def sensor(self, mi: Any, spp: int, seed: int, sampler: str = "jittered") -> dict:
         """The Mitsuba sensor dict with a box filter and a stratified sampler: jittered
         (``'jittered'``), at the strata centres (``'symmetric'``), or one sample at each
         pixel centre (``'centre'``)."""

@@ -57,7 +57,13 @@ def highest_order(functions: dict[str, tuple[ShapeFunction, dict]]) -> int:
     return max([1, *(fn.order for fn, _ in functions.values())])
 
 
-def _regularise(d: NDArray, patches, on: NDArray, u: NDArray, v: NDArray) -> None:
+def _regularise(
+    d: NDArray,
+    patches: list[Patch] | tuple[Patch, ...],
+    on: NDArray,
+    u: NDArray,
+    v: NDArray,
+) -> None:
     """Replace, in place, the derivatives of the patches ``on`` that are irregular
     at some of their points by :func:`gshade.geometry.regularised_derivatives` (each patch
     on its own scale, limits from inside)."""

@@ -172,8 +172,17 @@ def _slipped_through(A: NDArray, hit: NDArray, H: int, W: int) -> NDArray:
 
 
 def _hits_from_neighbours(
-    slipped, hit, patch_index, u, v, patches, view: View, H: int, W: int, order: int = 1
-):
+    slipped: NDArray,
+    hit: NDArray,
+    patch_index: NDArray,
+    u: NDArray,
+    v: NDArray,
+    patches: list[Patch] | tuple[Patch, ...],
+    view: View,
+    H: int,
+    W: int,
+    order: int = 1,
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
     """Exact hits for the slipped centre rays: Newton steps on the patches of the pixel's
     neighbours that were hit, from their (u, v); the first that settles.  Returns the
     pixels found and their patch, u, v and derivatives of order <= ``order``."""

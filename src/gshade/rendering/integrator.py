@@ -40,7 +40,6 @@ from typing import Any
 import numpy as np
 
 from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula, settled_on_edges
-from ..runtime.backend import drjit_ops
 from ..runtime.llvm import import_drjit
 from ..runtime.variant import mitsuba
 from .atlas import GEOMETRY, SHAPE, Atlas, bilinear, cell_centre, hermite, locate_cell, tile_bounds
@@ -51,8 +50,8 @@ __all__ = [
     "SHAPE_FILM",
     "SHAPE_PLUGIN",
     "IntegratorSettings",
+    "ShapeIntegrator",
     "make_integrator",
-    "shape_integrator_class",
 ]
 
 STRIPES, COLORMAP, BOTH = 0, 1, 2
@@ -128,169 +127,185 @@ def _texture(mi, data: np.ndarray):
     )
 
 
-def shape_integrator_class(mi: Any) -> type:
-    """The shape integrator's class for Mitsuba's active variant (registered by
-    :func:`gshade.rendering.plugins.use_variant` as :data:`SHAPE_PLUGIN`)."""
-    dr = import_drjit()
+def _bitmap(mi: Any, array: np.ndarray, filter_type: str = "bilinear") -> Any:
+    """A raw, clamped Mitsuba bitmap texture of a float image."""
+    return mi.load_dict(
+        {
+            "type": "bitmap",
+            "bitmap": mi.Bitmap(np.ascontiguousarray(array, dtype=np.float32)),
+            "raw": True,
+            "filter_type": filter_type,
+            "wrap_mode": "clamp",
+        }
+    )
 
-    scalar = mi.variant().startswith("scalar")
-    ops = drjit_ops(scalar)
-    Float, Float64, Color3f = mi.Float, mi.Float64, mi.Color3f
 
-    def bitmap(array, filter_type="bilinear"):
-        return mi.load_dict(
-            {
-                "type": "bitmap",
-                "bitmap": mi.Bitmap(np.ascontiguousarray(array, dtype=np.float32)),
-                "raw": True,
-                "filter_type": filter_type,
-                "wrap_mode": "clamp",
-            }
+class ShapeIntegrator:
+    """The shape function's picture (R G B A) and the AOVs :data:`SHAPE_FILM` names.
+
+    The methods of ``gshade_shape``, put on the active variant's ``mi.SamplingIntegrator``
+    with the variant's parts ``mi``, ``dr``, ``ops`` and ``scalar`` by
+    :func:`gshade.rendering.plugins.variant_class`.
+    """
+
+    mi: Any
+    dr: Any
+    ops: Any
+    scalar: bool
+
+    def _opaque(self, x: float) -> Any:
+        """x as a value the traced kernel reads (not a constant baked into it)."""
+        return x if self.scalar else self.dr.opaque(self.mi.Float, x)
+
+    def to_string(self) -> str:
+        return f"{type(self).__name__}[{self.mi.variant()}]"
+
+    def configure(
+        self, settings: IntegratorSettings, geometry: Any, values: list[Any], lut: np.ndarray | None
+    ) -> None:
+        """Set what to draw: the settings, the atlas textures of the surface and of the
+        functions (see :func:`make_integrator`) and the colour map's lookup table."""
+        self.geometry = geometry  # p, p_s, p_t, p_st: 12 channels, fetched at once
+        atlas = settings.atlas
+        self.atlas_w, self.atlas_h = atlas.width, atlas.height
+        # where the tiles are: per block its patch, per patch its tile (Dr.Jit arrays;
+        # Python lists in the scalar variants)
+        self.tiles = atlas.tiles(self.ops, (lambda a: a.tolist()) if self.scalar else self.mi.Float)
+        self.display = DISPLAY_CODES[settings.display]
+        self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
+        self.values = values[0]  # f, f_s, f_t, f_st, valid
+        if self.display == BOTH:
+            self.colour_values = values[1]
+        if lut is not None:
+            self.lut = _bitmap(self.mi, lut[None, :, :])
+            self.lut_size = lut.shape[0]
+        self.period = self._opaque(settings.period)
+        self.phase = self._opaque(settings.phase)
+        self.duty = float(settings.duty)
+        self.lo = self._opaque(settings.value_range[0])
+        self.inv_span = self._opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
+        self.key = self.mi.Vector3f(*settings.key_light)
+
+    def aov_names(self) -> list[str]:
+        return list(SHAPE_FILM[4:])
+
+    def _cell(self, si: Any, texture: Any, hit: Any) -> tuple[Any, Any]:
+        """The cell around si.uv inside its tile: the four corner texels (all channels)
+        and the cell (:func:`gshade.rendering.atlas.locate_cell`)."""
+        cell = locate_cell(si.uv.x, si.uv.y, self.atlas_w, self.atlas_h, self.tiles, self.ops)
+        centre = self.mi.Point2f(
+            cell_centre(cell.i, self.atlas_w), cell_centre(cell.j, self.atlas_h)
         )
+        return texture.eval_fetch(centre, hit), cell
 
-    def opaque(x):
-        return x if scalar else dr.opaque(Float, x)
+    def _onto_surface(self, si: Any, ray: Any, hit: Any) -> None:
+        """Move si.uv from the mesh's interpolated parameters to the surface point on the
+        ray: one Newton step (:func:`gshade.rendering.newton.newton_step`) from the mesh
+        hit, with p from bicubic Hermite interpolation, p_s and p_t bilinear."""
+        mi, dr, ops = self.mi, self.dr, self.ops
+        corners, cell = self._cell(si, self.geometry, hit)
+        a, b = cell.a, cell.b
+        p = mi.Vector3f(*(hermite(corners, a, b, cell.spacing, ch) for ch in _P))
+        ps = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_S))
+        pt = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_T))
+        ds, dt, _, solvable = newton_step(ps, pt, ray.d, si.p - p, ops, TINY, with_t=False)
+        ok = hit & solvable
+        # stay inside this patch's tile (between its first and last texel centres); d(s,
+        # t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
+        S, T = cell.columns, cell.rows
+        x = ops.clip(
+            si.uv.x + ds * (S - 1.0) / self.atlas_w, *tile_bounds(cell.c0, S, self.atlas_w)
+        )
+        y = ops.clip(
+            si.uv.y + dt * (T - 1.0) / self.atlas_h, *tile_bounds(cell.r0, T, self.atlas_h)
+        )
+        si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
 
-    class ShapeIntegrator(mi.SamplingIntegrator):
-        """The shape function's picture (R G B A) and the AOVs :data:`SHAPE_FILM` names."""
+    def _lookup(self, g: Any) -> Any:
+        """The colour map's colour of the value g (clamped to the value range)."""
+        mi, dr = self.mi, self.dr
+        t = self.ops.clip((g - self.lo) * self.inv_span, 0.0, 1.0)
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.uv = mi.Point2f((t * (self.lut_size - 1) + 0.5) / self.lut_size, 0.5)
+        return self.lut.eval(si)
 
-        def to_string(self):
-            return f"{type(self).__name__}[{mi.variant()}]"
+    def _shape_value(self, si: Any, hit: Any, texture: Any) -> tuple[Any, Any, Any, Any]:
+        """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
+        defined (bilinear validity > 1/2), from one fetch of the cell's texels; and the
+        cell (its tile's columns and rows)."""
+        corners, cell = self._cell(si, texture, hit)
+        a, b = cell.a, cell.b
+        f = hermite(corners, a, b, cell.spacing, _F)
+        slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
+        return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, cell
 
-        def configure(self, settings, geometry, values, lut):
-            self.geometry = geometry  # p, p_s, p_t, p_st: 12 channels, fetched at once
-            atlas = settings.atlas
-            self.atlas_w, self.atlas_h = atlas.width, atlas.height
-            # where the tiles are: per block its patch, per patch its tile (Dr.Jit arrays;
-            # Python lists in the scalar variants)
-            self.tiles = atlas.tiles(ops, (lambda a: a.tolist()) if scalar else Float)
-            self.display = DISPLAY_CODES[settings.display]
-            self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
-            self.values = values[0]  # f, f_s, f_t, f_st, valid
+    def _light(self, scene: Any, sampler: Any, si: Any, ray: Any, hit: Any) -> tuple[Any, Any]:
+        """The diffuse shading factor (see the module's docstring) and whether the key
+        light is shadowed (it faces the point, the shadow ray is blocked): deterministic
+        for ``lit``; ``soft`` adds the sky's visibility along one random ray."""
+        mi, dr, ops = self.mi, self.dr, self.ops
+        n = si.sh_frame.n
+        n = dr.select(dr.dot(n, ray.d) > 0, -n, n)  # two-sided: face the viewer
+        key_cos = ops.maximum(dr.dot(n, self.key), 0.0)
+        # one shadow ray towards the (directional) key light
+        facing = hit & (key_cos > 0)
+        shadowed = scene.ray_test(si.spawn_ray(self.key), facing)
+        key = dr.select(shadowed, 0.0, key_cos)
+        head = ops.maximum(-dr.dot(n, ray.d), 0.0)
+        if self.lighting == "soft":
+            frame = mi.Frame3f(n)
+            sky_dir = frame.to_world(mi.warp.square_to_cosine_hemisphere(sampler.next_2d()))
+            sky = dr.select(scene.ray_test(si.spawn_ray(sky_dir), hit), 0.0, 1.0)
+            return SOFT_SKY * sky + SOFT_KEY * key + SOFT_HEAD * head, facing & shadowed
+        return AMBIENT + KEY * key + HEAD * head, facing & shadowed
+
+    def sample(
+        self, scene: Any, sampler: Any, ray: Any, medium: Any = None, active: Any = True
+    ) -> tuple[Any, Any, list[Any]]:
+        """Mitsuba's ``SamplingIntegrator.sample``: the colour, whether the ray hit, and the
+        AOVs ``f x y flags f_x f_y`` of one sample."""
+        mi, dr, ops = self.mi, self.dr, self.ops
+        Float, Float64, Color3f = mi.Float, mi.Float64, mi.Color3f
+        si = scene.ray_intersect(ray, active)
+        hit = active & si.is_valid()
+        si.compute_uv_partials(ray)
+        self._onto_surface(si, ray, hit)
+        f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values)
+        # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates:
+        # d(s, t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
+        ks = self.atlas_w / (cell.columns - 1.0)
+        kt = self.atlas_h / (cell.rows - 1.0)
+        fx = f_s * si.duv_dx.x * ks + f_t * si.duv_dx.y * kt
+        fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
+        if self.display == COLORMAP:
+            colour = self._lookup(f)
+        else:
+            s = Float64(f) / Float64(self.period) + Float64(self.phase)
+            a = Float64(fx) / Float64(self.period)
+            b = Float64(fy) / Float64(self.period)
+            s, a, b = settled_on_edges(s, a, b, self.duty, ops)  # a constant f: one colour
+            cov = Float(coverage_formula(s, a, b, self.duty, ops))
+            colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
             if self.display == BOTH:
-                self.colour_values = values[1]
-            if lut is not None:
-                self.lut = bitmap(lut[None, :, :])
-                self.lut_size = lut.shape[0]
-            self.period = opaque(settings.period)
-            self.phase = opaque(settings.phase)
-            self.duty = float(settings.duty)
-            self.lo = opaque(settings.value_range[0])
-            self.inv_span = opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
-            self.key = mi.Vector3f(*settings.key_light)
-
-        def aov_names(self):
-            return list(SHAPE_FILM[4:])
-
-        def _cell(self, si, texture, hit):
-            """The cell around si.uv inside its tile: the four corner texels (all channels)
-            and the cell (:func:`gshade.rendering.atlas.locate_cell`)."""
-            cell = locate_cell(si.uv.x, si.uv.y, self.atlas_w, self.atlas_h, self.tiles, ops)
-            centre = mi.Point2f(
-                cell_centre(cell.i, self.atlas_w), cell_centre(cell.j, self.atlas_h)
-            )
-            return texture.eval_fetch(centre, hit), cell
-
-        def _onto_surface(self, si, ray, hit):
-            """Move si.uv from the mesh's interpolated parameters to the surface point on the
-            ray: one Newton step (:func:`gshade.rendering.newton.newton_step`) from the mesh
-            hit, with p from bicubic Hermite interpolation, p_s and p_t bilinear."""
-            corners, cell = self._cell(si, self.geometry, hit)
-            a, b = cell.a, cell.b
-            p = mi.Vector3f(*(hermite(corners, a, b, cell.spacing, ch) for ch in _P))
-            ps = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_S))
-            pt = mi.Vector3f(*(bilinear(corners, a, b, ch) for ch in _P_T))
-            ds, dt, _, solvable = newton_step(ps, pt, ray.d, si.p - p, ops, TINY, with_t=False)
-            ok = hit & solvable
-            # stay inside this patch's tile (between its first and last texel centres); d(s,
-            # t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
-            S, T = cell.columns, cell.rows
-            x = ops.clip(
-                si.uv.x + ds * (S - 1.0) / self.atlas_w, *tile_bounds(cell.c0, S, self.atlas_w)
-            )
-            y = ops.clip(
-                si.uv.y + dt * (T - 1.0) / self.atlas_h, *tile_bounds(cell.r0, T, self.atlas_h)
-            )
-            si.uv = mi.Point2f(dr.select(ok, x, si.uv.x), dr.select(ok, y, si.uv.y))
-
-        def _lookup(self, g):
-            t = ops.clip((g - self.lo) * self.inv_span, 0.0, 1.0)
-            si = dr.zeros(mi.SurfaceInteraction3f)
-            si.uv = mi.Point2f((t * (self.lut_size - 1) + 0.5) / self.lut_size, 0.5)
-            return self.lut.eval(si)
-
-        def _shape_value(self, si, hit, texture):
-            """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
-            defined (bilinear validity > 1/2), from one fetch of the cell's texels; and the
-            cell (its tile's columns and rows)."""
-            corners, cell = self._cell(si, texture, hit)
-            a, b = cell.a, cell.b
-            f = hermite(corners, a, b, cell.spacing, _F)
-            slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
-            return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, cell
-
-        def _light(self, scene, sampler, si, ray, hit):
-            """The diffuse shading factor (see the module's docstring) and whether the key
-            light is shadowed (it faces the point, the shadow ray is blocked): deterministic
-            for ``lit``; ``soft`` adds the sky's visibility along one random ray."""
-            n = si.sh_frame.n
-            n = dr.select(dr.dot(n, ray.d) > 0, -n, n)  # two-sided: face the viewer
-            key_cos = ops.maximum(dr.dot(n, self.key), 0.0)
-            # one shadow ray towards the (directional) key light
-            facing = hit & (key_cos > 0)
-            shadowed = scene.ray_test(si.spawn_ray(self.key), facing)
-            key = dr.select(shadowed, 0.0, key_cos)
-            head = ops.maximum(-dr.dot(n, ray.d), 0.0)
-            if self.lighting == "soft":
-                frame = mi.Frame3f(n)
-                sky_dir = frame.to_world(mi.warp.square_to_cosine_hemisphere(sampler.next_2d()))
-                sky = dr.select(scene.ray_test(si.spawn_ray(sky_dir), hit), 0.0, 1.0)
-                return SOFT_SKY * sky + SOFT_KEY * key + SOFT_HEAD * head, facing & shadowed
-            return AMBIENT + KEY * key + HEAD * head, facing & shadowed
-
-        def sample(self, scene, sampler, ray, medium=None, active=True):
-            si = scene.ray_intersect(ray, active)
-            hit = active & si.is_valid()
-            si.compute_uv_partials(ray)
-            self._onto_surface(si, ray, hit)
-            f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values)
-            # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates:
-            # d(s, t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
-            ks = self.atlas_w / (cell.columns - 1.0)
-            kt = self.atlas_h / (cell.rows - 1.0)
-            fx = f_s * si.duv_dx.x * ks + f_t * si.duv_dx.y * kt
-            fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
-            if self.display == COLORMAP:
-                colour = self._lookup(f)
-            else:
-                s = Float64(f) / Float64(self.period) + Float64(self.phase)
-                a = Float64(fx) / Float64(self.period)
-                b = Float64(fy) / Float64(self.period)
-                s, a, b = settled_on_edges(s, a, b, self.duty, ops)  # a constant f: one colour
-                cov = Float(coverage_formula(s, a, b, self.duty, ops))
-                colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
-                if self.display == BOTH:
-                    g, _, colour_defined, _ = self._shape_value(si, hit, self.colour_values)
-                    colour = self._lookup(g) * (1.0 - 0.65 * cov)
-                    defined = defined & colour_defined
-            colour = dr.select(defined, colour, Color3f(UNDEFINED))
-            shadowed = dr.zeros(mi.Bool)
-            if self.lighting != "flat":
-                light, shadowed = self._light(scene, sampler, si, ray, hit)
-                colour = colour * light
-            colour = dr.select(hit, colour, Color3f(0.0))
-            flags = dr.select(defined, 1.0, 0.0) + dr.select(shadowed, 2.0, 0.0)
-            return (
-                colour,
-                hit,
-                [
-                    dr.select(hit, f, 0.0),
-                    dr.select(hit, si.uv.x, 0.0),
-                    dr.select(hit, si.uv.y, 0.0),
-                    dr.select(hit, flags, 0.0),
-                    dr.select(hit, fx, 0.0),
-                    dr.select(hit, fy, 0.0),
-                ],
-            )
-
-    return ShapeIntegrator
+                g, _, colour_defined, _ = self._shape_value(si, hit, self.colour_values)
+                colour = self._lookup(g) * (1.0 - 0.65 * cov)
+                defined = defined & colour_defined
+        colour = dr.select(defined, colour, Color3f(UNDEFINED))
+        shadowed = dr.zeros(mi.Bool)
+        if self.lighting != "flat":
+            light, shadowed = self._light(scene, sampler, si, ray, hit)
+            colour = colour * light
+        colour = dr.select(hit, colour, Color3f(0.0))
+        flags = dr.select(defined, 1.0, 0.0) + dr.select(shadowed, 2.0, 0.0)
+        return (
+            colour,
+            hit,
+            [
+                dr.select(hit, f, 0.0),
+                dr.select(hit, si.uv.x, 0.0),
+                dr.select(hit, si.uv.y, 0.0),
+                dr.select(hit, flags, 0.0),
+                dr.select(hit, fx, 0.0),
+                dr.select(hit, fy, 0.0),
+            ],
+        )

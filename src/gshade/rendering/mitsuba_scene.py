@@ -43,7 +43,7 @@ class MitsubaScene:
     sampler: dict
 
 
-def _mesh(mi, mesh: TriangleMesh, atlas: Atlas):
+def _mesh(mi: Any, mesh: TriangleMesh, atlas: Atlas) -> Any:
     """The Mitsuba mesh: positions, normals, faces, and texture coordinates in the atlas."""
     mi_mesh = mi.Mesh(
         "surface",
@@ -137,7 +137,7 @@ def render_uniform(scene: MitsubaScene, settings: RenderSettings) -> NDArray[np.
     return _developed(scene.scene.sensors()[0])
 
 
-def _developed(sensor) -> NDArray[np.float32]:
+def _developed(sensor: Any) -> NDArray[np.float32]:
     """The sensor's film as a numpy array (H, W, channels); Dr.Jit's memory of the render
     handed back to the system, so that what follows in numpy does not add to it."""
     dr = import_drjit()

@@ -34,7 +34,7 @@ import time
 from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,6 +56,16 @@ from .supersampling import discontinuous_pixels, silhouette_pixels
 from .surface_meshes import mesh_parts, planned_vertices
 from .tessellate import join_meshes
 from .textures import shape_textures
+
+if TYPE_CHECKING:
+    from ..analysis.continuity import Junction
+    from ..analysis.edge_continuity import EdgeLine
+    from ..scene.model import RenderSettings, Shape
+    from ..shape import ShapeFunction
+    from .mitsuba_scene import MitsubaScene
+    from .sizing import Framing
+    from .style import DisplayStyle
+    from .tessellate import TriangleMesh
 
 __all__ = ["render"]
 
@@ -158,7 +168,16 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
     return RenderedImage(channels, metadata, shown, lap.timings, warnings, notes)
 
 
-def _supersample(film, mitsuba, view, settings, silhouettes, atlas, style, shape) -> None:
+def _supersample(
+    film: NDArray,
+    mitsuba: MitsubaScene,
+    view: View,
+    settings: RenderSettings,
+    silhouettes: NDArray | None,
+    atlas: Atlas,
+    style: DisplayStyle,
+    shape: Shape,
+) -> None:
     """Replace the centre pass's picture (:data:`PICTURE`) in ``film`` by ``spp`` samples'
     at the silhouettes' pixels and where the picture jumps (everywhere if ``silhouettes`` is
     None: uniform sampling)."""
@@ -198,7 +217,7 @@ def _with_overrides(scene: Scene | str | os.PathLike, overrides: dict) -> Scene:
     return scene
 
 
-def _settings(scene):
+def _settings(scene: Scene) -> tuple[RenderSettings, str]:
     """The ``[render]`` settings as rendered (``spp`` rounded up to a power of 4: Mitsuba's
     stratified sampler takes 1, 4, 16, 64, ... samples), checked against the sample budget,
     and the scene's name for messages."""
@@ -216,7 +235,9 @@ def _settings(scene):
     return settings, where
 
 
-def _exact_functions(scene, settings, functions) -> dict:
+def _exact_functions(
+    scene: Scene, settings: RenderSettings, functions: list[tuple[ShapeFunction, dict]]
+) -> dict:
     """The functions evaluated exactly at the pixel centres, by channel: ``f`` the striped
     (or only) one, ``f2`` the colour-mapped one of ``display = "both"``, and each
     ``render.aovs`` name with the scene's parameters for it."""
@@ -230,7 +251,7 @@ def _exact_functions(scene, settings, functions) -> dict:
     return out
 
 
-def _length_unit(scene) -> str:
+def _length_unit(scene: Scene) -> str:
     """The scene's length unit: its surfaces' (all one, e.g. ``"mm"``,
     :attr:`gshade.scene.bodies.SurfaceBody.length_unit`), else ``"length"`` (control
     points carry no unit)."""
@@ -240,14 +261,14 @@ def _length_unit(scene) -> str:
     return "length"
 
 
-def _patch_label(scene) -> str:
+def _patch_label(scene: Scene) -> str:
     """What the ``patch`` channel numbers: a scene of one surface, its own word for a patch
     (:attr:`gshade.scene.bodies.SurfaceBody.patch_label`: ``"face"`` on a CAD model), else
     ``"patch"`` (the scene's patches; several CAD models' face numbers would collide)."""
     return scene.surfaces[0].body.patch_label if len(scene.surfaces) == 1 else "patch"
 
 
-def _patch_channel(scene, patch: NDArray[np.float32]) -> NDArray[np.float32]:
+def _patch_channel(scene: Scene, patch: NDArray[np.float32]) -> NDArray[np.float32]:
     """The ``patch`` channel as :func:`_patch_label` says: the scene's patch index (as the
     pipeline numbers them) replaced, on a scene of one surface, by that surface's numbers
     for its patches (:meth:`gshade.scene.bodies.SurfaceBody.patch_numbers`: a CAD model's
@@ -265,7 +286,7 @@ def _patch_channel(scene, patch: NDArray[np.float32]) -> NDArray[np.float32]:
 EDGE_LINE_POINTS = 256
 
 
-def _measure_junctions(scene, where: str):
+def _measure_junctions(scene: Scene, where: str) -> tuple[list[Junction], list[EdgeLine]]:
     """The continuity report of the patches' junctions (:mod:`gshade.analysis.continuity`)
     and of the CAD surfaces' B-rep edges, with the edges' lines to draw (None without)."""
     from ..analysis.scene_junctions import scene_continuity
@@ -276,7 +297,9 @@ def _measure_junctions(scene, where: str):
         raise GshadeError(f"{where}: {exc}") from None
 
 
-def _mesh_and_atlas(scene, settings, framing, resolution: int, where: str):
+def _mesh_and_atlas(
+    scene: Scene, settings: RenderSettings, framing: Framing, resolution: int, where: str
+) -> tuple[TriangleMesh, Atlas, tuple[list[tuple[Any, Any]], list[tuple[Any, str]]]]:
     """The tessellation (each surface by its body's mesher,
     :mod:`gshade.rendering.surface_meshes`) and the atlas layout, within the memory limit;
     and what the meshers said: the faces left without triangles, (model path, LeftOutFace)
@@ -311,7 +334,13 @@ def left_out_faces(scene: Scene, unmeshed: Iterable = ()) -> list:
 
 
 def _metadata(
-    scene, settings, variant: str, view: View, resolution: int, atlas: Atlas, legend_text: str
+    scene: Scene,
+    settings: RenderSettings,
+    variant: str,
+    view: View,
+    resolution: int,
+    atlas: Atlas,
+    legend_text: str,
 ) -> dict[str, str]:
     """The EXR header: version, scene, variant, the settings as rendered, the legend, what
     the ``patch`` channel numbers (``"face"``: every surface a CAD model's; else
@@ -345,7 +374,7 @@ def _metadata(
     }
 
 
-def _jsonable(x):
+def _jsonable(x: Any) -> Any:
     if isinstance(x, dict):
         return {k: _jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):

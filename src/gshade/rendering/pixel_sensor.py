@@ -10,15 +10,15 @@ listed: the supersampling pass renders only the pixels where the picture needs i
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..runtime.llvm import import_drjit
 from ..runtime.variant import mitsuba
 
-__all__ = ["PIXELS_PLUGIN", "pixel_list_sensor", "pixel_sensor_class"]
+__all__ = ["PIXELS_PLUGIN", "PixelSensor", "pixel_list_sensor"]
 
 PIXELS_PLUGIN = "gshade_pixels"
 
@@ -51,57 +51,63 @@ def pixel_list_sensor(
     return sensor
 
 
-def pixel_sensor_class(mi: Any) -> type:
-    """The sensor's class for Mitsuba's active variant (registered by
-    :func:`gshade.rendering.plugins.use_variant` as :data:`PIXELS_PLUGIN`)."""
-    dr = import_drjit()
+class PixelSensor:
+    """Virtual pixel k is the camera's pixel (rows[k], cols[k]).
 
-    scalar = mi.variant().startswith("scalar")
+    The methods of ``gshade_pixels``, put on the active variant's ``mi.Sensor`` with the
+    variant's parts ``mi``, ``dr`` and ``scalar`` by
+    :func:`gshade.rendering.plugins.variant_class`.
+    """
 
-    class PixelSensor(mi.Sensor):
-        """Virtual pixel k is the camera's pixel (rows[k], cols[k])."""
+    mi: Any
+    dr: Any
+    scalar: bool
+    film: Callable[[], Any]  # mi.Sensor's
+    #: how many pixels are listed (none until :meth:`aim`)
+    count = 0
 
-        def __init__(self, props):
-            super().__init__(props)
-            self.count = 0
+    def aim(self, camera: Any, cols: NDArray, rows: NDArray, size: tuple[int, int]) -> None:
+        """List the pixels (cols[k], rows[k]) of ``camera``'s film of ``size`` (width,
+        height)."""
+        self.camera, self.count = camera, len(cols)
+        self.inv_size = (1.0 / size[0], 1.0 / size[1])
+        if self.scalar:
+            self.cols, self.rows = cols.tolist(), rows.tolist()
+        else:  # exact in float32: image sides are at most 2^24
+            self.cols, self.rows = self.mi.Float(cols), self.mi.Float(rows)
 
-        def aim(self, camera, cols: NDArray, rows: NDArray, size: tuple[int, int]) -> None:
-            self.camera, self.count = camera, len(cols)
-            self.inv_size = (1.0 / size[0], 1.0 / size[1])
-            if scalar:
-                self.cols, self.rows = cols.tolist(), rows.tolist()
-            else:  # exact in float32: image sides are at most 2^24
-                self.cols, self.rows = mi.Float(cols), mi.Float(rows)
+    def _camera_position(self, position: Any) -> Any:
+        """The camera's film position (in [0, 1]^2) of a position on this film."""
+        mi, dr = self.mi, self.dr
+        size = self.film().crop_size()
+        at = mi.Vector2f(position.x * size.x, position.y * size.y)
+        pixel = dr.floor(at)
+        offset = at - pixel
+        k = mi.UInt32(pixel.y) * size.x + mi.UInt32(pixel.x)
+        if self.scalar:
+            k = min(int(k), self.count - 1)
+            col, row = self.cols[k], self.rows[k]
+        else:
+            k = dr.minimum(k, self.count - 1)
+            col, row = dr.gather(mi.Float, self.cols, k), dr.gather(mi.Float, self.rows, k)
+        return mi.Point2f((col + offset.x) * self.inv_size[0], (row + offset.y) * self.inv_size[1])
 
-        def _camera_position(self, position):
-            """The camera's film position (in [0, 1]^2) of a position on this film."""
-            size = self.film().crop_size()
-            at = mi.Vector2f(position.x * size.x, position.y * size.y)
-            pixel = dr.floor(at)
-            offset = at - pixel
-            k = mi.UInt32(pixel.y) * size.x + mi.UInt32(pixel.x)
-            if scalar:
-                k = min(int(k), self.count - 1)
-                col, row = self.cols[k], self.rows[k]
-            else:
-                k = dr.minimum(k, self.count - 1)
-                col, row = dr.gather(mi.Float, self.cols, k), dr.gather(mi.Float, self.rows, k)
-            return mi.Point2f(
-                (col + offset.x) * self.inv_size[0], (row + offset.y) * self.inv_size[1]
-            )
+    def sample_ray_differential(
+        self, time: Any, sample1: Any, sample2: Any, sample3: Any, active: Any = True
+    ) -> Any:
+        """The camera's ray (with differentials) through the listed pixel's sample."""
+        position = self._camera_position(sample2)
+        return self.camera.sample_ray_differential(time, sample1, position, sample3, active)
 
-        def sample_ray_differential(self, time, sample1, sample2, sample3, active=True):
-            position = self._camera_position(sample2)
-            return self.camera.sample_ray_differential(time, sample1, position, sample3, active)
+    def sample_ray(
+        self, time: Any, sample1: Any, sample2: Any, sample3: Any, active: Any = True
+    ) -> Any:
+        """The camera's ray through the listed pixel's sample."""
+        position = self._camera_position(sample2)
+        return self.camera.sample_ray(time, sample1, position, sample3, active)
 
-        def sample_ray(self, time, sample1, sample2, sample3, active=True):
-            position = self._camera_position(sample2)
-            return self.camera.sample_ray(time, sample1, position, sample3, active)
+    def bbox(self) -> Any:
+        return self.camera.bbox()
 
-        def bbox(self):
-            return self.camera.bbox()
-
-        def to_string(self):
-            return f"PixelSensor[{self.count} pixels]"
-
-    return PixelSensor
+    def to_string(self) -> str:
+        return f"PixelSensor[{self.count} pixels]"

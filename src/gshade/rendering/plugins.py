@@ -1,31 +1,52 @@
 """gshade's Mitsuba plugins, registered for a variant in one place: :func:`use_variant`.
 
 The shape integrator (:mod:`gshade.rendering.integrator`) and the sensor of listed pixels
-(:mod:`gshade.rendering.pixel_sensor`) are Python classes defined for Mitsuba's active variant
-and registered under their names (:data:`PLUGINS`).  Mitsuba keeps such a plugin for the
-variant that was active when it was registered and cannot be asked whether a name is
-registered (``PluginManager.plugin_type`` knows only its own plugins), so the variants done
-in this process are kept here, in :data:`REGISTERED`.  The pipeline calls :func:`use_variant`
-where it selects the variant; nothing is registered by importing gshade.
+(:mod:`gshade.rendering.pixel_sensor`) are Python classes put on Mitsuba's active variant
+(:func:`variant_class`) and registered under their names (:data:`PLUGINS`).  Mitsuba keeps
+such a plugin for the variant that was active when it was registered and cannot be asked
+whether a name is registered (``PluginManager.plugin_type`` knows only its own plugins), so
+the variants done in this process are kept here, in :data:`REGISTERED`.  The pipeline calls
+:func:`use_variant` where it selects the variant; nothing is registered by importing gshade.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from typing import Any
 
+from ..runtime.backend import drjit_ops
+from ..runtime.llvm import import_drjit
 from ..runtime.variant import mitsuba, select_variant
-from .integrator import SHAPE_PLUGIN, shape_integrator_class
-from .pixel_sensor import PIXELS_PLUGIN, pixel_sensor_class
+from .integrator import SHAPE_PLUGIN, ShapeIntegrator
+from .pixel_sensor import PIXELS_PLUGIN, PixelSensor
 
-__all__ = ["PLUGINS", "REGISTERED", "use_variant"]
+__all__ = ["PLUGINS", "REGISTERED", "use_variant", "variant_class"]
 
-#: plugin name -> (Mitsuba's registering function, the plugin's class for the active variant)
-PLUGINS: dict[str, tuple[str, Callable]] = {
-    SHAPE_PLUGIN: ("register_integrator", shape_integrator_class),
-    PIXELS_PLUGIN: ("register_sensor", pixel_sensor_class),
+#: plugin name -> (Mitsuba's registering function, the plugin's methods, its Mitsuba base)
+PLUGINS: dict[str, tuple[str, type, str]] = {
+    SHAPE_PLUGIN: ("register_integrator", ShapeIntegrator, "SamplingIntegrator"),
+    PIXELS_PLUGIN: ("register_sensor", PixelSensor, "Sensor"),
 }
 #: the variants whose plugins are registered with Mitsuba in this process
 REGISTERED: set[str] = set()
+
+#: what every Python class has of its own, not copied onto the variant's class
+_CLASS_INTERNALS = ("__dict__", "__weakref__")
+
+
+def variant_class(methods: type, base: str, mi: Any) -> type:
+    """A plugin's class for Mitsuba's active variant ``mi``: a subclass of the variant's
+    ``base`` (e.g. ``"SamplingIntegrator"``) with the attributes of ``methods`` and the
+    variant's parts as class attributes: ``mi`` (the Mitsuba module), ``dr`` (Dr.Jit),
+    ``ops`` (:func:`gshade.runtime.backend.drjit_ops`) and ``scalar`` (whether the variant
+    runs one sample at a time).
+
+    Mitsuba's classes take one base (nanobind), so ``methods`` is copied, not inherited; its
+    methods call no ``super()``.
+    """
+    scalar = mi.variant().startswith("scalar")
+    parts = {"mi": mi, "dr": import_drjit(), "ops": drjit_ops(scalar), "scalar": scalar}
+    own = {k: v for k, v in vars(methods).items() if k not in _CLASS_INTERNALS}
+    return type(methods.__name__, (getattr(mi, base),), own | parts)
 
 
 def use_variant(requested: str = "auto") -> str:
@@ -35,8 +56,8 @@ def use_variant(requested: str = "auto") -> str:
     variant = select_variant(requested)
     if variant not in REGISTERED:
         mi = mitsuba()
-        for name, (register, plugin_class) in PLUGINS.items():
-            cls = plugin_class(mi)
+        for name, (register, methods, base) in PLUGINS.items():
+            cls = variant_class(methods, base, mi)
             getattr(mi, register)(name, lambda props, cls=cls: cls(props))
         REGISTERED.add(variant)
     return variant

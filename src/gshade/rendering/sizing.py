@@ -10,6 +10,7 @@ for more than a small image can show).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,7 +93,7 @@ def frame(scene: Scene, settings: RenderSettings, where: str) -> Framing:
     return Framing(lo, hi, diag, view)
 
 
-def _patch_extents(scene):
+def _patch_extents(scene: Scene) -> Iterator[NDArray[np.float64]]:
     """Per patch, a grid of points (a, b, 3) standing for the extent its tile covers
     (:meth:`gshade.scene.bodies.SurfaceBody.tile_extents`)."""
     for surface in scene.surfaces:

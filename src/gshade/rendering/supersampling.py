@@ -90,7 +90,12 @@ def discontinuous_pixels(
     return marked
 
 
-def _discontinuous(centres, atlas, visible_change, stripes) -> NDArray:
+def _discontinuous(
+    centres: NDArray,
+    atlas: Atlas,
+    visible_change: float,
+    stripes: tuple[float, float, float] | None,
+) -> NDArray:
     """:func:`discontinuous_pixels` of a film."""
     hit = centres[..., SHAPE_FILM.index("A")] > 0.5
     patch = np.full(hit.shape, -1, dtype=np.int64)
@@ -193,7 +198,9 @@ def _silhouette_edges(faces: NDArray, front: NDArray, n_vertices: int) -> NDArra
     return np.stack([edge // n_vertices, edge % n_vertices], -1)
 
 
-def _clip_to_front(x: NDArray, y: NDArray, z: NDArray, near: float):
+def _clip_to_front(
+    x: NDArray, y: NDArray, z: NDArray, near: float
+) -> tuple[NDArray, NDArray, NDArray]:
     """Segments ((m, 2) end coordinates) cut to their parts with z >= near; those wholly
     behind dropped."""
     keep = (z >= near).any(axis=1)
@@ -207,7 +214,12 @@ def _clip_to_front(x: NDArray, y: NDArray, z: NDArray, near: float):
     return x, y, z
 
 
-def _clip_to_box(cols: NDArray, rows: NDArray, col_range, row_range):
+def _clip_to_box(
+    cols: NDArray,
+    rows: NDArray,
+    col_range: tuple[float, float],
+    row_range: tuple[float, float],
+) -> tuple[NDArray, NDArray]:
     """Segments ((m, 2) end positions) cut to a box (Liang-Barsky); those outside dropped."""
     c0, dc = cols[:, 0], cols[:, 1] - cols[:, 0]
     r0, dr = rows[:, 0], rows[:, 1] - rows[:, 0]

@@ -18,6 +18,8 @@ it).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -35,7 +37,17 @@ SETTLED = 1e-7
 TINY = 1e-300
 
 
-def _newton_numpy(derivatives, lo, hi, u, v, origin, direction, steps: int = 1, order: int = 1):
+def _newton_numpy(
+    derivatives: Callable[[NDArray, NDArray, int, slice | NDArray], NDArray],
+    lo: NDArray,
+    hi: NDArray,
+    u: NDArray,
+    v: NDArray,
+    origin: NDArray,
+    direction: NDArray,
+    steps: int = 1,
+    order: int = 1,
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """``steps`` float64 Newton steps on points of patches evaluated by
     ``derivatives(u, v, order, at)`` (derivatives of order <= ``order`` at the points
     ``at``, (order + 1, order + 1, N, 3)), each point's parameters kept within [lo, hi]
@@ -106,7 +118,7 @@ def surface_hits(
         many = evaluator or patch_evaluator(patches, backend_name)
         domains = np.array([p.domain for p in patches], dtype=np.float64)[index]
 
-        def derivatives(uu, vv, k, at):
+        def derivatives(uu: NDArray, vv: NDArray, k: int, at: slice | NDArray) -> NDArray:
             return many.derivatives(index[at], uu, vv, k)
 
         lo, hi = domains[:, :, 0], domains[:, :, 1]

@@ -48,7 +48,12 @@ class Mesher:
     on_grid: bool = False
 
 
-def _grid(members, resolution: int, deflection: float, scene: tuple) -> list[MeshPart]:
+def _grid(
+    members: Sequence[tuple[Any, NDArray[np.int32]]],
+    resolution: int,
+    deflection: float,
+    scene: tuple,
+) -> list[MeshPart]:
     """All the members' patches on the common grid, in one tessellation."""
     patches = [p for surface, _ in members for p in surface.patches]
     mesh = tessellate(patches, resolution)
@@ -60,7 +65,12 @@ def _grid(members, resolution: int, deflection: float, scene: tuple) -> list[Mes
     return [MeshPart(mesh, np.concatenate([index for _, index in members]))]
 
 
-def _cad(members, resolution: int, deflection: float, scene: tuple) -> list[MeshPart]:
+def _cad(
+    members: Sequence[tuple[Any, NDArray[np.int32]]],
+    resolution: int,
+    deflection: float,
+    scene: tuple,
+) -> list[MeshPart]:
     """Each member's trimmed faces from the kernel's mesher."""
     from ..cad import in_scene
 
@@ -84,7 +94,7 @@ MESHERS: dict[type, Mesher] = {
 }
 
 
-def _members(scene) -> dict[type, list[tuple[Any, NDArray[np.int32]]]]:
+def _members(scene: Scene) -> dict[type, list[tuple[Any, NDArray[np.int32]]]]:
     """The scene's surfaces by the type of their body, each with its patches' indices."""
     out: dict[type, list] = {}
     start = 0

@@ -59,7 +59,9 @@ class TriangleMesh:
         return self.positions.min(axis=0), self.positions.max(axis=0)
 
 
-def _normalised_second_derivatives(patches, samples: int = 9) -> NDArray:
+def _normalised_second_derivatives(
+    patches: list[Patch] | tuple[Patch, ...], samples: int = 9
+) -> NDArray:
     """Per patch, max over a sample grid of |p_ss| + 2 |p_st| + |p_tt| in normalised
     parameters."""
     d = grid_derivatives(patches, np.linspace(0.0, 1.0, samples), 2)

@@ -73,7 +73,12 @@ class ShapeTextures:
 CHUNK_TEXELS = 1 << 15
 
 
-def _chunk_derivatives(patches, chunk, grid, order):
+def _chunk_derivatives(
+    patches: list[Patch] | tuple[Patch, ...],
+    chunk: list[int],
+    grid: tuple[NDArray, NDArray],
+    order: int,
+) -> tuple[NDArray, NDArray, NDArray]:
     """Derivatives of the patches ``chunk`` on the tile grid (s, t):
     (order+1, order+1, n, S, T, 3), regularised at irregular points (see
     :func:`gshade.geometry.regularised_derivatives`), the regularity (n, S, T) and the

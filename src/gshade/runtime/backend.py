@@ -23,11 +23,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .llvm import import_drjit
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["NUMPY", "NUMPY_NAN", "ArrayOps", "cross3", "dot3", "drjit_ops"]
 
@@ -35,46 +38,46 @@ __all__ = ["NUMPY", "NUMPY_NAN", "ArrayOps", "cross3", "dot3", "drjit_ops"]
 Op = Callable[..., Any]
 
 
-def dot3(a, b):
+def dot3(a: Any, b: Any) -> Any:
     """<a, b> = a0 b0 + a1 b1 + a2 b2, summed from left to right (no fused multiply-add)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def cross3(a, b):
+def cross3(a: Any, b: Any) -> Any:
     """a x b, each coordinate a difference of two products (no fused multiply-add)."""
     return type(a)(
         [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
     )
 
 
-def _row_dot(a, b):
+def _row_dot(a: NDArray, b: NDArray) -> NDArray:
     """<a, b> of each row of two (N, 3) arrays."""
     return np.einsum("ij,ij->i", a, b)
 
 
-def _row_scale(t, v):
+def _row_scale(t: NDArray, v: NDArray) -> NDArray:
     """Each row of the (N, 3) array v times the matching number of t (N,)."""
     return t[:, None] * v
 
 
-def _take(table, index):
+def _take(table: ArrayLike, index: ArrayLike) -> NDArray:
     """numpy's table[index] at float indices."""
     return np.asarray(table)[np.asarray(index).astype(np.int64)]
 
 
-def _drjit_gather(table, index):
+def _drjit_gather(table: Any, index: Any) -> Any:
     """Dr.Jit's gather of ``table`` (an array of the variant) at float indices."""
     dr = import_drjit()
 
     return dr.gather(type(table), table, dr.uint32_array_t(type(index))(index))
 
 
-def _scalar_gather(table, index):
+def _scalar_gather(table: Any, index: float) -> Any:
     """A scalar variant's gather: the table (a sequence) at one whole float index."""
     return table[int(index)]
 
 
-def _times(t, v):
+def _times(t: Any, v: Any) -> Any:
     return t * v
 
 
@@ -139,7 +142,7 @@ class ArrayOps:
         self.minimum: Op = (lambda a, b: select(a < b, a, b)) if minimum is None else minimum
         self.maximum: Op = (lambda a, b: select(a > b, a, b)) if maximum is None else maximum
 
-    def clip(self, x, lo, hi):
+    def clip(self, x: Any, lo: Any, hi: Any) -> Any:
         """min(max(x, lo), hi) with this library's minimum and maximum."""
         return self.minimum(self.maximum(x, lo), hi)
 

@@ -25,9 +25,13 @@ import sys
 import warnings
 from functools import cache
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 from ..errors import GshadeError
 from .llvm import MIN_LLVM, find_llvm, import_drjit, llvm_version, point_drjit_at_llvm
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 __all__ = [
     "MIN_LLVM",
@@ -134,19 +138,21 @@ class _NothingToReload(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """Found first for :data:`PYTHON_INTEGRATORS` while a variant is set: reloading the
     package then runs nothing."""
 
-    def find_spec(self, name, path, target=None):
+    def find_spec(
+        self, name: str, path: Sequence[str] | None, target: ModuleType | None = None
+    ) -> importlib.machinery.ModuleSpec | None:
         if name != PYTHON_INTEGRATORS:
             return None
         return importlib.machinery.ModuleSpec(name, self, is_package=True)
 
-    def create_module(self, spec) -> None:
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> None:
         return None  # the package's own module object is reloaded in place
 
     def exec_module(self, module: ModuleType) -> None:
         pass
 
 
-def _set_variant(mi, variant: str) -> None:
+def _set_variant(mi: ModuleType, variant: str) -> None:
     """``mi.set_variant(variant)``, without reloading :data:`PYTHON_INTEGRATORS` where this
     process leaves them out (:func:`leave_out_python_integrators`); the package's module
     object is as it was afterwards."""

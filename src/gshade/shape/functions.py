@@ -30,6 +30,9 @@ list of functions is documentation to update by hand.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -54,6 +57,12 @@ from .registry import (
     validate_parameter,
     validate_parameters,
 )
+
+if TYPE_CHECKING:
+    from types import SimpleNamespace
+
+    from ..geometry.core.jets import Backend, Jet
+    from .registry import Packed
 
 __all__ = [
     "SHAPE_FUNCTIONS",
@@ -91,11 +100,13 @@ def _perpendicular(a: NDArray) -> NDArray:
 _PLANAR = Layout(("direction", 3))
 
 
-def _planar_sections(vec, p, form, xp):
+def _planar_sections(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
     return dot(vec(0, 0), p.direction), None, None
 
 
-def _pack_planar(fn, kw):
+def _pack_planar(fn: str, kw: dict[str, Any]) -> Packed:
     return "", _PLANAR, {"direction": kw["direction"]}
 
 
@@ -113,14 +124,16 @@ register(
 _ISOPHOTES = Layout(("light", 3))
 
 
-def _isophotes(vec, p, form, xp):
+def _isophotes(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
     N = cross(vec(1, 0), vec(0, 1))
     length = sqrt(dot(N, N), xp)
     f = dot(N, p.light) / length
     return (arccos(f, xp) if form == "angle" else f), length.f > p.irregular, None
 
 
-def _pack_isophotes(fn, kw):
+def _pack_isophotes(fn: str, kw: dict[str, Any]) -> Packed:
     return kw["form"], _ISOPHOTES, {"light": kw["light"]}
 
 
@@ -144,7 +157,9 @@ _REFLECTION_PLANE = Layout(("eye", 3), ("origin", 3), ("a2", 3), ("c", 3))
 _REFLECTION_INFINITY = Layout(("eye", 3), ("across", 3), ("reference", 3))
 
 
-def _reflection_lines(vec, p, form, xp):
+def _reflection_lines(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
     """r = w - 2 <w, N> N / <N, N> with w = p - e; plane: s = <(p - p0) x a2, r> / <c, r>."""
     pt = vec(0, 0)
     N = cross(vec(1, 0), vec(0, 1))
@@ -164,7 +179,7 @@ def _reflection_lines(vec, p, form, xp):
     return dot(cross(q, p.a2), r) / cr, valid, eye
 
 
-def _pack_reflection(fn, kw):
+def _pack_reflection(fn: str, kw: dict[str, Any]) -> Packed:
     if kw["form"] == "plane":
         c = _frame(fn, kw["a1"], kw["a2"])
         values = {"eye": kw["eye_point"], "origin": kw["origin"], "a2": kw["a2"], "c": c}
@@ -210,7 +225,9 @@ _HIGHLIGHT_PLANE = Layout(("origin", 3), ("a2", 3), ("c", 3), ("c_norm", 1))
 _HIGHLIGHT_DISTANCE = Layout(("origin", 3), ("direction", 3))
 
 
-def _highlight_lines(vec, p, form, xp):
+def _highlight_lines(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
     """plane: s = <(p - p0) x a2, N> / <c, N>;  distance: <E x N, p - A> / |E x N|."""
     pt = vec(0, 0)
     N = cross(vec(1, 0), vec(0, 1))
@@ -226,7 +243,7 @@ def _highlight_lines(vec, p, form, xp):
     return dot(cross(q, p.a2), N) / cn, valid, None
 
 
-def _pack_highlight(fn, kw):
+def _pack_highlight(fn: str, kw: dict[str, Any]) -> Packed:
     if kw["form"] == "plane":
         c = _frame(fn, kw["a1"], kw["a2"])
         values = {"origin": kw["origin"], "a2": kw["a2"], "c": c, "c_norm": np.linalg.norm(c)}
@@ -258,7 +275,9 @@ register(
 # --------------------------------------------------------------------------- parametrisation
 
 
-def _parametrisation_quality(vec, p, form, xp):
+def _parametrisation_quality(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
     E, F, G = first_form(vec(1, 0), vec(0, 1))
     s = E + G
     dEG = E - G
@@ -276,7 +295,9 @@ register(
 
 
 def _curvature(which: str) -> Formula:
-    def formula(vec, p, form, xp):
+    def formula(
+        vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+    ) -> tuple[Jet, Any, Any]:
         """K, H and k1,2 = H +- (k1 - k2) / 2 of the forms w.r.t. N = p_u x p_v
         (:mod:`gshade.geometry.core.differential`); rms = sqrt(2 H^2 - K)."""
         f = fundamental_forms(vec(1, 0), vec(0, 1), vec(2, 0), vec(1, 1), vec(0, 2))

@@ -142,26 +142,26 @@ def run(
         params = [dr.opaque(Float64, float(x)) for x in prm]
         zero = dr.zeros(Float64, n)
 
-        def array(i, j, c):
+        def array(i: int, j: int, c: int) -> Any:
             return drjit_array(Float64, d[i, j, :, c])
     else:
         xp = NUMPY
         params = [float(x) for x in prm]
         zero = np.zeros(n)
 
-        def array(i, j, c):
+        def array(i: int, j: int, c: int) -> Any:
             return d[i, j, :, c]
 
     cache: dict[tuple[int, int, int], object] = {}
 
-    def component(i, j, c):
+    def component(i: int, j: int, c: int) -> Any:
         if i + j > order:
             return zero
         if (i, j, c) not in cache:
             cache[i, j, c] = array(i, j, c)
         return cache[i, j, c]
 
-    def vec(i, j):
+    def vec(i: int, j: int) -> tuple[Jet, ...]:
         return tuple(
             Jet(component(i, j, c), component(i + 1, j, c), component(i, j + 1, c))
             for c in range(3)

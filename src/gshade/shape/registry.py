@@ -90,7 +90,7 @@ class ShapeFunction:
     #: (name, checked parameters) -> (form, layout, the values of its fields)
     pack: Callable[[str, dict[str, Any]], Packed] = field(default=_no_parameters, repr=False)
 
-    def __call__(self, d: ArrayLike, *, gradient: bool = True, **params) -> ShapeValues:
+    def __call__(self, d: ArrayLike, *, gradient: bool = True, **params: Any) -> ShapeValues:
         return evaluate(self, d, gradient=gradient, **params)
 
 
@@ -218,7 +218,7 @@ def evaluate(
     gradient: bool = True,
     partials: bool = False,
     backend: str = "auto",
-    **params,
+    **params: Any,
 ) -> ShapeValues:
     """Evaluate a shape function on a derivatives array.
 

@@ -28,7 +28,7 @@ import scipy.optimize
 
 from gshade.errors import GshadeError
 from gshade.geometry.core.bernstein import bernstein_basis
-from gshade.geometry.holes import fairing_cache as hole_shape_cache
+from gshade.geometry.holes import fairing_cache
 from gshade.geometry.holes.fairing import (
     FAIRING_FUNCTIONALS,
     FairingProblem,
@@ -374,7 +374,7 @@ def test_a_misspelt_measure_is_suggested():
 def cache(tmp_path, monkeypatch):
     """An empty cache: its folder under tmp_path, nothing in memory."""
     monkeypatch.setenv("GSHADE_CACHE_DIR", str(tmp_path / "cache"))
-    monkeypatch.setattr(hole_shape_cache, "_memory", OrderedDict())
+    monkeypatch.setattr(fairing_cache, "_memory", OrderedDict())
     return tmp_path / "cache" / "hole-shape"
 
 
@@ -396,9 +396,9 @@ def _same(a, b):
 
 def test_optimised_fillings_are_cached_by_content(cache, small, monkeypatch):
     calls = []
-    real = hole_shape_cache.optimise_fairing
+    real = fairing_cache.optimise_fairing
     monkeypatch.setattr(
-        hole_shape_cache, "optimise_fairing", lambda *a, **k: calls.append(1) or real(*a, **k)
+        fairing_cache, "optimise_fairing", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
     fresh = optimise_filling(small, "mean", iterations=3)
     assert not fresh.fairing.cached and len(calls) == 1
@@ -406,7 +406,7 @@ def test_optimised_fillings_are_cached_by_content(cache, small, monkeypatch):
     again = optimise_filling(small, "mean", iterations=3)  # from memory
     assert again.fairing.cached and len(calls) == 1
     _same(again, fresh)
-    hole_shape_cache._memory.clear()  # another process: from the file
+    fairing_cache._memory.clear()  # another process: from the file
     disk = optimise_filling(small, "mean", iterations=3)
     assert disk.fairing.cached and len(calls) == 1
     _same(disk, fresh)
@@ -420,13 +420,13 @@ def test_optimised_fillings_are_cached_by_content(cache, small, monkeypatch):
 def _key(filling, iterations, measure="mean", free="all"):
     n = len(filling.patches)
     x0, Z = filling.nets, filling.free_basis
-    return hole_shape_cache._cache_key(x0, Z, n, filling.degree, measure, iterations, free)
+    return fairing_cache._cache_key(x0, Z, n, filling.degree, measure, iterations, free)
 
 
 def _rewrite(path, change):
     """The cache file with its header (a dict) and points changed, the checksum kept right."""
     data = path.read_bytes()
-    magic = hole_shape_cache._MAGIC
+    magic = fairing_cache._MAGIC
     end = data.index(b"\n", len(magic))
     header = json.loads(data[len(magic) : end])
     x = np.frombuffer(data[end + 1 :], dtype="<f8").copy()
@@ -462,7 +462,7 @@ CORRUPTIONS = {
     "truncated": lambda p: p.write_bytes(p.read_bytes()[:-7]),
     "a flipped byte": lambda p: p.write_bytes(p.read_bytes()[:-9] + b"\x01" + p.read_bytes()[-8:]),
     "too large": lambda p: p.write_bytes(p.read_bytes() + b"\x00" * (5 * 2**20)),
-    "json bomb": lambda p: p.write_bytes(hole_shape_cache._MAGIC + b"[" * 100_000 + b"\n"),
+    "json bomb": lambda p: p.write_bytes(fairing_cache._MAGIC + b"[" * 100_000 + b"\n"),
     "off the conditions": lambda p: _rewrite(p, _off_the_conditions),
     "a wrong final_check": lambda p: _rewrite(p, _wrong_check),
     "NaN": lambda p: _rewrite(p, _nan),
@@ -476,11 +476,11 @@ def test_a_corrupt_or_hostile_cache_file_is_recomputed(cache, small, corruption)
     fresh = optimise_filling(small, "mean", iterations=3)
     path = cache / f"{_key(small, 3)}.bin"
     CORRUPTIONS[corruption](path)
-    hole_shape_cache._memory.clear()
+    fairing_cache._memory.clear()
     again = optimise_filling(small, "mean", iterations=3)
     assert not again.fairing.cached
     _same(again, fresh)
-    hole_shape_cache._memory.clear()  # and the file was written anew, whole
+    fairing_cache._memory.clear()  # and the file was written anew, whole
     assert optimise_filling(small, "mean", iterations=3).fairing.cached
 
 
@@ -496,7 +496,7 @@ def test_a_cache_entry_that_is_not_a_regular_file_is_not_read(cache, small, tmp_
         os.mkfifo(path)
     else:
         path.mkdir()
-    hole_shape_cache._memory.clear()
+    fairing_cache._memory.clear()
     again = optimise_filling(small, "mean", iterations=3)  # neither blocks nor fails
     assert not again.fairing.cached
     _same(again, fresh)
@@ -504,27 +504,28 @@ def test_a_cache_entry_that_is_not_a_regular_file_is_not_read(cache, small, tmp_
 
 
 def test_the_cache_can_be_off_or_unwritable(small, tmp_path, monkeypatch):
-    monkeypatch.setattr(hole_shape_cache, "_memory", OrderedDict())
+    monkeypatch.setattr(fairing_cache, "_memory", OrderedDict())
     monkeypatch.setenv("GSHADE_CACHE_DIR", "off")
-    assert hole_shape_cache.cache_folder() is None
+    assert fairing_cache.cache_folder() is None
     fresh = optimise_filling(small, "mean", iterations=3)
     assert optimise_filling(small, "mean", iterations=3).fairing.cached  # in memory
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     monkeypatch.setenv("GSHADE_CACHE_DIR", str(blocker))
-    hole_shape_cache._memory.clear()
+    fairing_cache._memory.clear()
     _same(optimise_filling(small, "mean", iterations=3), fresh)
     assert blocker.read_text() == "not a folder"
     monkeypatch.delenv("GSHADE_CACHE_DIR")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
-    assert hole_shape_cache.cache_folder() == tmp_path / "xdg" / "gshade" / "hole-shape"
+    assert fairing_cache.cache_folder() == tmp_path / "xdg" / "gshade" / "hole-shape"
     monkeypatch.setenv("XDG_CACHE_HOME", "relative/path")  # ignored, as the spec says
-    assert hole_shape_cache.cache_folder() == Path.home() / ".cache" / "gshade" / "hole-shape"
+    assert fairing_cache.cache_folder() == Path.home() / ".cache" / "gshade" / "hole-shape"
 
 
 def test_concurrent_writers_leave_a_whole_entry(cache, small):
     """Writers of one entry each rename a whole file into place: a reader at any moment
-    finds none or a whole one, never a part; no temporary is left."""
+    finds a whole one (the entry is there from the start), never a part; no writer fails;
+    no temporary is left."""
     fresh = optimise_filling(small, "mean", iterations=3)
     key = _key(small, 3)
     path = cache / f"{key}.bin"
@@ -532,12 +533,15 @@ def test_concurrent_writers_leave_a_whole_entry(cache, small):
     bad = []
 
     def write():
-        while not stop.is_set():
-            hole_shape_cache._store(key, fresh.nets, fresh.shape)
+        try:
+            while not stop.is_set():
+                fairing_cache._store(key, fresh.nets, fresh.fairing)
+        except Exception as error:  # a writer that fails writes nothing: the test must see it
+            bad.append(error)
 
     def read():
         while not stop.is_set():
-            found = hole_shape_cache._read_entry(path, key, fresh.nets.shape)
+            found = fairing_cache._read_entry(path, key, fresh.nets.shape)
             if found is None or not np.array_equal(found[0], fresh.nets):
                 bad.append(found)
 
@@ -551,7 +555,7 @@ def test_concurrent_writers_leave_a_whole_entry(cache, small):
         t.join()
     assert not bad
     assert [p.name for p in cache.iterdir()] == [path.name]
-    hole_shape_cache._memory.clear()
+    fairing_cache._memory.clear()
     assert optimise_filling(small, "mean", iterations=3).fairing.cached
 
 
@@ -570,13 +574,13 @@ def test_a_hole_scene_loads_its_optimised_fillings_from_the_cache(cache, tmp_pat
         'optimise = "mean"\niterations = 3\n'
     )
     calls = []
-    real = hole_shape_cache.optimise_fairing
+    real = fairing_cache.optimise_fairing
     monkeypatch.setattr(
-        hole_shape_cache, "optimise_fairing", lambda *a, **k: calls.append(1) or real(*a, **k)
+        fairing_cache, "optimise_fairing", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
     first = load_scene(scene).patches
     assert len(calls) == 1
-    hole_shape_cache._memory.clear()
+    fairing_cache._memory.clear()
     second = load_scene(scene).patches
     assert len(calls) == 1
     for a, b in zip(first, second, strict=True):

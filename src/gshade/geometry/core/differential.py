@@ -23,6 +23,7 @@ derivatives were regularised first (:func:`gshade.geometry.regularised_derivativ
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -73,12 +74,12 @@ Num = Any
 # arrays divide exactly: the same formula rounds alike on each type, not across types.
 
 
-def dot(a, b) -> Num:
+def dot(a: Sequence[Num], b: Sequence[Num]) -> Num:
     """Scalar product <a, b> = a_x b_x + a_y b_y + a_z b_z."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def cross(a, b) -> tuple[Num, Num, Num]:
+def cross(a: Sequence[Num], b: Sequence[Num]) -> tuple[Num, Num, Num]:
     """Vector product a x b = (a_y b_z - a_z b_y, a_z b_x - a_x b_z, a_x b_y - a_y b_x)."""
     return (
         a[1] * b[2] - a[2] * b[1],
@@ -87,7 +88,7 @@ def cross(a, b) -> tuple[Num, Num, Num]:
     )
 
 
-def first_form(pu, pv) -> tuple[Num, Num, Num]:
+def first_form(pu: Sequence[Num], pv: Sequence[Num]) -> tuple[Num, Num, Num]:
     """First fundamental form E = <p_u, p_u>, F = <p_u, p_v>, G = <p_v, p_v> (Kiciak A.10)."""
     return dot(pu, pu), dot(pu, pv), dot(pv, pv)
 
@@ -97,7 +98,9 @@ def first_form_det(E: Num, F: Num, G: Num) -> Num:
     return E * G - F * F
 
 
-def second_form(puu, puv, pvv, n) -> tuple[Num, Num, Num]:
+def second_form(
+    puu: Sequence[Num], puv: Sequence[Num], pvv: Sequence[Num], n: Sequence[Num]
+) -> tuple[Num, Num, Num]:
     """Second fundamental form L = <p_uu, n>, M = <p_uv, n>, N = <p_vv, n> w.r.t. the normal
     n, unit or not (Kiciak A.10; do Carmo §3-3)."""
     return dot(puu, n), dot(puv, n), dot(pvv, n)
@@ -116,7 +119,13 @@ class Forms(NamedTuple):
     W2: Num
 
 
-def fundamental_forms(pu, pv, puu, puv, pvv) -> Forms:
+def fundamental_forms(
+    pu: Sequence[Num],
+    pv: Sequence[Num],
+    puu: Sequence[Num],
+    puv: Sequence[Num],
+    pvv: Sequence[Num],
+) -> Forms:
     """Both forms, the second w.r.t. the unnormalised N = p_u x p_v (w = |N|), W2 = <N, N>."""
     normal = cross(pu, pv)
     W2 = dot(normal, normal)
@@ -154,7 +163,7 @@ def principal_terms(f: Forms) -> tuple[Num, Num]:
     return f.G * f.L - f.E * f.N, (f.G * f.M - f.F * f.N) * (f.E * f.M - f.F * f.L)
 
 
-def principal_half_gap(f: Forms, sqrt) -> Num:
+def principal_half_gap(f: Forms, sqrt: Callable[[Num], Num]) -> Num:
     """(k1 - k2) / 2 = sqrt((gap^2 / 4 + twist) / W2^3) for forms w.r.t. N = p_u x p_v.
 
     The principal curvatures are k1,2 = H ± it (:func:`principal_terms`); ``sqrt`` is the

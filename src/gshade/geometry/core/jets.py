@@ -15,6 +15,9 @@ tuple of three jets.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 from ...runtime.backend import NUMPY, ArrayOps
 
 __all__ = [
@@ -40,35 +43,35 @@ class Jet:
     __slots__ = ("f", "u", "v")
     __array_ufunc__ = None  # numpy arrays on the left defer to the jet's reflected operators
 
-    def __init__(self, f, u, v) -> None:
+    def __init__(self, f: Any, u: Any, v: Any) -> None:
         self.f, self.u, self.v = f, u, v
 
-    def __add__(self, b):
+    def __add__(self, b: Any) -> Jet:
         if isinstance(b, Jet):
             return Jet(self.f + b.f, self.u + b.u, self.v + b.v)
         return Jet(self.f + b, self.u, self.v)
 
     __radd__ = __add__
 
-    def __sub__(self, b):
+    def __sub__(self, b: Any) -> Jet:
         if isinstance(b, Jet):
             return Jet(self.f - b.f, self.u - b.u, self.v - b.v)
         return Jet(self.f - b, self.u, self.v)
 
-    def __rsub__(self, a):
+    def __rsub__(self, a: Any) -> Jet:
         return Jet(a - self.f, -self.u, -self.v)
 
-    def __neg__(self):
+    def __neg__(self) -> Jet:
         return Jet(-self.f, -self.u, -self.v)
 
-    def __mul__(self, b):
+    def __mul__(self, b: Any) -> Jet:
         if isinstance(b, Jet):
             return Jet(self.f * b.f, self.u * b.f + self.f * b.u, self.v * b.f + self.f * b.v)
         return Jet(self.f * b, self.u * b, self.v * b)
 
     __rmul__ = __mul__
 
-    def __truediv__(self, b):
+    def __truediv__(self, b: Any) -> Jet:
         if isinstance(b, Jet):
             inv = 1.0 / b.f
             q = self.f * inv
@@ -76,7 +79,7 @@ class Jet:
         inv = 1.0 / b
         return Jet(self.f * inv, self.u * inv, self.v * inv)
 
-    def __rtruediv__(self, a):
+    def __rtruediv__(self, a: Any) -> Jet:
         inv = 1.0 / self.f
         q = a * inv
         return Jet(q, -q * self.u * inv, -q * self.v * inv)
@@ -109,14 +112,14 @@ def arctan2(y: Jet, x: Jet, xp: Backend) -> Jet:
     return Jet(xp.atan2(y.f, x.f), (x.f * y.u - y.f * x.u) * inv, (x.f * y.v - y.f * x.v) * inv)
 
 
-def dot(a, b):
+def dot(a: Sequence[Any], b: Sequence[Any]) -> Jet:
     """<a, b> for vectors of jets, or of jets and constants."""
     if not isinstance(a[0], Jet):  # constants go right: Dr.Jit arrays do not defer to jets
         a, b = b, a
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def cross(a, b):
+def cross(a: Sequence[Any], b: Sequence[Any]) -> tuple[Jet, ...]:
     """a x b for vectors of jets, or of jets and constants."""
     if not isinstance(a[0], Jet):
         return tuple(-c for c in cross(b, a))

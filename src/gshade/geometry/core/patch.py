@@ -16,6 +16,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -251,7 +252,7 @@ class BSplineBasis:
 # --------------------------------------------------------------------------- evaluation
 
 
-def show_value(value, limit: int = 60) -> str:
+def show_value(value: object, limit: int = 60) -> str:
     """A value on one line for a message, shortened (numbers as a plain list)."""
     try:
         text = str(np.asarray(value, dtype=np.float64).tolist())
@@ -261,7 +262,7 @@ def show_value(value, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
-def value_pair(value, name: str) -> tuple:
+def value_pair(value: object, name: str) -> tuple[Any, Any]:
     """A (u, v) pair from one value for both directions or a pair."""
     if isinstance(value, np.ndarray) and value.ndim > 0:
         value = list(value)
@@ -316,10 +317,30 @@ def homogeneous(points: NDArray, weights: NDArray | None) -> NDArray:
     return np.concatenate([points * weights[..., None], weights[..., None]], axis=-1)
 
 
+class Basis(Protocol):
+    """What a curve or tensor-product patch needs of its basis functions (Bernstein,
+    B-spline, the geometric splines' piecewise cubics)."""
+
+    def local(self, t: NDArray, order: int) -> tuple[NDArray, NDArray]:
+        """The first nonzero function's index at each t, and the derivatives 0..order of
+        the nonzero functions there (shape (order + 1, len(t), k))."""
+        ...
+
+    def dense(self, t: NDArray, order: int) -> NDArray:
+        """The derivatives 0..order of every function at each t (shape (order + 1, len(t),
+        n))."""
+        ...
+
+
 class BasisCurve(Curve):
     """A curve sum_i B_i(t) P_i over a basis (Bernstein or B-spline), rational if weighted."""
 
-    def __init__(self, basis, points: NDArray, weights: NDArray | None) -> None:
+    def __init__(
+        self,
+        basis: Basis,
+        points: NDArray,
+        weights: NDArray | None,
+    ) -> None:
         self._basis = basis
         self.points = points
         self.weights = weights
@@ -343,7 +364,13 @@ class BasisCurve(Curve):
 class TensorProductPatch(Patch):
     """A patch sum_ij B_i(u) B_j(v) P_ij over two bases, rational if weighted."""
 
-    def __init__(self, basis_u, basis_v, points: NDArray, weights: NDArray | None) -> None:
+    def __init__(
+        self,
+        basis_u: Basis,
+        basis_v: Basis,
+        points: NDArray,
+        weights: NDArray | None,
+    ) -> None:
         self._bu = basis_u
         self._bv = basis_v
         self.points = points

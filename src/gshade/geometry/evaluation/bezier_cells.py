@@ -56,7 +56,7 @@ class _Intervals:
     many splines in one search: spline i's interior knots as keys i + 1/4 + x/2 in
     (i, i + 1), x the knot's place in the spline's domain (0 to 1)."""
 
-    def __init__(self, breaks: list[NDArray[np.float64]]):
+    def __init__(self, breaks: list[NDArray[np.float64]]) -> None:
         self.lo = np.array([b[0] for b in breaks])
         self.span = np.array([b[-1] - b[0] for b in breaks])
         count = np.array([len(b) - 1 for b in breaks])
@@ -69,7 +69,9 @@ class _Intervals:
         self.start = np.concatenate([b[:-1] for b in breaks])
         self.width = np.concatenate([np.diff(b) for b in breaks])
 
-    def locate(self, which: NDArray[np.intp], t: NDArray[np.float64]):
+    def locate(
+        self, which: NDArray[np.intp], t: NDArray[np.float64]
+    ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
         """Per point: its interval in its spline (0-based: the last whose start t reaches,
         the end ones past the domain), its place in it (0 to 1 inside, beyond at the ends)
         and the interval's width."""
@@ -98,7 +100,7 @@ class CellTable:
     ``members``: per spline its distinct knots along u and v (ends included) and its cells'
     nets."""
 
-    def __init__(self, members: Sequence[tuple[NDArray, NDArray, NDArray]]):
+    def __init__(self, members: Sequence[tuple[NDArray, NDArray, NDArray]]) -> None:
         self.u = _Intervals([m[0] for m in members])
         self.v = _Intervals([m[1] for m in members])
         self.nets = np.concatenate([m[2] for m in members])
@@ -124,11 +126,13 @@ class _Group:
     """Splines of one degree pair (p, q): their Bézier cells (homogeneous, (n, p + 1, q + 1,
     4)), by spline, u interval and v interval."""
 
-    def __init__(self, degree: tuple[int, int], members: list[tuple]):
+    def __init__(self, degree: tuple[int, int], members: list[tuple]) -> None:
         self.degree = degree
         self.table = CellTable(members)
 
-    def evaluate(self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]):
+    def evaluate(
+        self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         p, q = self.degree
         cell, (su, sv), (wu, wv) = self.table.locate(which, u, v if q else None)
         bu, du = bernstein_basis(p, su, 1)
@@ -150,15 +154,19 @@ class _Group:
 class _Own:
     """A patch with too many knot intervals for a table of cells: its own evaluation."""
 
-    def __init__(self, patch: BSplinePatch):
+    def __init__(self, patch: BSplinePatch) -> None:
         self.patch = patch
 
-    def evaluate(self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]):
+    def evaluate(
+        self, which: NDArray[np.intp], u: NDArray[np.float64], v: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         d = self.patch.derivatives_beyond(u, v, 1)
         return d[0, 0], d[1, 0], d[0, 1]
 
 
-def to_bezier(knots: NDArray[np.float64], p: int, net: NDArray[np.float64]):
+def to_bezier(
+    knots: NDArray[np.float64], p: int, net: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The Bézier coefficients of a B-spline (control points ``net``, (n, ...)) on each of
     its knot intervals in the domain: the distinct knots (ends included) and (intervals,
     p + 1, ...), from its values at p + 1 Chebyshev points inside each interval (a

@@ -95,7 +95,7 @@ class PatchCells:
     """Bézier or B-spline patches of one degree and kind as Bézier cells, for
     :meth:`derivatives`."""
 
-    def __init__(self, patches: Sequence[BezierPatch | BSplinePatch]):
+    def __init__(self, patches: Sequence[BezierPatch | BSplinePatch]) -> None:
         first = patches[0]
         self.degree: tuple[int, int] = first.degree
         self.rational: bool = first.rational
@@ -150,7 +150,7 @@ class ManyPatches:
     (:class:`PatchCells`, with ``drjit``), every other patch (all without ``drjit``) by
     :func:`gshade.geometry.evaluation.spline_batches.batch_derivatives`."""
 
-    def __init__(self, patches: Sequence[Any], drjit: bool):
+    def __init__(self, patches: Sequence[Any], drjit: bool) -> None:
         self.patches = patches
         groups = cell_groups(patches)[0] if drjit else {}
         self.groups = [

@@ -14,6 +14,7 @@ numbers up to round-off (tested).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import cast
 
 import numpy as np
@@ -34,7 +35,7 @@ __all__ = ["bezier_groups", "domain_spans", "grid_derivatives", "patch_grid"]
 _CHUNK = 4096
 
 
-def domain_spans(patches) -> NDArray[np.float64]:
+def domain_spans(patches: Sequence[Patch]) -> NDArray[np.float64]:
     """(u1 - u0, v1 - v0) of each patch's domain: shape (len(patches), 2)."""
     domains = np.array([p.domain for p in patches], dtype=np.float64).reshape(-1, 2, 2)
     return domains[:, :, 1] - domains[:, :, 0]
@@ -47,7 +48,9 @@ def patch_grid(patch: Patch, s: NDArray, t: NDArray | None = None) -> tuple[NDAr
     return u[:, None], v[None, :]
 
 
-def bezier_groups(patches) -> tuple[dict[tuple[int, int, bool], list[int]], list[int]]:
+def bezier_groups(
+    patches: Sequence[Patch],
+) -> tuple[dict[tuple[int, int, bool], list[int]], list[int]]:
     """The indices of the patches that are one Bézier cell over their domain, by degree and
     whether they are rational ((m, n, rational)), and of all other patches."""
     groups: dict[tuple[int, int, bool], list[int]] = {}

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.differential import IRREGULAR_TOL, irregular_mask, unit_normal
+from ..core.differential import IRREGULAR_TOL, Normal, irregular_mask, unit_normal
 from ..core.patch import Patch
 
 __all__ = [
@@ -40,7 +40,7 @@ def toward_interior(patch: Patch, u: ArrayLike, v: ArrayLike) -> NDArray[np.floa
     return np.stack([du / length * (u1 - u0), dv / length * (v1 - v0)], axis=-1)
 
 
-def patch_normals(patch: Patch, u: ArrayLike, v: ArrayLike):
+def patch_normals(patch: Patch, u: ArrayLike, v: ArrayLike) -> Normal:
     """Unit normals of a patch with exact limits at irregular points.
 
     Returns :class:`~gshade.geometry.core.differential.Normal` (``n``, ``regular``).
@@ -82,7 +82,9 @@ def regularised_derivatives(
     return RegularisedDerivatives(d, regular)
 
 
-def degenerate_patch(patches: list[Patch] | tuple[Patch, ...], samples: int = 3):
+def degenerate_patch(
+    patches: list[Patch] | tuple[Patch, ...], samples: int = 3
+) -> tuple[int, str] | None:
     """The first patch that is no surface, and why; None if every patch is one
     (:func:`degenerate_patches`)."""
     return next(iter(degenerate_patches(patches, samples)), None)

@@ -31,7 +31,7 @@ __all__ = ["ALONE_FROM", "SplineBatch", "batch_derivatives"]
 class SplineBatch:
     """B-spline patches of one degree and kind, laid end to end for :meth:`derivatives`."""
 
-    def __init__(self, patches: Sequence[BSplinePatch]):
+    def __init__(self, patches: Sequence[BSplinePatch]) -> None:
         first = patches[0]
         self.degree = first.degree
         self.rational = first.rational
@@ -83,7 +83,9 @@ class SplineBatch:
             out[:, :, sl] = self._chunk(member[sl], u[sl], v[sl], su[sl], sv[sl], order)
         return out
 
-    def _chunk(self, member, u, v, su, sv, order: int) -> NDArray:
+    def _chunk(
+        self, member: NDArray, u: NDArray, v: NDArray, su: NDArray, sv: NDArray, order: int
+    ) -> NDArray:
         p, q = self.degree
         Bu = basis_functions_in_spans(self.knots_u, p, u, su, order)  # (o+1, N, p+1)
         Bv = basis_functions_in_spans(self.knots_v, q, v, sv, order)

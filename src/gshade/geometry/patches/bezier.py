@@ -6,6 +6,9 @@ with s, t the parameters mapped affinely from the domain onto [0, 1].
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -19,10 +22,13 @@ from ..core.patch import (
     validate_weights,
 )
 
+if TYPE_CHECKING:
+    from ..core.patch import Domain
+
 __all__ = ["BezierCurve", "BezierPatch"]
 
 
-def _validate_interval(interval, name: str) -> tuple[float, float]:
+def _validate_interval(interval: Iterable[float], name: str) -> tuple[float, float]:
     try:
         a, b = (float(x) for x in interval)
     except (TypeError, ValueError):
@@ -45,7 +51,12 @@ class BezierCurve(BasisCurve):
         Parameter interval, default (0, 1).
     """
 
-    def __init__(self, points: ArrayLike, weights: ArrayLike | None = None, domain=(0.0, 1.0)):
+    def __init__(
+        self,
+        points: ArrayLike,
+        weights: ArrayLike | None = None,
+        domain: tuple[float, float] = (0.0, 1.0),
+    ) -> None:
         P = validate_points(points, 1, "Bézier curve")
         w = validate_weights(weights, P.shape[:1], "Bézier curve")
         self.domain = _validate_interval(domain, "domain")
@@ -82,8 +93,8 @@ class BezierPatch(TensorProductPatch):
         self,
         points: ArrayLike,
         weights: ArrayLike | None = None,
-        domain=((0.0, 1.0), (0.0, 1.0)),
-    ):
+        domain: Domain = ((0.0, 1.0), (0.0, 1.0)),
+    ) -> None:
         P = validate_points(points, 2, "Bézier patch")
         w = validate_weights(weights, P.shape[:2], "Bézier patch")
         try:

@@ -168,7 +168,13 @@ class BSplineCurve(BasisCurve):
     weights : array_like, shape (n + 1,), optional
     """
 
-    def __init__(self, points: ArrayLike, degree: int, knots: ArrayLike, weights=None):
+    def __init__(
+        self,
+        points: ArrayLike,
+        degree: int,
+        knots: ArrayLike,
+        weights: ArrayLike | None = None,
+    ) -> None:
         P = validate_points(points, 1, "B-spline curve")
         U = validate_knots(knots, degree, P.shape[0], "knots")
         w = validate_weights(weights, P.shape[:1], "B-spline curve")
@@ -207,7 +213,13 @@ class BSplinePatch(TensorProductPatch):
     weights : array_like, shape (nu, nv), optional
     """
 
-    def __init__(self, points: ArrayLike, degree, knots, weights: ArrayLike | None = None):
+    def __init__(
+        self,
+        points: ArrayLike,
+        degree: Sequence[int],
+        knots: Sequence[ArrayLike],
+        weights: ArrayLike | None = None,
+    ) -> None:
         P = validate_points(points, 2, "B-spline patch")
         try:
             p, q = degree

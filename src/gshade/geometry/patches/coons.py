@@ -90,7 +90,7 @@ class CoonsPatch(Patch):
         cross_u0: Curve | None = None,
         cross_u1: Curve | None = None,
         tol: float = 1e-9,
-    ):
+    ) -> None:
         named: dict[str, Curve | None] = {
             "v0": v0,
             "v1": v1,

@@ -21,7 +21,7 @@ _S = np.sqrt(0.5)
 _CIRCLE_WEIGHTS = np.array([1, _S, 1, _S, 1, _S, 1, _S, 1])
 
 
-def circle(radius: float = 1.0, centre=(0.0, 0.0)) -> BSplineCurve:
+def circle(radius: float = 1.0, centre: ArrayLike = (0.0, 0.0)) -> BSplineCurve:
     """A full circle as a planar rational quadratic B-spline over [0, 1], counter-clockwise
     from (centre + (radius, 0))."""
     c = np.array(

@@ -112,7 +112,11 @@ class BetaSplineBasis(PiecewiseCubicBasis):
     beta2: float | tuple[float, ...]
 
     def __init__(
-        self, n_points: int, beta1=1.0, beta2=0.0, names: tuple[str, str] = ("beta1", "beta2")
+        self,
+        n_points: int,
+        beta1: ArrayLike = 1.0,
+        beta2: ArrayLike = 0.0,
+        names: tuple[str, str] = ("beta1", "beta2"),
     ) -> None:
         if n_points < 4:
             raise GshadeError(f"points: a cubic β-spline needs at least 4, got {n_points}")
@@ -187,7 +191,9 @@ class BetaSplineCurve(BasisCurve):
         The tension >= 0, likewise.
     """
 
-    def __init__(self, points: ArrayLike, beta1=1.0, beta2=0.0) -> None:
+    _basis: BetaSplineBasis
+
+    def __init__(self, points: ArrayLike, beta1: ArrayLike = 1.0, beta2: ArrayLike = 0.0) -> None:
         P = validate_points(points, 1, "β-spline curve", min_count=4)
         basis = BetaSplineBasis(P.shape[0], beta1, beta2)
         self.domain = basis.interval
@@ -221,17 +227,19 @@ class BetaSplinePatch(TensorProductPatch):
     """
 
     degree = (3, 3)
+    _bu: BetaSplineBasis
+    _bv: BetaSplineBasis
 
     def __init__(
         self,
         points: ArrayLike,
-        beta1=1.0,
-        beta2=0.0,
+        beta1: ArrayLike = 1.0,
+        beta2: ArrayLike = 0.0,
         *,
-        beta1_u=None,
-        beta2_u=None,
-        beta1_v=None,
-        beta2_v=None,
+        beta1_u: ArrayLike | None = None,
+        beta2_u: ArrayLike | None = None,
+        beta1_v: ArrayLike | None = None,
+        beta2_v: ArrayLike | None = None,
     ) -> None:
         P = validate_points(points, 2, "β-spline patch", min_count=4)
         given = {"beta1": value_pair(beta1, "beta1"), "beta2": value_pair(beta2, "beta2")}

@@ -158,7 +158,7 @@ class GammaSplineBasis(PiecewiseCubicBasis):
     def __init__(
         self,
         n_points: int,
-        gamma=1.0,
+        gamma: ArrayLike = 1.0,
         knots: ArrayLike | None = None,
         names: tuple[str, str] = ("gamma", "knots"),
     ) -> None:
@@ -214,7 +214,11 @@ class GammaSplineCurve(BasisCurve):
         uniform B-spline on [0, m - 2].
     """
 
-    def __init__(self, points: ArrayLike, gamma=1.0, knots: ArrayLike | None = None) -> None:
+    _basis: GammaSplineBasis
+
+    def __init__(
+        self, points: ArrayLike, gamma: ArrayLike = 1.0, knots: ArrayLike | None = None
+    ) -> None:
         P = validate_points(points, 1, "γ-spline curve", min_count=4)
         basis = GammaSplineBasis(P.shape[0], gamma, knots)
         self.domain = basis.interval
@@ -269,14 +273,16 @@ class GammaSplinePatch(TensorProductPatch):
     """
 
     degree = (3, 3)
+    _bu: GammaSplineBasis
+    _bv: GammaSplineBasis
 
     def __init__(
         self,
         points: ArrayLike,
-        gamma=1.0,
+        gamma: ArrayLike = 1.0,
         *,
-        gamma_u=None,
-        gamma_v=None,
+        gamma_u: ArrayLike | None = None,
+        gamma_v: ArrayLike | None = None,
         knots_u: ArrayLike | None = None,
         knots_v: ArrayLike | None = None,
     ) -> None:

@@ -179,7 +179,16 @@ def net_index(topo: MeshTopology, h: int) -> NDArray:
         if not topo.regular[c]:
             raise NotRegular
 
-        def cell(a: int, b: int, oi=oi, oj=oj, ai=ai, aj=aj, bi=bi, bj=bj) -> tuple[int, int]:
+        def cell(
+            a: int,
+            b: int,
+            oi: int = oi,
+            oj: int = oj,
+            ai: int = ai,
+            aj: int = aj,
+            bi: int = bi,
+            bj: int = bj,
+        ) -> tuple[int, int]:
             return (oi + a * ai + b * bi, oj + a * aj + b * bj)
 
         put(cell(0, 0), c)
