@@ -115,7 +115,7 @@ def make_integrator(
     return shape
 
 
-def _texture(mi, data: np.ndarray):
+def _texture(mi: Any, data: np.ndarray) -> Any:
     """A Dr.Jit texture of a packed (H, W, channels) float32 image."""
     dr = import_drjit()
 
