@@ -94,7 +94,16 @@ AMPLITUDE, WAVES = 0.2, 1.0  # z = AMPLITUDE sin(WAVES pi x) cos(WAVES pi y)
 TARGET_CLI_S = 3.0
 TARGET_SCALE_S, TARGET_SCALE_GB, TARGET_SCALE_PATCHES = 30.0, 4.0, 10_000
 
-STAGES = ("setup", "tessellate", "textures", "scene", "render", "supersample", "exact_channels")
+STAGES = (
+    "setup",
+    "tessellate",
+    "textures",
+    "statistics",
+    "scene",
+    "render",
+    "supersample",
+    "exact_channels",
+)
 MITSUBA_STAGES = ("render", "supersample")
 
 SECTION = "bench_render"  # its markers in RESULTS.md

@@ -1,4 +1,5 @@
-"""Write the CAD part of the ``bracket-*`` scenes: ``scenes/data/bracket.step``.
+"""Write the CAD parts of the ``bracket-*`` scenes, ``scenes/data/bracket.step``, and of the
+``drafted-block-*`` scenes, ``scenes/data/drafted_block.step``.
 
 An L-shaped angle bracket built with Open CASCADE (cadquery-ocp), in mm:
 
@@ -13,7 +14,12 @@ An L-shaped angle bracket built with Open CASCADE (cadquery-ocp), in mm:
 - two holes of diameter 9 through the base plate and one of diameter 11 through the
   upright (sharp G0 edges, at 90 degrees).
 
-The result is one valid solid of 17 faces (8 planes, 9 cylinders) and 42 edges shared by
+The drafted block: a solid ruled between the square |x|, |y| <= 20 at z = 0 and its top at
+z = 16, whose sides facing +x, -x, +y, -y lean in by 3, 1, 0 and -2 degrees (the last leans
+out: an undercut for the pull direction +z), so that their draft angles about +z are exactly
+those; 6 planar faces.
+
+The bracket is one valid solid of 17 faces (8 planes, 9 cylinders) and 42 edges shared by
 two faces: 12 G1 (the six fillets' edges) and 30 sharp G0 ones.  The STEP file's header
 (name, time stamp, author, organisation, originating system) is fixed, so that the file is
 byte-identical on every run.
@@ -22,6 +28,7 @@ Run from the repository root: ``python scenes/make_cad_scenes.py``.
 """
 
 import contextlib
+import math
 import os
 import sys
 from pathlib import Path
@@ -32,6 +39,7 @@ from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
 from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
 from OCP.BRepCheck import BRepCheck_Analyzer
 from OCP.BRepFilletAPI import BRepFilletAPI_MakeFillet
+from OCP.BRepOffsetAPI import BRepOffsetAPI_ThruSections
 from OCP.BRepPrimAPI import BRepPrimAPI_MakeCylinder, BRepPrimAPI_MakePrism
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt, gp_Vec
 from OCP.IFSelect import IFSelect_RetDone
@@ -44,6 +52,7 @@ from OCP.TopoDS import TopoDS
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "data" / "bracket.step"
+DRAFTED = HERE / "data" / "drafted_block.step"
 
 LENGTH = 70.0  # the base plate along x
 HEIGHT = 50.0  # the upright along z
@@ -130,6 +139,30 @@ def bracket():
     return solid
 
 
+#: the drafted block's sides facing +x, -x, +y, -y: their drafts (degrees, pull +z)
+DRAFTS = (3.0, 1.0, 0.0, -2.0)
+BLOCK_HALF, BLOCK_HEIGHT = 20.0, 16.0
+
+
+def drafted_block():
+    inset = [BLOCK_HEIGHT * math.tan(math.radians(d)) for d in DRAFTS]
+    h = BLOCK_HALF
+    bottom = [(-h, -h), (h, -h), (h, h), (-h, h)]
+    px, nx, py, ny = h - inset[0], -h + inset[1], h - inset[2], -h + inset[3]
+    top = [(nx, ny), (px, ny), (px, py), (nx, py)]
+    sections = BRepOffsetAPI_ThruSections(True, True)
+    for z, corners in ((0.0, bottom), (BLOCK_HEIGHT, top)):
+        polygon = BRepBuilderAPI_MakePolygon()
+        for x, y in corners:
+            polygon.Add(gp_Pnt(x, y, z))
+        polygon.Close()
+        sections.AddWire(polygon.Wire())
+    sections.Build()
+    shape = sections.Shape()
+    assert BRepCheck_Analyzer(shape).IsValid() and count_faces(shape) == 6
+    return shape
+
+
 def count_faces(shape) -> int:
     explorer, n = TopExp_Explorer(shape, TopAbs_FACE), 0
     while explorer.More():
@@ -153,14 +186,14 @@ def quiet():
             os.close(saved)
 
 
-def write_step(shape, path: Path):
+def write_step(shape, path: Path, name: str = "bracket"):
     Interface_Static.SetCVal_s("write.step.unit", "MM")
     Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
     writer = STEPControl_Writer()
     with quiet():
         assert writer.Transfer(shape, STEPControl_AsIs) == IFSelect_RetDone
     header = APIHeaderSection_MakeHeader(writer.Model())
-    header.SetName(TCollection_HAsciiString("bracket"))
+    header.SetName(TCollection_HAsciiString(name))
     header.SetTimeStamp(TCollection_HAsciiString("2026-01-01T00:00:00"))
     header.SetAuthorValue(1, TCollection_HAsciiString("gshade"))
     header.SetOrganizationValue(1, TCollection_HAsciiString("gshade"))
@@ -171,9 +204,10 @@ def write_step(shape, path: Path):
 
 
 def main():
-    shape = bracket()
-    write_step(shape, OUT)
-    print(f"{OUT.relative_to(HERE.parent)}: {count_faces(shape)} faces")
+    for make, path in ((bracket, OUT), (drafted_block, DRAFTED)):
+        shape = make()
+        write_step(shape, path, path.stem)
+        print(f"{path.relative_to(HERE.parent)}: {count_faces(shape)} faces")
 
 
 if __name__ == "__main__":

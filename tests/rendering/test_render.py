@@ -133,7 +133,16 @@ def test_renders_are_bit_identical():
         assert np.array_equal(a[name], b[name]), name
 
 
-STAGES = ["setup", "tessellate", "textures", "scene", "render", "supersample", "exact_channels"]
+STAGES = [
+    "setup",
+    "tessellate",
+    "textures",
+    "statistics",
+    "scene",
+    "render",
+    "supersample",
+    "exact_channels",
+]
 
 
 def test_timings_name_the_stages():

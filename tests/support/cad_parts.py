@@ -62,6 +62,31 @@ def filleted_box(size=BOX_SIZE, r: float = FILLET_RADIUS):
     return fillet.Shape()
 
 
+#: :func:`tapered_block`: the drafts (degrees, pull +z) of its sides facing +x, -x, +y, -y
+#: (negative: an undercut), its half-width at z = 0 and its height
+BLOCK_DRAFTS = (3.0, 1.0, 0.0, -2.0)
+BLOCK_HALF, BLOCK_HEIGHT = 10.0, 8.0
+
+
+def tapered_block(drafts=BLOCK_DRAFTS, half: float = BLOCK_HALF, height: float = BLOCK_HEIGHT):
+    """A solid ruled between the square |x|, |y| <= half at z = 0 and its top at z = height,
+    whose sides facing +x, -x, +y, -y lean in by their draft (a side leaning in by d faces
+    up by d: its draft about +z is exactly d; a negative one leans out: an undercut)."""
+    inset = [height * math.tan(math.radians(d)) for d in drafts]
+    px, nx, py, ny = half - inset[0], -half + inset[1], half - inset[2], -half + inset[3]
+    bottom = [(-half, -half), (half, -half), (half, half), (-half, half)]
+    top = [(nx, ny), (px, ny), (px, py), (nx, py)]
+    sections = BRepOffsetAPI_ThruSections(True, True)
+    for z, corners in ((0.0, bottom), (height, top)):
+        polygon = BRepBuilderAPI_MakePolygon()
+        for x, y in corners:
+            polygon.Add(gp_Pnt(x, y, z))
+        polygon.Close()
+        sections.AddWire(polygon.Wire())
+    sections.Build()
+    return sections.Shape()
+
+
 def sphere_cap(radius: float = SPHERE_RADIUS, h: float = CAP_PLANE):
     """The part z >= h of the sphere of ``radius`` around the origin (a solid): one sphere face
     trimmed by the circle z = h, rho = sqrt(radius² - h²), and the flat disc closing it."""

@@ -151,6 +151,13 @@ def _add_render(sub: argparse._SubParsersAction) -> None:
     render.add_argument(
         "--html", help="also write this HTML page of the EXR (as gshade view makes it)"
     )
+    render.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object on stdout: the files written, the legend and the shape "
+        "function's numbers over the visible and the whole surface (min and max with where "
+        "they are, mean, percentiles; min_radius: the smallest radius)",
+    )
     _strict_flag(render)
     _cache_flag(render)
     render.set_defaults(run=commands.render)
@@ -311,6 +318,12 @@ def _add_info(sub: argparse._SubParsersAction) -> None:
     info = sub.add_parser("info", help="describe a scene's surfaces")
     info.add_argument("scene", help=SCENE_HELP)
     info.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    info.add_argument(
+        "--stats",
+        action="store_true",
+        help="also the shape function's numbers over the whole surface, without rendering: "
+        "min and max with where they are, mean, percentiles (min_radius: the smallest radius)",
+    )
     _strict_flag(info)
     _cache_flag(info)
     info.set_defaults(run=commands.info)

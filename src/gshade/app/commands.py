@@ -87,6 +87,21 @@ def render(args: argparse.Namespace) -> int:
             writers.append(partial(view_writer, page, html, labels=[output.name]))
         write_all(list(zip(names, writers, targets, strict=True)))
     _tell(image.notes, image.warnings)
+    if args.json:
+        import json
+
+        listed = {
+            "output": str(output),
+            "png": args.png,
+            "html": html,
+            "width": image.shape[1],
+            "height": image.shape[0],
+            "variant": image.metadata["variant"],
+            "legend": image.metadata["legend"],
+            **json.loads(image.metadata["statistics"]),
+        }
+        print(json.dumps(listed, indent=2, allow_nan=False))
+        return 0
     say(
         f"{output}: {image.shape[1]}x{image.shape[0]}, {image.metadata['variant']}, "
         f"{image.metadata['legend']}"
@@ -160,7 +175,32 @@ def info(args: argparse.Namespace) -> int:
     say("  irregular points:" + ("" if irregular else " none"))
     for line in irregular:
         say(f"    {line}")
+    if args.stats:
+        _say_statistics(scene)
     return 0
+
+
+def _say_statistics(scene: Scene) -> None:
+    """``gshade info --stats``: the shape function's numbers over the whole surface."""
+    from ..analysis.statistics import Extreme
+    from ..rendering.pipeline import shape_statistics
+
+    numbers = shape_statistics(scene)
+    label, surface = numbers["patch_label"], numbers["surface"]
+    say(f"  {numbers['function']} over the whole surface:" + ("" if surface else " no value"))
+    if surface is None:
+        return
+    for name in ("min", "max"):
+        e = Extreme(**{**surface[name], "point": tuple(surface[name]["point"])})
+        point = ", ".join(f"{x:.6g}" for x in e.point)
+        say(f"    {name} {e.value:.6g} at [{point}] ({label} {e.patch}, u {e.u:.6g}, v {e.v:.6g})")
+    say(f"    mean {surface['mean']:.6g} (by area)")
+    percentiles = ", ".join(f"{k}% {v:.6g}" for k, v in surface["percentiles"].items())
+    say(f"    percentiles: {percentiles}")
+    radius = numbers.get("min_radius")
+    if radius is not None:
+        value = "none (flat)" if radius["value"] is None else f"{radius['value']:.6g}"
+        say(f"    smallest radius {value} ({radius['side']}, {label} {radius['patch']})")
 
 
 def _parse_pair(text: str) -> tuple[int, str, int, str]:

@@ -34,6 +34,7 @@ __all__ = [
     "stripe_coverage",
     "stripe_period",
     "stripes",
+    "trapezoid_cdf",
     "validate_colormap",
     "validate_range",
 ]
@@ -138,6 +139,30 @@ def _dark_side(cdf: Any, at_fall: Any, ops: ArrayOps) -> Any:
     return ops.select(at_fall, cdf, 1.0 - cdf)
 
 
+def trapezoid_cdf(x: Any, a: Any, b: Any, ops: ArrayOps = NUMPY_NAN) -> Any:
+    """The mass below x of a pixel's footprint a X + b Y (X, Y uniform on [-1/2, 1/2],
+    a >= b >= 0): the trapezoid distribution's CDF, exact to a few eps at any footprint
+    down to 0 (1/2 - |x| / a on its flat part, ((a + b) / 2 - |x|)^2 / (2 a b) on a ramp,
+    mirrored for x > 0).  At x = 0 with no footprint: 0 (a value exactly at a level lies
+    above it).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> trapezoid_cdf(np.array([-1.0, -0.25, 0.0, 0.25, 1.0]), 1.0, 0.0).tolist()
+    [0.0, 0.25, 0.5, 0.75, 1.0]
+    >>> trapezoid_cdf(np.array([0.0, 1e-300]), 0.0, 0.0).tolist()
+    [0.0, 1.0]
+    """
+    hi, lo = (a + b) / 2, (a - b) / 2
+    safe_a = ops.select(a > 0, a, 1.0)
+    safe_b = ops.select(b > 0, b, 1.0)
+    u = ops.abs(x)
+    r = (hi - ops.minimum(u, hi)) / safe_b
+    beyond = ops.select(u < lo, 0.5 - u / safe_a, r * r * (b / (2.0 * safe_a)))  # mass past |x|
+    return ops.select(x > 0, 1.0 - beyond, beyond)
+
+
 def coverage_formula(s: Any, a: Any, b: Any, duty: float, ops: ArrayOps = NUMPY_NAN) -> Any:
     """The box-filtered stripe coverage (see :func:`stripe_coverage`), written once for any
     array library through ``ops`` (:class:`gshade.runtime.backend.ArrayOps`; floor, minimum,
@@ -178,11 +203,8 @@ def coverage_formula(s: Any, a: Any, b: Any, duty: float, ops: ArrayOps = NUMPY_
     hard = ops.select(at_fall, ops.select(x > 0, 1.0, 0.0), ops.select(x <= 0, 1.0, 0.0))
     clear = ops.abs(x) >= hi
 
-    # at most one edge: the trapezoid's mass beyond |x|, then its mass left of x
-    u = ops.abs(x)
-    r = (hi - ops.minimum(u, hi)) / safe_b
-    beyond = ops.select(u < lo, 0.5 - u / safe_a, r * r * half_ramp)  # r = 0 where b = 0
-    local = _dark_side(ops.select(x >= 0, 1.0 - beyond, beyond), at_fall, ops)
+    # at most one edge: the trapezoid's mass left of it
+    local = _dark_side(trapezoid_cdf(x, a, b, ops), at_fall, ops)
 
     # flat part and two ramps (b <= m: each ramp meets at most one edge)
     flat = (_primitive(t + lo, duty, ops) - _primitive(t - lo, duty, ops)) / safe_a
@@ -433,7 +455,7 @@ class Legend:
 
     function: str
     order: int
-    display: str  # 'stripes' | 'colormap' | 'both'
+    display: str  # 'stripes' | 'colormap' | 'both' | 'bands'
     value_range: tuple[float, float] | None = None
     colormap: str | None = None
     period: float | None = None
@@ -442,6 +464,7 @@ class Legend:
     clamped_below: int = 0
     clamped_above: int = 0
     units: str = ""
+    bands: str | None = None  # display = 'bands': the bands in words
 
     def as_dict(self) -> dict:
         return {k: v for k, v in asdict(self).items() if v is not None}
@@ -455,4 +478,6 @@ class Legend:
         if self.display in ("stripes", "both") and self.period is not None:
             of = f" of {self.stripe_function}" if self.stripe_function else ""
             parts.append(f"stripes{of} every {self.period:.4g}")
+        if self.display == "bands" and self.bands is not None:
+            parts.append(f"bands: {self.bands}")
         return ", ".join(parts)

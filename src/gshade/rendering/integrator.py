@@ -35,16 +35,27 @@ run per sample in ``scalar_rgb``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..display.colour import DARK, LIGHT, UNDEFINED, coverage_formula, settled_on_edges
+from ..display.bands import LINE_COLOUR, band_shares, settled_on_levels
+from ..display.colour import (
+    DARK,
+    LIGHT,
+    UNDEFINED,
+    coverage_formula,
+    settled_on_edges,
+    srgb_to_linear,
+)
 from ..runtime.llvm import import_drjit
 from ..runtime.variant import mitsuba
 from .atlas import GEOMETRY, SHAPE, Atlas, bilinear, cell_centre, hermite, locate_cell, tile_bounds
 from .newton import newton_step
 from .textures import ShapeTextures
+
+if TYPE_CHECKING:
+    from ..shape import Bands
 
 __all__ = [
     "SHAPE_FILM",
@@ -54,8 +65,8 @@ __all__ = [
     "make_integrator",
 ]
 
-STRIPES, COLORMAP, BOTH = 0, 1, 2
-DISPLAY_CODES = {"stripes": STRIPES, "colormap": COLORMAP, "both": BOTH}
+STRIPES, COLORMAP, BOTH, BANDS = 0, 1, 2, 3
+DISPLAY_CODES = {"stripes": STRIPES, "colormap": COLORMAP, "both": BOTH, "bands": BANDS}
 
 #: the Mitsuba plugin name of the integrator
 SHAPE_PLUGIN = "gshade_shape"
@@ -93,6 +104,8 @@ class IntegratorSettings:
     value_range: tuple[float, float] = (0.0, 1.0)
     atlas: Atlas = field(default_factory=lambda: Atlas.for_patches(1, 2))
     key_light: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    #: display = "bands": the function's bands
+    bands: Bands | None = None
 
 
 def make_integrator(
@@ -185,6 +198,10 @@ class ShapeIntegrator:
         self.lo = self._opaque(settings.value_range[0])
         self.inv_span = self._opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
         self.key = self.mi.Vector3f(*settings.key_light)
+        self.bands = settings.bands
+        if self.bands is not None:
+            linear = srgb_to_linear(np.asarray(self.bands.colours, dtype=np.float64))
+            self.band_colours = [self.mi.Color3f(*map(float, c)) for c in linear]
 
     def aov_names(self) -> list[str]:
         return list(SHAPE_FILM[4:])
@@ -239,6 +256,23 @@ class ShapeIntegrator:
         slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
         return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, cell
 
+    def _bands(self, f: Any, fx: Any, fy: Any, sampler: Any) -> Any:
+        """The bands' colour over the sample's footprint, with the lines over it
+        (:func:`gshade.display.bands.band_shares`; a sample covers 1/sqrt(spp) of the
+        pixel's side, as Mitsuba scales the ray differentials)."""
+        mi, ops, bands = self.mi, self.ops, self.bands
+        assert bands is not None
+        spread = 1.0 / float(np.sqrt(sampler.sample_count()))
+        f64, fx64, fy64 = settled_on_levels(
+            mi.Float64(f), mi.Float64(fx), mi.Float64(fy), bands, ops
+        )
+        shares, line = band_shares(f64, fx64, fy64, bands, spread, ops)
+        colour = self.band_colours[0] * mi.Float(shares[0])
+        for share, band_colour in zip(shares[1:], self.band_colours[1:], strict=True):
+            colour = colour + band_colour * mi.Float(share)
+        on_line = mi.Float(line)
+        return colour * (1.0 - on_line) + mi.Color3f(LINE_COLOUR) * on_line
+
     def _light(self, scene: Any, sampler: Any, si: Any, ray: Any, hit: Any) -> tuple[Any, Any]:
         """The diffuse shading factor (see the module's docstring) and whether the key
         light is shadowed (it faces the point, the shadow ray is blocked): deterministic
@@ -279,6 +313,8 @@ class ShapeIntegrator:
         fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
         if self.display == COLORMAP:
             colour = self._lookup(f)
+        elif self.display == BANDS:
+            colour = self._bands(f, fx, fy, sampler)
         else:
             s = Float64(f) / Float64(self.period) + Float64(self.phase)
             a = Float64(fx) / Float64(self.period)

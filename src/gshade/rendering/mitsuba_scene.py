@@ -84,6 +84,7 @@ def mitsuba_scene(
         value_range=(float(style.value_range[0]), float(style.value_range[1])),
         atlas=atlas,
         key_light=view.key_light(),
+        bands=style.bands,
     )
     sensor = view.sensor(
         mi, settings.spp, settings.seed, "jittered" if settings.lighting == "soft" else "symmetric"

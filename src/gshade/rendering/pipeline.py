@@ -51,15 +51,17 @@ from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, rend
 from .plugins import use_variant
 from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_sizes, validate_memory
+from .statistics import min_radius_summary, surface_statistics, visible_statistics
 from .style import display_style, legend, shape_functions, trimmed_region
 from .supersampling import discontinuous_pixels, silhouette_pixels
 from .surface_meshes import mesh_parts, planned_vertices
 from .tessellate import join_meshes
-from .textures import shape_textures
+from .textures import ShapeTextures, shape_textures
 
 if TYPE_CHECKING:
     from ..analysis.continuity import Junction
     from ..analysis.edge_continuity import EdgeLine
+    from ..analysis.statistics import ValueStatistics
     from ..scene.model import RenderSettings, Shape
     from ..shape import ShapeFunction
     from .mitsuba_scene import MitsubaScene
@@ -67,7 +69,7 @@ if TYPE_CHECKING:
     from .style import DisplayStyle
     from .tessellate import TriangleMesh
 
-__all__ = ["render"]
+__all__ = ["render", "shape_statistics"]
 
 
 class _Laps:
@@ -108,13 +110,11 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
     lap("tessellate")
 
     functions, mapped = shape_functions(scene.shape)
-    tex = shape_textures(scene.patches, atlas, functions)
-    region = None
-    trimmed = np.concatenate([np.full(len(s.patches), s.body.trimmed) for s in scene.surfaces])
-    if trimmed.any():  # ranges from the trimmed regions
-        region = trimmed_region(atlas, mesh.patch, mesh.params, trimmed)
+    tex, region = _textures(scene, mesh, atlas, functions)
     style = display_style(scene.shape, mapped, tex, region)
     lap("textures")
+    surface = surface_statistics(tex, region, scene.patches, *functions[0], _numbers(scene))
+    lap("statistics")
 
     view = framing.view
     mitsuba = mitsuba_scene(mesh, atlas, tex, style, view, settings, scene.shape)
@@ -148,6 +148,10 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
     channels["patch"] = _patch_channel(scene, channels["patch"])
     shown = legend(scene.shape, style, _length_unit(scene))
     metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
+    metadata["statistics"] = json.dumps(
+        _statistics(scene, visible_statistics(channels), surface), allow_nan=False
+    )
+    lap("statistics")
     if junctions is not None:
         from ..analysis.junction_lines import junction_metadata
 
@@ -168,6 +172,35 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
     return RenderedImage(channels, metadata, shown, lap.timings, warnings, notes)
 
 
+def _textures(
+    scene: Scene, mesh: TriangleMesh, atlas: Atlas, functions: list[tuple[ShapeFunction, dict]]
+) -> tuple[ShapeTextures, NDArray | None]:
+    """The functions' textures, and the texels inside the trimmed faces (None: no face is
+    trimmed), from which the ranges and the whole surface's numbers come."""
+    tex = shape_textures(scene.patches, atlas, functions)
+    trimmed = np.concatenate([np.full(len(s.patches), s.body.trimmed) for s in scene.surfaces])
+    if not trimmed.any():
+        return tex, None
+    return tex, trimmed_region(atlas, mesh.patch, mesh.params, trimmed)
+
+
+def shape_statistics(scene: Scene | str | os.PathLike, **overrides: Any) -> dict[str, Any]:
+    """The numbers of a scene's shape function over its whole surface, without rendering
+    (``gshade info --stats``): as a render's header gives them (its ``statistics``), less
+    the visible surface's.  ``overrides`` as for :func:`render`."""
+    scene = _with_overrides(scene, overrides)
+    settings, where = _settings(scene)
+    framing = frame(scene, settings, where)
+    resolution = mesh_resolution(scene, settings, framing)
+    mesh, atlas, _ = _mesh_and_atlas(scene, settings, framing, resolution, where)
+    functions, _ = shape_functions(scene.shape)
+    tex, region = _textures(scene, mesh, atlas, functions[:1])
+    surface = surface_statistics(tex, region, scene.patches, *functions[0], _numbers(scene))
+    numbers = _statistics(scene, None, surface)
+    del numbers["visible"]
+    return numbers
+
+
 def _supersample(
     film: NDArray,
     mitsuba: MitsubaScene,
@@ -186,11 +219,17 @@ def _supersample(
         return
     # a jump of f this small does not show: a thousandth of a stripe or of the colours
     scale = style.value_range[1] - style.value_range[0]
-    unseen = 1e-3 * float(scale if shape.display == "colormap" else style.period)
+    if style.bands is not None:  # a thousandth of the levels' span (or of the largest)
+        levels = np.asarray(style.bands.edges + style.bands.lines)
+        scale = float(np.ptp(levels)) or float(np.abs(levels).max()) or 1.0
+    unseen = 1e-3 * float(scale if shape.display in ("colormap", "bands") else style.period)
     stripes = (
-        None if shape.display == "colormap" else (float(style.period), shape.phase, shape.duty)
+        None
+        if shape.display in ("colormap", "bands")
+        else (float(style.period), shape.phase, shape.duty)
     )
-    pixels = np.flatnonzero(silhouettes | discontinuous_pixels(film, atlas, unseen, stripes))
+    marked = discontinuous_pixels(film, atlas, unseen, stripes, style.bands)
+    pixels = np.flatnonzero(silhouettes | marked)
     if pixels.size and settings.spp > 1:
         picture = render_pixels_of(mitsuba, view, settings, pixels)[:, : len(PICTURE)]
         film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
@@ -268,15 +307,37 @@ def _patch_label(scene: Scene) -> str:
     return scene.surfaces[0].body.patch_label if len(scene.surfaces) == 1 else "patch"
 
 
+def _numbers(scene: Scene) -> NDArray | None:
+    """Each patch's number as the ``patch`` channel gives it (:func:`_patch_channel`): on a
+    scene of one surface, that surface's own; else None (the index)."""
+    if len(scene.surfaces) != 1:
+        return None
+    return np.asarray(scene.surfaces[0].body.patch_numbers(0, len(scene.patches)))
+
+
+def _statistics(
+    scene: Scene, visible: ValueStatistics | None, surface: ValueStatistics | None
+) -> dict[str, Any]:
+    """The numbers of a render (:mod:`gshade.rendering.statistics`): the function, what
+    its extremes' ``patch`` numbers (``face`` or ``patch``), the summaries over the visible
+    and the whole surface, and for ``min_radius`` the smallest radius."""
+    out: dict[str, Any] = {"function": scene.shape.function, "patch_label": _patch_label(scene)}
+    out["visible"] = None if visible is None else visible.as_dict()
+    out["surface"] = None if surface is None else surface.as_dict()
+    if scene.shape.function == "min_radius" and surface is not None:
+        out["min_radius"] = min_radius_summary(surface)
+    return out
+
+
 def _patch_channel(scene: Scene, patch: NDArray[np.float32]) -> NDArray[np.float32]:
     """The ``patch`` channel as :func:`_patch_label` says: the scene's patch index (as the
     pipeline numbers them) replaced, on a scene of one surface, by that surface's numbers
     for its patches (:meth:`gshade.scene.bodies.SurfaceBody.patch_numbers`: a CAD model's
     face numbers, which differ from the index once a face is left out or chosen away);
     -1 off the surface."""
-    if len(scene.surfaces) != 1:
+    numbers = _numbers(scene)
+    if numbers is None:
         return patch
-    numbers = scene.surfaces[0].body.patch_numbers(0, len(scene.patches))
     index = np.rint(patch).astype(np.int64)
     lookup = np.concatenate([numbers, [-1]]).astype(np.float32)  # index -1: the last
     return lookup[np.where(index >= 0, index, len(numbers))]

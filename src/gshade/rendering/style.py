@@ -17,10 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..display import Legend, auto_range, validate_range
+from ..display.bands import band_text
 from ..display.colour import edge_offset
 from ..display.colour_maps import colour_map_table
 from ..scene.model import Shape
-from ..shape import SHAPE_FUNCTIONS, ShapeFunction, get_shape_function
+from ..shape import SHAPE_FUNCTIONS, Bands, ShapeFunction, function_bands, get_shape_function
 from .atlas import Atlas
 from .textures import ShapeTextures
 
@@ -35,7 +36,12 @@ __all__ = [
 ]
 
 #: Units of each function's values, for legends.
-UNITS = {"planar_sections": "length", "gaussian": "1/length²", "parametrisation_quality": ""}
+UNITS = {
+    "planar_sections": "length",
+    "gaussian": "1/length²",
+    "parametrisation_quality": "",
+    "draft_angle": "deg",
+}
 
 
 def _units(function: str, params: dict) -> str:
@@ -64,8 +70,9 @@ def shape_functions(shape: Shape) -> tuple[list[tuple[ShapeFunction, dict]], str
 @dataclass(frozen=True)
 class DisplayStyle:
     """The colour-mapped function ``mapped`` (``signed`` or not) over ``value_range``, with
-    ``colormap`` and its linear-RGB table ``lut`` (None for stripes alone), and the stripe
-    ``period`` in units of the striped function."""
+    ``colormap`` and its linear-RGB table ``lut`` (None for stripes alone), the stripe
+    ``period`` in units of the striped function, and the function's ``bands`` for
+    ``display = "bands"`` (else None)."""
 
     mapped: str
     signed: bool
@@ -73,6 +80,7 @@ class DisplayStyle:
     period: float
     colormap: str | None
     lut: np.ndarray | None
+    bands: Bands | None = None
 
 
 def trimmed_region(atlas: Atlas, patch: NDArray, params: NDArray, trimmed: NDArray) -> NDArray:
@@ -117,6 +125,9 @@ def display_style(
         flat = constant_values(tex.values[0][..., 0], valid[0], tex.atlas.all_tile_slices())
         period = period_off_edges((f_hi - f_lo) / shape.stripes, flat, shape.phase, shape.duty)
     lut = colormap = None
+    if shape.display == "bands":
+        bands = function_bands(shape.function, shape.params_for(shape.function))
+        return DisplayStyle(mapped, signed, value_range, period, None, None, bands)
     if shape.display != "stripes":
         from ..display.colour import srgb_to_linear
 
@@ -215,6 +226,15 @@ def legend(shape: Shape, style: DisplayStyle, length: str = "length") -> Legend:
     """The legend of a render: the function, its colour map and range, its stripes; the
     units in terms of ``length``, the scene's length unit (e.g. ``"mm"``: 1/mm), where one
     is known."""
+    units = _units(style.mapped, shape.params_for(style.mapped)).replace("length", length)
+    if style.bands is not None:
+        return Legend(
+            function=shape.function,
+            order=get_shape_function(shape.function).order,
+            display=shape.display,
+            bands=band_text(style.bands, units),
+            units=units,
+        )
     return Legend(
         function=shape.function,
         order=get_shape_function(shape.function).order,
@@ -224,5 +244,5 @@ def legend(shape: Shape, style: DisplayStyle, length: str = "length") -> Legend:
         period=None if shape.display == "colormap" else float(style.period),
         duty=None if shape.display == "colormap" else shape.duty,
         stripe_function=shape.function if shape.display == "both" else None,
-        units=_units(style.mapped, shape.params_for(style.mapped)).replace("length", length),
+        units=units,
     )

@@ -25,13 +25,19 @@ their centre sample.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import NDArray
 
+from ..display.bands import LINE_WIDTH
 from .atlas import Atlas
 from .camera import View
 from .integrator import SHAPE_FILM
 from .tessellate import TriangleMesh
+
+if TYPE_CHECKING:
+    from ..shape import Bands
 
 __all__ = ["discontinuous_pixels", "silhouette_pixels"]
 
@@ -61,6 +67,7 @@ def discontinuous_pixels(
     atlas: Atlas,
     visible_change: float,
     stripes: tuple[float, float, float] | None = None,
+    bands: Bands | None = None,
 ) -> NDArray:
     """Pixels (H, W) whose centre sample differs discontinuously from a neighbour's.
 
@@ -78,6 +85,9 @@ def discontinuous_pixels(
         reaches a stripe edge needs more samples where f bends visibly.  Without stripes f
         is colour-mapped, which has no exact filter: a pixel over which f spans more than
         SPREAD visible changes needs more samples.
+    bands : Bands, optional
+        The bands f is shown with (``display = "bands"``): their edges and lines count as
+        stripe edges do (a line as its two sides).
     """
     marked = np.zeros(centres.shape[:2], bool)
     rows, cols = np.nonzero(centres[..., SHAPE_FILM.index("A")] > 0.5)
@@ -86,7 +96,7 @@ def discontinuous_pixels(
             slice(max(rows.min() - 1, 0), rows.max() + 2),
             slice(max(cols.min() - 1, 0), cols.max() + 2),
         )
-        marked[box] = _discontinuous(centres[box], atlas, visible_change, stripes)
+        marked[box] = _discontinuous(centres[box], atlas, visible_change, stripes, bands)
     return marked
 
 
@@ -95,6 +105,7 @@ def _discontinuous(
     atlas: Atlas,
     visible_change: float,
     stripes: tuple[float, float, float] | None,
+    bands: Bands | None = None,
 ) -> NDArray:
     """:func:`discontinuous_pixels` of a film."""
     hit = centres[..., SHAPE_FILM.index("A")] > 0.5
@@ -109,6 +120,13 @@ def _discontinuous(
         period, phase, duty = stripes
         t = np.mod(f / period + phase, 1.0)
         near_edge = period * np.minimum(np.minimum(t, np.abs(t - duty)), 1.0 - t)
+    if bands is not None:  # f's distance to the nearest band edge or side of a line
+        near_edge = np.full(f.shape, np.inf)
+        for level in bands.edges:
+            near_edge = np.minimum(near_edge, np.abs(f - level))
+        half_line = 0.5 * LINE_WIDTH * np.hypot(fx, fy)
+        for level in bands.lines:
+            near_edge = np.minimum(near_edge, np.abs(np.abs(f - level) - half_line))
     if near_edge is None:
         marked = hit & (slope > SPREAD * visible_change)
     else:

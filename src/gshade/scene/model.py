@@ -33,7 +33,7 @@ __all__ = [
     "validate_view",
 ]
 
-DISPLAYS = ("stripes", "colormap", "both")
+DISPLAYS = ("stripes", "colormap", "both", "bands")
 LIGHTINGS = ("lit", "flat", "soft")
 #: where a render takes ``spp`` samples per pixel (one at the centre elsewhere)
 SAMPLINGS = ("edges", "uniform")

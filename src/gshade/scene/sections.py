@@ -18,7 +18,7 @@ from ..limits import (
     MAX_TEXTURE_RESOLUTION,
     MIN_CHORD_TOLERANCE,
 )
-from ..shape import SHAPE_FUNCTIONS, validate_parameter
+from ..shape import SHAPE_FUNCTIONS, function_bands, validate_parameter
 from .model import (
     CAMERA_TYPES,
     DISPLAYS,
@@ -202,6 +202,9 @@ def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
                 if key in SHAPE_FUNCTIONS[fn].parameters:
                     params[key] = _parameter(t, fn, key)
     display = t.choice("display", DISPLAYS)
+    if display == "bands":
+        with t.reported():
+            function_bands(function, params)
     period = t.number("period", lo=0)
     stripes = t.number("stripes", None, lo=0)
     if period is not None and stripes is not None:

@@ -4,10 +4,12 @@ derivatives, evaluated with Dr.Jit or numpy.  How their values become colours is
 
 from .functions import (
     SHAPE_FUNCTIONS,
+    Bands,
     Parameter,
     ShapeFunction,
     ShapeValues,
     evaluate,
+    function_bands,
     get_shape_function,
     validate_parameter,
     validate_parameters,
@@ -15,10 +17,12 @@ from .functions import (
 
 __all__ = [
     "SHAPE_FUNCTIONS",
+    "Bands",
     "Parameter",
     "ShapeFunction",
     "ShapeValues",
     "evaluate",
+    "function_bands",
     "get_shape_function",
     "validate_parameter",
     "validate_parameters",

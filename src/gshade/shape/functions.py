@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import GshadeError
+from ..errors import GshadeError, show
 from ..geometry.core.differential import (
     first_form,
     fundamental_forms,
@@ -48,10 +48,12 @@ from ..geometry.core.jets import arccos, arctan2, cross, dot, jabs, sqrt
 from .kernels import Formula, Layout
 from .registry import (
     SHAPE_FUNCTIONS,
+    Bands,
     Parameter,
     ShapeFunction,
     ShapeValues,
     evaluate,
+    function_bands,
     get_shape_function,
     register,
     validate_parameter,
@@ -66,10 +68,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SHAPE_FUNCTIONS",
+    "Bands",
     "Parameter",
     "ShapeFunction",
     "ShapeValues",
     "evaluate",
+    "function_bands",
     "get_shape_function",
     "validate_parameter",
     "validate_parameters",
@@ -347,4 +351,105 @@ register(
     2,
     "root mean square curvature sqrt((k1^2 + k2^2) / 2) = sqrt(2H^2 - K)",
     _curvature("rms"),
+)
+
+# --------------------------------------------------------------------------- draft angle
+
+_DRAFT = Layout(("direction", 3))
+DEGREES = 180.0 / np.pi
+
+
+def _draft_angle(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
+    """delta = atan2(<N, d>, |N x d|) in degrees: arcsin <n, d> without arcsin's loss of
+    accuracy (and infinite slope) where n is nearly d."""
+    N = cross(vec(1, 0), vec(0, 1))
+    across = cross(N, p.direction)
+    delta = arctan2(dot(N, p.direction), sqrt(dot(across, across), xp), xp)
+    return delta * DEGREES, dot(N, N).f > p.irregular * p.irregular, None
+
+
+def _pack_draft(fn: str, kw: dict[str, Any]) -> Packed:
+    if not 0.0 <= kw["min_angle"] < 90.0:
+        raise GshadeError(
+            f"{fn}: min_angle: expected degrees in [0, 90), got {show(kw['min_angle'])}"
+        )
+    return "", _DRAFT, {"direction": kw["direction"]}
+
+
+#: Draft bands (the colours of mould-design tools): undercut, too little draft, enough
+DRAFT_COLOURS = ((0.86, 0.16, 0.12), (0.98, 0.80, 0.12), (0.22, 0.66, 0.28))
+
+
+def _draft_bands(kw: dict[str, Any]) -> Bands:
+    """Undercut below 0, too little in [0, min_angle), enough from min_angle; the parting
+    line at 0.  (min_angle 0: no band of too little.)"""
+    if kw["min_angle"] == 0.0:
+        return Bands((0.0,), ("undercut", "draft"), DRAFT_COLOURS[::2], lines=(0.0,))
+    names = ("undercut", "too little draft", "enough draft")
+    return Bands((0.0, float(kw["min_angle"])), names, DRAFT_COLOURS, lines=(0.0,))
+
+
+register(
+    "draft_angle",
+    1,
+    "draft angle delta = arcsin <n, d> in degrees, for the pull direction d: 0 where the "
+    "surface is parallel to d (the parting line), positive where n leans along d (it can "
+    "be pulled), negative = undercut",
+    _draft_angle,
+    _pack_draft,
+    signed=True,
+    bands=_draft_bands,
+    direction=Parameter("direction", (0.0, 0.0, 1.0), "pull direction d"),
+    min_angle=Parameter("number", 1.0, "the least draft (degrees) the bands accept"),
+)
+
+# --------------------------------------------------------------------------- radius limits
+
+_RADIUS = Layout()
+
+
+def _largest_curvature(
+    vec: Callable[[int, int], Any], p: SimpleNamespace, form: str, xp: Backend
+) -> tuple[Jet, Any, Any]:
+    """k = H + sign(H) (k1 - k2) / 2: the principal curvature of largest magnitude, 1 / the
+    smallest radius (signed as H; sign(0) = +1)."""
+    f = fundamental_forms(vec(1, 0), vec(0, 1), vec(2, 0), vec(1, 1), vec(0, 2))
+    valid = f.W2.f > p.irregular * p.irregular
+    H = mean_from_forms(f, sqrt(f.W2, xp))
+    root = principal_half_gap(f, lambda x: sqrt(x, xp))
+    return H + root * xp.select(H.f < 0.0, -1.0, 1.0), valid, None
+
+
+def _pack_radius(fn: str, kw: dict[str, Any]) -> Packed:
+    if not (np.isfinite(kw["limit"]) and kw["limit"] > 0.0):
+        raise GshadeError(f"{fn}: limit: expected a positive length, got {show(kw['limit'])}")
+    return "", _RADIUS, {}
+
+
+#: Radius bands: below the limit curving away from n (convex for an outward n), at or
+#: above the limit, below the limit curving towards n (concave)
+RADIUS_COLOURS = ((0.84, 0.19, 0.15), (0.86, 0.86, 0.84), (0.17, 0.40, 0.80))
+
+
+def _radius_bands(kw: dict[str, Any]) -> Bands:
+    """|k| > 1 / limit: below the radius limit, on the side the sign of k tells (a radius
+    equal to the limit is within it)."""
+    k = 1.0 / float(kw["limit"])
+    names = ("convex below limit", "within limit", "concave below limit")
+    return Bands((-k, k), names, RADIUS_COLOURS, closed_above=(1,))
+
+
+register(
+    "min_radius",
+    2,
+    "k = the principal curvature of largest magnitude, 1 / the smallest radius of curvature "
+    "(signed as mean: negative where the surface curves away from n, convex for an outward "
+    "n); bands against the radius limit",
+    _largest_curvature,
+    _pack_radius,
+    signed=True,
+    bands=_radius_bands,
+    limit=Parameter("number", 1.0, "the radius limit (model length units): a tool radius"),
 )

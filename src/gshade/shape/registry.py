@@ -22,12 +22,15 @@ from . import kernels
 from .kernels import Formula, Layout
 
 __all__ = [
+    "RGB",
     "SHAPE_FUNCTIONS",
+    "Bands",
     "Packed",
     "Parameter",
     "ShapeFunction",
     "ShapeValues",
     "evaluate",
+    "function_bands",
     "get_shape_function",
     "register",
     "validate_parameter",
@@ -57,6 +60,31 @@ class Parameter:
     default: Any
     help: str
     choices: tuple[str, ...] = ()
+
+
+RGB = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Bands:
+    """A function's values split into named bands at ``edges`` (t_1 < ... < t_n: band 0 is
+    f < t_1, band i is t_i <= f < t_(i+1), band n is f >= t_n), each drawn in its
+    ``colours`` entry (sRGB), with ``lines``: levels drawn as sharp lines over them (the
+    parting line, draft 0).  A value exactly at an edge lies in the band above it, or, where
+    ``closed_above`` names the edge's index, in the band below (a radius equal to the
+    limit is within it)."""
+
+    edges: tuple[float, ...]
+    names: tuple[str, ...]
+    colours: tuple[RGB, ...]
+    lines: tuple[float, ...] = ()
+    closed_above: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        if len(self.names) != len(self.edges) + 1 or len(self.colours) != len(self.names):
+            raise ValueError("Bands: expected one name and one colour per band (edges + 1)")
+        if list(self.edges) != sorted(set(self.edges)):
+            raise ValueError(f"Bands: edges: expected increasing levels, got {self.edges}")
 
 
 #: what a shape function's ``pack`` returns: its form (the formula's option, "" if none), the
@@ -89,6 +117,8 @@ class ShapeFunction:
     formula: Formula | None = field(default=None, repr=False)
     #: (name, checked parameters) -> (form, layout, the values of its fields)
     pack: Callable[[str, dict[str, Any]], Packed] = field(default=_no_parameters, repr=False)
+    #: checked parameters -> the bands of ``display = "bands"`` (None: it has none)
+    bands: Callable[[dict[str, Any]], Bands] | None = field(default=None, repr=False)
 
     def __call__(self, d: ArrayLike, *, gradient: bool = True, **params: Any) -> ShapeValues:
         return evaluate(self, d, gradient=gradient, **params)
@@ -199,13 +229,41 @@ def register(
     *,
     eye: bool = False,
     signed: bool = False,
+    bands: Callable[[dict[str, Any]], Bands] | None = None,
     **parameters: Parameter,
 ) -> None:
-    """Declare a shape function: the one place its name, order, summary, formula, parameters
-    and properties are given."""
+    """Declare a shape function: the one place its name, order, summary, formula, parameters,
+    properties and bands are given."""
     SHAPE_FUNCTIONS[name] = ShapeFunction(
-        name, order, eye, signed, summary, dict(parameters), formula, pack or _no_parameters
+        name,
+        order,
+        eye,
+        signed,
+        summary,
+        dict(parameters),
+        formula,
+        pack or _no_parameters,
+        bands,
     )
+
+
+def function_bands(function: str | ShapeFunction, params: dict[str, Any]) -> Bands:
+    """The bands of a function with bands, for its parameters (checked here).
+
+    Raises
+    ------
+    GshadeError
+        ``display: expected a function with bands (...), got NAME``, or a bad parameter.
+    """
+    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
+    if fn.bands is None:
+        with_bands = ", ".join(k for k, f in SHAPE_FUNCTIONS.items() if f.bands is not None)
+        raise GshadeError(
+            f'display: "bands" expected a function with bands ({with_bands}), got {fn.name}'
+        )
+    kw = validate_parameters(fn, params)
+    fn.pack(fn.name, kw)  # the parameters' own rules (min_angle in [0, 90) ...)
+    return fn.bands(kw)
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -1,0 +1,149 @@
+"""The shape function's numbers for a render: over the visible surface (the exact channels)
+and over the whole surface (the textures), each extreme with where it is
+(:mod:`gshade.analysis.statistics`).
+
+The whole surface is summarised from the texture grid the render computes anyway (every
+patch's tile, a CAD face's texels inside its trimmed region, each weighing the area it
+stands for), so it costs no evaluation but the polishing of its two extremes: a pattern
+search on the exact function within one texel of the best grid point.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..analysis.statistics import Extreme, ValueStatistics, value_statistics
+from ..geometry import Patch, regularised_derivatives
+from ..geometry.core.patch import unit_to_domain
+from ..shape import ShapeFunction, evaluate
+from .textures import ShapeTextures
+
+__all__ = ["POLISH_STEPS", "min_radius_summary", "surface_statistics", "visible_statistics"]
+
+#: Pattern-search rounds polishing a whole-surface extreme (5 x 5 points, the step / 2.5 each)
+POLISH_STEPS = 10
+
+
+def visible_statistics(channels: dict[str, NDArray]) -> ValueStatistics | None:
+    """The summary of ``f`` over the covered pixels: each pixel's exact value at its centre
+    hit, its patch (or face) number, (u, v) and P from the exact channels."""
+    on = channels["patch"] >= 0
+    points = np.stack([channels[f"P.{c}"][on] for c in "XYZ"], -1)
+    return value_statistics(
+        channels["f"][on],
+        np.rint(channels["patch"][on]).astype(np.int64),
+        channels["u"][on],
+        channels["v"][on],
+        points,
+    )
+
+
+def _area(tex: ShapeTextures) -> NDArray[np.float64]:
+    """|p_s x p_t| h_s h_t at each texel: the surface area it stands for."""
+    area = np.linalg.norm(np.cross(tex.tangent_s, tex.tangent_t), axis=-1).astype(np.float64)
+    for k, tile in enumerate(tex.atlas.all_tile_slices()):
+        hs, ht = tex.atlas.spacing(k)
+        area[tile] *= float(hs * ht)
+    return area
+
+
+def _exact(patch: Patch, fn: ShapeFunction, params: dict, u: NDArray, v: NDArray) -> NDArray:
+    d = regularised_derivatives(patch, u, v, fn.order).d
+    res = evaluate(fn, d, gradient=False, backend="numpy", **params)  # 25 points: no kernel
+    return np.where(res.valid, res.f, np.nan)
+
+
+def _polish(
+    patch: Patch, fn: ShapeFunction, params: dict, u: float, v: float, step: tuple, sign: float
+) -> tuple[float, float, float]:
+    """(value, u, v) of the largest ``sign`` * f found by a pattern search from (u, v), within
+    ``step`` (du, dv) of it and inside the patch's domain."""
+    (u0, u1), (v0, v1) = patch.domain
+    offsets = np.linspace(-1.0, 1.0, 5)
+    best_u, best_v = u, v
+    best = float(_exact(patch, fn, params, np.array([u]), np.array([v]))[0])
+    du, dv = step
+    for _ in range(POLISH_STEPS):
+        U = np.clip(best_u + du * offsets[:, None] + 0 * offsets[None, :], u0, u1).ravel()
+        V = np.clip(best_v + dv * offsets[None, :] + 0 * offsets[:, None], v0, v1).ravel()
+        f = _exact(patch, fn, params, U, V)
+        if np.isfinite(f).any():
+            k = int(np.nanargmax(sign * f))
+            if not np.isfinite(best) or sign * f[k] > sign * best:
+                best, best_u, best_v = float(f[k]), float(U[k]), float(V[k])
+        du, dv = du / 2.5, dv / 2.5
+    return best, best_u, best_v
+
+
+def surface_statistics(
+    tex: ShapeTextures,
+    region: NDArray | None,
+    patches: Sequence[Patch],
+    fn: ShapeFunction,
+    params: dict[str, Any],
+    numbers: NDArray | None = None,
+) -> ValueStatistics | None:
+    """The summary of the first function of ``tex`` over the whole surface: the texels where
+    it is valid (and, with ``region``, inside the trimmed faces), weighted by area; the
+    extremes polished on the exact surface (:func:`_polish`).  ``numbers``: each patch's
+    number to report (a CAD model's face numbers; default the index)."""
+    atlas = tex.atlas
+    valid = tex.valid[0] > 0
+    if region is not None:
+        valid &= region
+    f = tex.values[0][..., 0].astype(np.float64)
+    index = np.full(valid.shape, -1, dtype=np.int64)
+    s = np.zeros(valid.shape)
+    t = np.zeros(valid.shape)
+    for k, (rows, cols) in enumerate(atlas.all_tile_slices()):
+        hs, ht = atlas.spacing(k)
+        index[rows, cols] = k
+        n_rows, n_cols = rows.stop - rows.start, cols.stop - cols.start
+        s[rows, cols] = np.arange(n_cols)[None, :] * hs
+        t[rows, cols] = np.arange(n_rows)[:, None] * ht
+    valid &= index >= 0
+    if not valid.any():
+        return None
+    texel_patch = index[valid]
+    domains = np.array([p.domain for p in patches], dtype=np.float64)
+    u, v = unit_to_domain(domains, s[valid], t[valid], texel_patch)
+    stats = value_statistics(f[valid], texel_patch, u, v, tex.position[valid], _area(tex)[valid])
+    assert stats is not None
+
+    def polished(e: Extreme, sign: float) -> Extreme:
+        patch = patches[e.patch]
+        hs, ht = atlas.spacing(e.patch)
+        (u0, u1), (v0, v1) = patch.domain
+        value, pu, pv = _polish(
+            patch, fn, params, e.u, e.v, (float(hs) * (u1 - u0), float(ht) * (v1 - v0)), sign
+        )
+        if not np.isfinite(value):  # undefined around it: the grid's own value
+            value, pu, pv = e.value, e.u, e.v
+        point = np.ravel(patch(np.array([pu]), np.array([pv])))
+        label = e.patch if numbers is None else int(numbers[e.patch])
+        return Extreme(value, label, pu, pv, (float(point[0]), float(point[1]), float(point[2])))
+
+    return ValueStatistics(
+        stats.count,
+        polished(stats.minimum, -1.0),
+        polished(stats.maximum, 1.0),
+        stats.mean,
+        stats.percentiles,
+    )
+
+
+def min_radius_summary(stats: ValueStatistics) -> dict[str, Any]:
+    """The smallest radius of curvature of a ``min_radius`` summary (f = the signed curvature
+    of largest magnitude): 1 / max |f|, where it is, and its side (f < 0: curving away from
+    the normal, convex for an outward normal); on a flat surface, no value (None) and the
+    side ``"flat"``."""
+    e = stats.maximum if abs(stats.maximum.value) >= abs(stats.minimum.value) else stats.minimum
+    if e.value == 0:  # flat everywhere: no radius (JSON has no infinity)
+        radius, side = None, "flat"
+    else:
+        radius, side = 1.0 / abs(e.value), "convex" if e.value < 0 else "concave"
+    return {"value": radius, "side": side, **{k: x for k, x in e.as_dict().items() if k != "value"}}
