@@ -18,7 +18,7 @@ when it first imports Dr.Jit or Mitsuba itself; a program that imports ``drjit``
 
 from __future__ import annotations
 
-__version__ = "0.10.0"
+__version__ = "0.11.0"
 
 from typing import TYPE_CHECKING
 

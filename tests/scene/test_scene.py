@@ -526,7 +526,7 @@ BAD = {
     ),
     "display unknown": (
         SPHERE + '[shape]\ndisplay = "zebra"\n',
-        r'\[shape\] display: expected one of "stripes", "colormap", "both", got "zebra"',
+        r'\[shape\] display: expected one of "stripes", "colormap", "both", "bands", got "zebra"',
     ),
     "period and stripes": (
         SPHERE + "[shape]\nperiod = 0.1\nstripes = 20\n",
@@ -819,3 +819,15 @@ def test_any_wrong_value_gives_a_gshade_error(key):
             assert text.startswith(f"{FULL}: "), text
             assert "\n" not in text
             assert key.rsplit(".", 1)[-1] in text, text
+
+
+def test_bands_are_checked_when_the_scene_loads():
+    """display = "bands" needs a function with bands, with their parameters' own rules."""
+    shape = parse_scene(SPHERE + '[shape]\nfunction = "draft_angle"\ndisplay = "bands"\n').shape
+    assert (shape.display, shape.function) == ("bands", "draft_angle")
+    with pytest.raises(GshadeError, match=r'\[shape\] display: "bands" expected a function with'):
+        parse_scene(SPHERE + '[shape]\nfunction = "mean"\ndisplay = "bands"\n')
+    with pytest.raises(GshadeError, match=r"\[shape\] draft_angle: min_angle: expected degrees"):
+        parse_scene(
+            SPHERE + '[shape]\nfunction = "draft_angle"\ndisplay = "bands"\nmin_angle = 90\n'
+        )

@@ -323,7 +323,25 @@ def _curvature(which: str) -> Formula:
     return formula
 
 
-register("gaussian", 2, "Gaussian curvature K = k1 k2", _curvature("gaussian"), signed=True)
+#: the sign of K: hyperbolic (saddle) points, elliptic or flat ones
+GAUSSIAN_COLOURS = ((0.30, 0.45, 0.85), (0.93, 0.62, 0.25))
+
+
+def _gaussian_bands(kw: dict[str, Any]) -> Bands:
+    """The sign of K in two tones, the parabolic lines (K = 0) drawn over them; K exactly 0
+    (a plane, a cylinder: one colour) lies in the band above."""
+    names = ("hyperbolic (K < 0)", "elliptic or flat (K >= 0)")
+    return Bands((0.0,), names, GAUSSIAN_COLOURS, lines=(0.0,))
+
+
+register(
+    "gaussian",
+    2,
+    "Gaussian curvature K = k1 k2",
+    _curvature("gaussian"),
+    signed=True,
+    bands=_gaussian_bands,
+)
 register(
     "mean",
     2,
