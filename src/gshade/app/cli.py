@@ -136,6 +136,13 @@ def _add_render(sub: argparse._SubParsersAction) -> None:
         "(G0 red, G1 orange, G2 green, G3 blue)",
     )
     render.add_argument(
+        "--parabolic",
+        action="store_true",
+        default=None,
+        help="draw the parabolic lines (K = 0, where the surface turns from elliptic to "
+        "hyperbolic) as sharp lines over any display (scene key render.parabolic)",
+    )
+    render.add_argument(
         "--aovs",
         metavar="NAMES",
         help="extra EXR channels: shape functions' exact values at the pixel centres, "

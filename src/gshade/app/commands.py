@@ -46,7 +46,7 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
     from ..scene import parse_overrides
 
     overrides = parse_overrides(args.set)
-    for key in ("width", "height", "spp", "variant", "junctions"):
+    for key in ("width", "height", "spp", "variant", "junctions", "parabolic"):
         value = getattr(args, key, None)
         if value is not None:
             overrides[f"render.{key}"] = value

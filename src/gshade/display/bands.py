@@ -17,20 +17,20 @@ colour, not salt and pepper.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..runtime.backend import NUMPY_NAN, ArrayOps
+from ..shape.registry import Bands
 from .colour import DARK, SETTLE_ULPS, srgb_to_linear, trapezoid_cdf
-
-if TYPE_CHECKING:
-    from ..shape.registry import Bands
 
 __all__ = [
     "LINE_COLOUR",
     "LINE_WIDTH",
+    "PARABOLIC_COLOUR",
+    "PARABOLIC_LINES",
     "band_colours",
     "band_shares",
     "band_text",
@@ -40,6 +40,10 @@ __all__ = [
 #: the width (pixels) and colour of the lines drawn over bands
 LINE_WIDTH = 1.5
 LINE_COLOUR = DARK
+#: the parabolic lines (K = 0) as bands of K: one band (never drawn) and a line at 0; drawn
+#: over any display in this colour (sRGB magenta: apart from stripes and colour maps)
+PARABOLIC_LINES = Bands((), ("K",), ((0.0, 0.0, 0.0),), lines=(0.0,))
+PARABOLIC_COLOUR = (1.0, 0.0, 0.75)
 
 
 def _levels_scale(bands: Bands) -> float:

@@ -39,7 +39,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..display.bands import LINE_COLOUR, band_shares, settled_on_levels
+from ..display.bands import (
+    LINE_COLOUR,
+    PARABOLIC_COLOUR,
+    PARABOLIC_LINES,
+    band_shares,
+    settled_on_levels,
+)
 from ..display.colour import (
     DARK,
     LIGHT,
@@ -106,6 +112,8 @@ class IntegratorSettings:
     key_light: tuple[float, float, float] = (0.0, 0.0, 1.0)
     #: display = "bands": the function's bands
     bands: Bands | None = None
+    #: the parabolic lines (K = 0) drawn over the picture, from the last function's textures
+    parabolic: bool = False
 
 
 def make_integrator(
@@ -199,6 +207,11 @@ class ShapeIntegrator:
         self.inv_span = self._opaque(1.0 / (settings.value_range[1] - settings.value_range[0]))
         self.key = self.mi.Vector3f(*settings.key_light)
         self.bands = settings.bands
+        self.parabolic = settings.parabolic
+        if self.parabolic:
+            self.parabolic_values = values[-1]
+            linear = srgb_to_linear(np.asarray(PARABOLIC_COLOUR, dtype=np.float64))
+            self.parabolic_colour = self.mi.Color3f(*map(float, linear))
         if self.bands is not None:
             linear = srgb_to_linear(np.asarray(self.bands.colours, dtype=np.float64))
             self.band_colours = [self.mi.Color3f(*map(float, c)) for c in linear]
@@ -273,6 +286,25 @@ class ShapeIntegrator:
         on_line = mi.Float(line)
         return colour * (1.0 - on_line) + mi.Color3f(LINE_COLOUR) * on_line
 
+    def _parabolic_lines(self, si: Any, hit: Any, colour: Any, sampler: Any) -> Any:
+        """The parabolic lines (K = 0) drawn over ``colour`` in
+        :data:`gshade.display.bands.PARABOLIC_COLOUR`: a line of
+        :data:`gshade.display.bands.LINE_WIDTH` pixels, box-filtered as the bands' lines are,
+        from K's own textures (a plane or a cylinder, K = 0 throughout: no line)."""
+        mi, ops = self.mi, self.ops
+        k, (k_s, k_t), defined, cell = self._shape_value(si, hit, self.parabolic_values)
+        ks = self.atlas_w / (cell.columns - 1.0)
+        kt = self.atlas_h / (cell.rows - 1.0)
+        kx = k_s * si.duv_dx.x * ks + k_t * si.duv_dx.y * kt
+        ky = k_s * si.duv_dy.x * ks + k_t * si.duv_dy.y * kt
+        spread = 1.0 / float(np.sqrt(sampler.sample_count()))
+        k64, kx64, ky64 = settled_on_levels(
+            mi.Float64(k), mi.Float64(kx), mi.Float64(ky), PARABOLIC_LINES, ops
+        )
+        _, line = band_shares(k64, kx64, ky64, PARABOLIC_LINES, spread, ops)
+        on_line = self.dr.select(defined, mi.Float(line), 0.0)
+        return colour * (1.0 - on_line) + self.parabolic_colour * on_line
+
     def _light(self, scene: Any, sampler: Any, si: Any, ray: Any, hit: Any) -> tuple[Any, Any]:
         """The diffuse shading factor (see the module's docstring) and whether the key
         light is shadowed (it faces the point, the shadow ray is blocked): deterministic
@@ -327,6 +359,8 @@ class ShapeIntegrator:
                 colour = self._lookup(g) * (1.0 - 0.65 * cov)
                 defined = defined & colour_defined
         colour = dr.select(defined, colour, Color3f(UNDEFINED))
+        if self.parabolic:
+            colour = self._parabolic_lines(si, hit, colour, sampler)
         shadowed = dr.zeros(mi.Bool)
         if self.lighting != "flat":
             light, shadowed = self._light(scene, sampler, si, ray, hit)

@@ -85,6 +85,7 @@ def mitsuba_scene(
         atlas=atlas,
         key_light=view.key_light(),
         bands=style.bands,
+        parabolic=settings.parabolic,
     )
     sensor = view.sensor(
         mi, settings.spp, settings.seed, "jittered" if settings.lighting == "soft" else "symmetric"

@@ -43,6 +43,7 @@ from .. import __version__
 from ..errors import GshadeError
 from ..limits import MAX_SAMPLES
 from ..scene.model import Scene
+from ..shape import get_shape_function
 from .atlas import Atlas
 from .camera import View
 from .channels import PICTURE, centre_hits, exact_channels, refuse_non_finite
@@ -110,7 +111,10 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
     lap("tessellate")
 
     functions, mapped = shape_functions(scene.shape)
-    tex, region = _textures(scene, mesh, atlas, functions)
+    parabolic: list[tuple[ShapeFunction, dict]] = (
+        [(get_shape_function("gaussian"), {})] if settings.parabolic else []
+    )
+    tex, region = _textures(scene, mesh, atlas, functions + parabolic)
     style = display_style(scene.shape, mapped, tex, region)
     lap("textures")
     surface = surface_statistics(tex, region, scene.patches, *functions[0], _numbers(scene))

@@ -109,7 +109,8 @@ def display_style(
     and 0.5–99.5 %; see :func:`_area_element`); otherwise the colour range is the 1–99 %
     percentiles of the texels and the stripes' span their whole range."""
     valid = [v > 0 if region is None else (v > 0) & region for v in tex.valid]
-    cvals, cvalid = tex.values[-1][..., 0], valid[-1]
+    shown = 1 if shape.display == "both" else 0  # the colour-mapped function's textures
+    cvals, cvalid = tex.values[shown][..., 0], valid[shown]
     signed = SHAPE_FUNCTIONS[mapped].signed
     area = None if region is None else _area_element(tex)
     value_range = (

@@ -172,6 +172,7 @@ class RenderSettings:
     junctions: bool = False
     aovs: tuple[str, ...] = ()
     sampling: str = "edges"
+    parabolic: bool = False
 
 
 @dataclass(frozen=True)

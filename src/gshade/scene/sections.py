@@ -116,6 +116,7 @@ RENDER_KEYS = declare_keys(
         "automatic (from the screen size)",
     ),
     Key("junctions", "true | false", False, "draw the junctions coloured by continuity class"),
+    Key("parabolic", "true | false", False, "draw the parabolic lines (K = 0) over the picture"),
     Key(
         "aovs",
         "list of shape function names",
@@ -278,6 +279,7 @@ def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
         ),
         junctions=t.boolean("junctions"),
         aovs=_aovs(t),
+        parabolic=t.boolean("parabolic"),
     )
 
 
