@@ -52,7 +52,7 @@ from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, rend
 from .plugins import use_variant
 from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_sizes, validate_memory
-from .statistics import min_radius_summary, surface_statistics, visible_statistics
+from .statistics import min_radius_summary, surface_statistics, visible_statistics, widened
 from .style import display_style, legend, shape_functions, trimmed_region
 from .supersampling import discontinuous_pixels, silhouette_pixels
 from .surface_meshes import mesh_parts, planned_vertices
@@ -326,6 +326,8 @@ def _statistics(
     its extremes' ``patch`` numbers (``face`` or ``patch``), the summaries over the visible
     and the whole surface, and for ``min_radius`` the smallest radius."""
     out: dict[str, Any] = {"function": scene.shape.function, "patch_label": _patch_label(scene)}
+    if visible is not None and surface is not None:  # the visible surface is on the surface
+        surface = widened(surface, visible)
     out["visible"] = None if visible is None else visible.as_dict()
     out["surface"] = None if surface is None else surface.as_dict()
     if scene.shape.function == "min_radius" and surface is not None:

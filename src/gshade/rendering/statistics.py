@@ -11,6 +11,7 @@ search on the exact function within one texel of the best grid point.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,13 @@ from ..geometry.core.patch import unit_to_domain
 from ..shape import ShapeFunction, evaluate
 from .textures import ShapeTextures
 
-__all__ = ["POLISH_STEPS", "min_radius_summary", "surface_statistics", "visible_statistics"]
+__all__ = [
+    "POLISH_STEPS",
+    "min_radius_summary",
+    "surface_statistics",
+    "visible_statistics",
+    "widened",
+]
 
 #: Pattern-search rounds polishing a whole-surface extreme (5 x 5 points, the step / 2.5 each)
 POLISH_STEPS = 10
@@ -113,6 +120,7 @@ def surface_statistics(
     u, v = unit_to_domain(domains, s[valid], t[valid], texel_patch)
     stats = value_statistics(f[valid], texel_patch, u, v, tex.position[valid], _area(tex)[valid])
     assert stats is not None
+    at = np.flatnonzero(valid)
 
     def polished(e: Extreme, sign: float) -> Extreme:
         patch = patches[e.patch]
@@ -121,7 +129,14 @@ def surface_statistics(
         value, pu, pv = _polish(
             patch, fn, params, e.u, e.v, (float(hs) * (u1 - u0), float(ht) * (v1 - v0)), sign
         )
-        if not np.isfinite(value):  # undefined around it: the grid's own value
+        # within a texel of a smooth extreme, f moves by at most about its change to the
+        # next texels: a polished value beyond that ran into a singular point (a collapsed
+        # edge's corner), and the grid's own value stands
+        row, col = np.unravel_index(at[int(np.argmax(sign * f[valid]))], valid.shape)
+        window = (slice(max(row - 1, 0), row + 2), slice(max(col - 1, 0), col + 2))
+        near = valid[window] & (index[window] == e.patch)
+        reach = 2.0 * float(np.abs(f[window][near] - f[row, col]).max(initial=0.0))
+        if not np.isfinite(value) or abs(value - e.value) > reach + 1e-6 * abs(e.value):
             value, pu, pv = e.value, e.u, e.v
         point = np.ravel(patch(np.array([pu]), np.array([pv])))
         label = e.patch if numbers is None else int(numbers[e.patch])
@@ -134,6 +149,14 @@ def surface_statistics(
         stats.mean,
         stats.percentiles,
     )
+
+
+def widened(surface: ValueStatistics, visible: ValueStatistics) -> ValueStatistics:
+    """The whole surface's summary with an extreme of the visible surface's where that one
+    is beyond it (a pixel's exact value between the grid's points)."""
+    low = min(surface.minimum, visible.minimum, key=lambda e: e.value)
+    high = max(surface.maximum, visible.maximum, key=lambda e: e.value)
+    return replace(surface, minimum=low, maximum=high)
 
 
 def min_radius_summary(stats: ValueStatistics) -> dict[str, Any]:
