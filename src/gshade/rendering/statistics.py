@@ -21,7 +21,7 @@ from ..analysis.statistics import Extreme, ValueStatistics, value_statistics
 from ..geometry import Patch, regularised_derivatives
 from ..geometry.core.patch import unit_to_domain
 from ..shape import ShapeFunction, evaluate
-from .textures import ShapeTextures
+from .textures import ShapeTextures, texel_areas
 
 __all__ = [
     "POLISH_STEPS",
@@ -47,15 +47,6 @@ def visible_statistics(channels: dict[str, NDArray]) -> ValueStatistics | None:
         channels["v"][on],
         points,
     )
-
-
-def _area(tex: ShapeTextures) -> NDArray[np.float64]:
-    """|p_s x p_t| h_s h_t at each texel: the surface area it stands for."""
-    area = np.linalg.norm(np.cross(tex.tangent_s, tex.tangent_t), axis=-1).astype(np.float64)
-    for k, tile in enumerate(tex.atlas.all_tile_slices()):
-        hs, ht = tex.atlas.spacing(k)
-        area[tile] *= float(hs * ht)
-    return area
 
 
 def _exact(patch: Patch, fn: ShapeFunction, params: dict, u: NDArray, v: NDArray) -> NDArray:
@@ -118,7 +109,9 @@ def surface_statistics(
     texel_patch = index[valid]
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, s[valid], t[valid], texel_patch)
-    stats = value_statistics(f[valid], texel_patch, u, v, tex.position[valid], _area(tex)[valid])
+    stats = value_statistics(
+        f[valid], texel_patch, u, v, tex.position[valid], texel_areas(tex, valid)
+    )
     assert stats is not None
     at = np.flatnonzero(valid)
 

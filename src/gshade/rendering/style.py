@@ -23,7 +23,7 @@ from ..display.colour_maps import colour_map_table
 from ..scene.model import Shape
 from ..shape import SHAPE_FUNCTIONS, Bands, ShapeFunction, function_bands, get_shape_function
 from .atlas import Atlas
-from .textures import ShapeTextures
+from .textures import ShapeTextures, texel_areas
 
 __all__ = [
     "UNITS",
@@ -215,11 +215,7 @@ def _area_element(tex: ShapeTextures) -> NDArray | None:
 
     CAD faces differ in size by orders of magnitude, and their tiles much less, so their
     ranges are taken by area: a sliver face's extreme curvature does not set them."""
-    area = np.linalg.norm(np.cross(tex.tangent_s, tex.tangent_t), axis=-1)
-    atlas = tex.atlas
-    for k, tile in enumerate(atlas.all_tile_slices()):
-        hs, ht = atlas.spacing(k)
-        area[tile] *= float(hs * ht)
+    area = texel_areas(tex)
     return area if (area > 0).any() else None
 
 
