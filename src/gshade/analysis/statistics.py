@@ -121,6 +121,8 @@ def value_statistics(
     if f.size == 0:
         return None
     w = None if weights is None else np.asarray(weights, dtype=np.float64).ravel()
+    if w is not None and not w.sum() > 0:  # no area anywhere: every sample counts alike
+        w = None
     patch = np.asarray(patch).ravel()
     u, v = np.asarray(u, dtype=np.float64).ravel(), np.asarray(v, dtype=np.float64).ravel()
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -129,8 +131,8 @@ def value_statistics(
         point = (float(p[k, 0]), float(p[k, 1]), float(p[k, 2]))
         return Extreme(float(f[k]), int(patch[k]), float(u[k]), float(v[k]), point)
 
-    mean = float(f.mean()) if w is None or not w.sum() > 0 else float(np.average(f, weights=w))
-    found = weighted_percentiles(f, PERCENTILES, None if w is None or not w.sum() > 0 else w)
+    mean = float(np.average(f, weights=w))
+    found = weighted_percentiles(f, PERCENTILES, w)
     percentiles = {k: float(x) for k, x in zip(PERCENTILES, found, strict=True)}
     return ValueStatistics(
         f.size, extreme(int(np.argmin(f))), extreme(int(np.argmax(f))), mean, percentiles

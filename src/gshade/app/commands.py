@@ -182,7 +182,6 @@ def info(args: argparse.Namespace) -> int:
 
 def _say_statistics(scene: Scene) -> None:
     """``gshade info --stats``: the shape function's numbers over the whole surface."""
-    from ..analysis.statistics import Extreme
     from ..rendering.pipeline import shape_statistics
 
     numbers = shape_statistics(scene)
@@ -191,9 +190,10 @@ def _say_statistics(scene: Scene) -> None:
     if surface is None:
         return
     for name in ("min", "max"):
-        e = Extreme(**{**surface[name], "point": tuple(surface[name]["point"])})
-        point = ", ".join(f"{x:.6g}" for x in e.point)
-        say(f"    {name} {e.value:.6g} at [{point}] ({label} {e.patch}, u {e.u:.6g}, v {e.v:.6g})")
+        e = surface[name]
+        point = ", ".join(f"{x:.6g}" for x in e["point"])
+        where = f"{label} {e['patch']}, u {e['u']:.6g}, v {e['v']:.6g}"
+        say(f"    {name} {e['value']:.6g} at [{point}] ({where})")
     say(f"    mean {surface['mean']:.6g} (by area)")
     percentiles = ", ".join(f"{k}% {v:.6g}" for k, v in surface["percentiles"].items())
     say(f"    percentiles: {percentiles}")

@@ -269,17 +269,33 @@ class ShapeIntegrator:
         slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
         return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, cell
 
-    def _bands(self, f: Any, fx: Any, fy: Any, sampler: Any) -> Any:
-        """The bands' colour over the sample's footprint, with the lines over it
+    def _screen_slopes(self, si: Any, cell: Any, f_s: Any, f_t: Any) -> tuple[Any, Any]:
+        """d f / d(screen x, y) = f_s ds/dx + f_t dt/dx (and for y), from the slopes in the
+        tile's (s, t): d(s, t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))."""
+        ks = self.atlas_w / (cell.columns - 1.0)
+        kt = self.atlas_h / (cell.rows - 1.0)
+        fx = f_s * si.duv_dx.x * ks + f_t * si.duv_dx.y * kt
+        fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
+        return fx, fy
+
+    def _level_shares(
+        self, f: Any, fx: Any, fy: Any, bands: Bands, sampler: Any
+    ) -> tuple[list[Any], Any]:
+        """The bands' and the lines' shares of the sample's footprint, settled on the levels
         (:func:`gshade.display.bands.band_shares`; a sample covers 1/sqrt(spp) of the
         pixel's side, as Mitsuba scales the ray differentials)."""
-        mi, ops, bands = self.mi, self.ops, self.bands
-        assert bands is not None
+        mi = self.mi
         spread = 1.0 / float(np.sqrt(sampler.sample_count()))
         f64, fx64, fy64 = settled_on_levels(
-            mi.Float64(f), mi.Float64(fx), mi.Float64(fy), bands, ops
+            mi.Float64(f), mi.Float64(fx), mi.Float64(fy), bands, self.ops
         )
-        shares, line = band_shares(f64, fx64, fy64, bands, spread, ops)
+        return band_shares(f64, fx64, fy64, bands, spread, self.ops)
+
+    def _bands(self, f: Any, fx: Any, fy: Any, sampler: Any) -> Any:
+        """The bands' colour over the sample's footprint, with the lines over it."""
+        mi, bands = self.mi, self.bands
+        assert bands is not None
+        shares, line = self._level_shares(f, fx, fy, bands, sampler)
         colour = self.band_colours[0] * mi.Float(shares[0])
         for share, band_colour in zip(shares[1:], self.band_colours[1:], strict=True):
             colour = colour + band_colour * mi.Float(share)
@@ -291,18 +307,10 @@ class ShapeIntegrator:
         :data:`gshade.display.bands.PARABOLIC_COLOUR`: a line of
         :data:`gshade.display.bands.LINE_WIDTH` pixels, box-filtered as the bands' lines are,
         from K's own textures (a plane or a cylinder, K = 0 throughout: no line)."""
-        mi, ops = self.mi, self.ops
         k, (k_s, k_t), defined, cell = self._shape_value(si, hit, self.parabolic_values)
-        ks = self.atlas_w / (cell.columns - 1.0)
-        kt = self.atlas_h / (cell.rows - 1.0)
-        kx = k_s * si.duv_dx.x * ks + k_t * si.duv_dx.y * kt
-        ky = k_s * si.duv_dy.x * ks + k_t * si.duv_dy.y * kt
-        spread = 1.0 / float(np.sqrt(sampler.sample_count()))
-        k64, kx64, ky64 = settled_on_levels(
-            mi.Float64(k), mi.Float64(kx), mi.Float64(ky), PARABOLIC_LINES, ops
-        )
-        _, line = band_shares(k64, kx64, ky64, PARABOLIC_LINES, spread, ops)
-        on_line = self.dr.select(defined, mi.Float(line), 0.0)
+        kx, ky = self._screen_slopes(si, cell, k_s, k_t)
+        _, line = self._level_shares(k, kx, ky, PARABOLIC_LINES, sampler)
+        on_line = self.dr.select(defined, self.mi.Float(line), 0.0)
         return colour * (1.0 - on_line) + self.parabolic_colour * on_line
 
     def _light(self, scene: Any, sampler: Any, si: Any, ray: Any, hit: Any) -> tuple[Any, Any]:
@@ -337,12 +345,7 @@ class ShapeIntegrator:
         si.compute_uv_partials(ray)
         self._onto_surface(si, ray, hit)
         f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values)
-        # d f / d(screen x, y) = f_s ds/dx + f_t dt/dx, with (s, t) from atlas coordinates:
-        # d(s, t) / d(atlas x, y) = (W / (S - 1), H / (T - 1))
-        ks = self.atlas_w / (cell.columns - 1.0)
-        kt = self.atlas_h / (cell.rows - 1.0)
-        fx = f_s * si.duv_dx.x * ks + f_t * si.duv_dx.y * kt
-        fy = f_s * si.duv_dy.x * ks + f_t * si.duv_dy.y * kt
+        fx, fy = self._screen_slopes(si, cell, f_s, f_t)
         if self.display == COLORMAP:
             colour = self._lookup(f)
         elif self.display == BANDS:

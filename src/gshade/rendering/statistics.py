@@ -61,13 +61,14 @@ def _polish(
     """(value, u, v) of the largest ``sign`` * f found by a pattern search from (u, v), within
     ``step`` (du, dv) of it and inside the patch's domain."""
     (u0, u1), (v0, v1) = patch.domain
-    offsets = np.linspace(-1.0, 1.0, 5)
+    steps = np.linspace(-1.0, 1.0, 5)
+    across, along = np.meshgrid(steps, steps, indexing="ij")
     best_u, best_v = u, v
     best = float(_exact(patch, fn, params, np.array([u]), np.array([v]))[0])
     du, dv = step
     for _ in range(POLISH_STEPS):
-        U = np.clip(best_u + du * offsets[:, None] + 0 * offsets[None, :], u0, u1).ravel()
-        V = np.clip(best_v + dv * offsets[None, :] + 0 * offsets[:, None], v0, v1).ravel()
+        U = np.clip(best_u + du * across, u0, u1).ravel()
+        V = np.clip(best_v + dv * along, v0, v1).ravel()
         f = _exact(patch, fn, params, U, V)
         if np.isfinite(f).any():
             k = int(np.nanargmax(sign * f))
@@ -106,14 +107,13 @@ def surface_statistics(
     valid &= index >= 0
     if not valid.any():
         return None
-    texel_patch = index[valid]
+    texel_patch, values, at = index[valid], f[valid], np.flatnonzero(valid)
     domains = np.array([p.domain for p in patches], dtype=np.float64)
     u, v = unit_to_domain(domains, s[valid], t[valid], texel_patch)
     stats = value_statistics(
-        f[valid], texel_patch, u, v, tex.position[valid], texel_areas(tex, valid)
+        values, texel_patch, u, v, tex.position[valid], texel_areas(tex, valid)
     )
     assert stats is not None
-    at = np.flatnonzero(valid)
 
     def polished(e: Extreme, sign: float) -> Extreme:
         patch = patches[e.patch]
@@ -125,7 +125,7 @@ def surface_statistics(
         # within a texel of a smooth extreme, f moves by at most about its change to the
         # next texels: a polished value beyond that ran into a singular point (a collapsed
         # edge's corner), and the grid's own value stands
-        row, col = np.unravel_index(at[int(np.argmax(sign * f[valid]))], valid.shape)
+        row, col = np.unravel_index(at[int(np.argmax(sign * values))], valid.shape)
         window = (slice(max(row - 1, 0), row + 2), slice(max(col - 1, 0), col + 2))
         near = valid[window] & (index[window] == e.patch)
         reach = 2.0 * float(np.abs(f[window][near] - f[row, col]).max(initial=0.0))

@@ -224,22 +224,16 @@ def legend(shape: Shape, style: DisplayStyle, length: str = "length") -> Legend:
     units in terms of ``length``, the scene's length unit (e.g. ``"mm"``: 1/mm), where one
     is known."""
     units = _units(style.mapped, shape.params_for(style.mapped)).replace("length", length)
-    if style.bands is not None:
-        return Legend(
-            function=shape.function,
-            order=get_shape_function(shape.function).order,
-            display=shape.display,
-            bands=band_text(style.bands, units),
-            units=units,
-        )
+    striped = shape.display in ("stripes", "both")
     return Legend(
         function=shape.function,
         order=get_shape_function(shape.function).order,
         display=shape.display,
-        value_range=None if shape.display == "stripes" else style.value_range,
+        value_range=style.value_range if shape.display in ("colormap", "both") else None,
         colormap=style.colormap,
-        period=None if shape.display == "colormap" else float(style.period),
-        duty=None if shape.display == "colormap" else shape.duty,
+        period=float(style.period) if striped else None,
+        duty=shape.duty if striped else None,
         stripe_function=shape.function if shape.display == "both" else None,
         units=units,
+        bands=None if style.bands is None else band_text(style.bands, units),
     )
