@@ -143,6 +143,13 @@ def _add_render(sub: argparse._SubParsersAction) -> None:
         "hyperbolic) as sharp lines over any display (scene key render.parabolic)",
     )
     render.add_argument(
+        "--combs",
+        action="store_true",
+        default=None,
+        help="draw curvature combs along the patch boundaries, B-rep edges and knot lines, "
+        "inflections ringed (scene keys render.combs, comb_curvature, comb_lines, comb_scale)",
+    )
+    render.add_argument(
         "--aovs",
         metavar="NAMES",
         help="extra EXR channels: shape functions' exact values at the pixel centres, "

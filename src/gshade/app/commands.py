@@ -46,7 +46,7 @@ def _scene_overrides(args: argparse.Namespace) -> dict:
     from ..scene import parse_overrides
 
     overrides = parse_overrides(args.set)
-    for key in ("width", "height", "spp", "variant", "junctions", "parabolic"):
+    for key in ("width", "height", "spp", "variant", "junctions", "parabolic", "combs"):
         value = getattr(args, key, None)
         if value is not None:
             overrides[f"render.{key}"] = value
@@ -100,6 +100,8 @@ def render(args: argparse.Namespace) -> int:
             "legend": image.metadata["legend"],
             **json.loads(image.metadata["statistics"]),
         }
+        if "combs" in image.metadata:
+            listed["combs"] = json.loads(image.metadata["combs"])
         print(json.dumps(listed, indent=2, allow_nan=False))
         return 0
     say(

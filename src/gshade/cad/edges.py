@@ -29,7 +29,7 @@ from ..errors import GshadeError
 from .model import CadModel
 from .process import kernel_operation
 
-__all__ = ["CadEdge", "edges_to_left_out", "shared_edges"]
+__all__ = ["CadEdge", "edge_derivatives", "edge_ranges", "edges_to_left_out", "shared_edges"]
 
 
 @dataclass
@@ -221,3 +221,59 @@ def _pcurve_points(
     left = 0.0 if sense is None or int(sense) > 1 or turn > 1 else 1.0 - 2.0 * (int(sense) ^ turn)
     out[:, 2:] *= left
     return out[:, :2], out[:, 2:]
+
+
+@kernel_operation("finding its edges' curves")
+def edge_ranges(model: CadModel, faces: list[int]) -> list[tuple[int, int, float, float]]:
+    """Each edge of the model that bounds one of ``faces`` other than as a seam (no pole):
+    (edge number, face, t0, t1), the face the first of ``faces`` among those it bounds and
+    [t0, t1] the edge's parameter range (as :func:`shared_edges` numbers them)."""
+    if model.brep is None:
+        raise GshadeError(f"{model.path}: the model has no kernel shape to find edges in")
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+
+    wanted = set(faces)
+    out = []
+    for e, edge, sharing in _edge_faces(model):
+        mine = sorted(f for f, *_ in sharing if f in wanted)
+        if mine:
+            curve = BRepAdaptor_Curve(edge)
+            out.append((e, mine[0], float(curve.FirstParameter()), float(curve.LastParameter())))
+    return out
+
+
+@kernel_operation("evaluating its edges' curves")
+def edge_derivatives(
+    model: CadModel, requests: list[tuple[int, int, NDArray[np.float64]]]
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The exact derivatives of edges: for each request (edge number, face, parameters t
+    (n,)), an array (3, n, 3) of the edge's points c(t), c'(t) and c''(t) (its 3D curve,
+    placed), and its pcurve's points on the face (n, 2), in the face's patch's parameters
+    (:meth:`gshade.cad.CadFace.to_patch`)."""
+    if model.brep is None:
+        raise GshadeError(f"{model.path}: the model has no kernel shape to find edges in")
+    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
+    from OCP.gp import gp_Pnt, gp_Vec
+
+    found = {
+        e: (edge, {f: face for f, face, _ in sharing}) for e, edge, sharing in _edge_faces(model)
+    }
+    usable = {face.index: face for face in model.faces}
+    out = []
+    p, d1, d2 = gp_Pnt(), gp_Vec(), gp_Vec()
+    for e, f, t in requests:
+        edge, on = found[e]
+        curve, pcurve = BRepAdaptor_Curve(edge), BRepAdaptor_Curve2d(edge, on[f])
+        derivatives = np.empty((3, len(t), 3))
+        uv = np.empty((len(t), 2))
+        for k, x in enumerate(np.asarray(t, dtype=np.float64).tolist()):
+            curve.D2(x, p, d1, d2)
+            derivatives[:, k] = (
+                (p.X(), p.Y(), p.Z()),
+                (d1.X(), d1.Y(), d1.Z()),
+                (d2.X(), d2.Y(), d2.Z()),
+            )
+            q = pcurve.Value(x)
+            uv[k] = q.X(), q.Y()
+        out.append((derivatives, usable[f].to_patch(uv)))
+    return out

@@ -465,9 +465,15 @@ class Legend:
     clamped_above: int = 0
     units: str = ""
     bands: str | None = None  # display = 'bands': the bands in words
+    #: what else the picture shows or the render found, a phrase each (the combs' scale,
+    #: the smallest radius)
+    notes: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
-        return {k: v for k, v in asdict(self).items() if v is not None}
+        out = {k: v for k, v in asdict(self).items() if v is not None and k != "notes"}
+        if self.notes:
+            out["notes"] = list(self.notes)
+        return out
 
     def text(self) -> str:
         """One line for a caption, e.g. 'mean (order 2), coolwarm on [-1.2, 1.2] 1/length'."""
@@ -480,4 +486,4 @@ class Legend:
             parts.append(f"stripes{of} every {self.period:.4g}")
         if self.display == "bands" and self.bands is not None:
             parts.append(f"bands: {self.bands}")
-        return ", ".join(parts)
+        return "; ".join([", ".join(parts), *self.notes])

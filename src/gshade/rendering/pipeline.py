@@ -149,12 +149,26 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
         domains = [p.domain for p in scene.patches]
         channels = draw_junctions(channels, junctions, domains, edges=edges)
         lap("junctions")
+    combs = None
+    if settings.combs:
+        from .comb_overlay import comb_overlay
+
+        try:
+            channels, combs = comb_overlay(scene, settings, view, channels)
+        except GshadeError as exc:
+            raise GshadeError(f"{where}: {exc}") from None
+        combs = _renumbered(scene, combs)
+        lap("combs")
     channels["patch"] = _patch_channel(scene, channels["patch"])
-    shown = legend(scene.shape, style, _length_unit(scene))
-    metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
-    metadata["statistics"] = json.dumps(
-        _statistics(scene, visible_statistics(channels), surface), allow_nan=False
+    numbers = _statistics(scene, visible_statistics(channels), surface)
+    shown = replace(
+        legend(scene.shape, style, _length_unit(scene)),
+        notes=_legend_notes(numbers, combs, _length_unit(scene)),
     )
+    metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
+    metadata["statistics"] = json.dumps(numbers, allow_nan=False)
+    if combs is not None:
+        metadata["combs"] = json.dumps(combs, allow_nan=False)
     lap("statistics")
     if junctions is not None:
         from ..analysis.junction_lines import junction_metadata
@@ -333,6 +347,40 @@ def _statistics(
     if scene.shape.function == "min_radius" and surface is not None:
         out["min_radius"] = min_radius_summary(surface)
     return out
+
+
+def _renumbered(scene: Scene, summary: dict[str, Any]) -> dict[str, Any]:
+    """A comb summary with its ``patch`` numbers as the ``patch`` channel gives them."""
+    numbers = _numbers(scene)
+    if numbers is None:
+        return summary
+    for place in [summary["max"], *summary["inflections"]]:
+        if place is not None:
+            place["patch"] = int(numbers[place["patch"]])
+    return summary
+
+
+def _legend_notes(
+    numbers: dict[str, Any], combs: dict[str, Any] | None, length: str
+) -> tuple[str, ...]:
+    """The legend's notes: the smallest radius (a ``min_radius`` render) with where it is,
+    and the combs' scale."""
+    from .comb_overlay import comb_note
+
+    notes = []
+    radius = numbers.get("min_radius")
+    if radius is not None:
+        if radius["value"] is None:
+            notes.append("smallest radius: none (flat)")
+        else:
+            x, y, z = radius["point"]
+            notes.append(
+                f"smallest radius {radius['value']:.4g} {length} ({radius['side']}, "
+                f"{numbers['patch_label']} {radius['patch']} at ({x:.4g}, {y:.4g}, {z:.4g}))"
+            )
+    if combs is not None:
+        notes.append(comb_note(combs, length))
+    return tuple(notes)
 
 
 def _patch_channel(scene: Scene, patch: NDArray[np.float32]) -> NDArray[np.float32]:

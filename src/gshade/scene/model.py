@@ -173,6 +173,11 @@ class RenderSettings:
     aovs: tuple[str, ...] = ()
     sampling: str = "edges"
     parabolic: bool = False
+    combs: bool = False
+    comb_curvature: str = "space"
+    comb_lines: tuple[str, ...] = ("edges", "knots")
+    #: spine length per unit of curvature (length²); None: automatic
+    comb_scale: float | None = None
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ import math
 from dataclasses import asdict
 from typing import Any
 
+from ..analysis.curvature_combs import COMB_CURVATURES, COMB_LINES
 from ..display import validate_colormap, validate_range
 from ..errors import GshadeError, one_of, show, suggest
 from ..limits import (
@@ -117,6 +118,31 @@ RENDER_KEYS = declare_keys(
     ),
     Key("junctions", "true | false", False, "draw the junctions coloured by continuity class"),
     Key("parabolic", "true | false", False, "draw the parabolic lines (K = 0) over the picture"),
+    Key(
+        "combs",
+        "true | false",
+        False,
+        "draw curvature combs (porcupines) along the edges and knot lines, with inflections",
+    ),
+    Key(
+        "comb_curvature",
+        alternatives(COMB_CURVATURES),
+        "space",
+        "the combs' curvature: the curve's (space), its normal or its geodesic part",
+    ),
+    Key(
+        "comb_lines",
+        f"list of {', '.join(COMB_LINES)}",
+        COMB_LINES,
+        "the curves with combs: patch boundaries and B-rep edges, knot lines",
+    ),
+    Key(
+        "comb_scale",
+        "number > 0",
+        None,
+        "spine length per unit of curvature (length²)",
+        "automatic (the median's spine 5 % of the diagonal)",
+    ),
     Key(
         "aovs",
         "list of shape function names",
@@ -280,7 +306,24 @@ def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
         junctions=t.boolean("junctions"),
         aovs=_aovs(t),
         parabolic=t.boolean("parabolic"),
+        combs=t.boolean("combs"),
+        comb_curvature=t.choice("comb_curvature", COMB_CURVATURES),
+        comb_lines=_comb_lines(t),
+        comb_scale=t.number("comb_scale", lo=0),
     )
+
+
+def _comb_lines(t: Table) -> tuple[str, ...]:
+    """``render.comb_lines``: a list of distinct names of COMB_LINES."""
+    names = t.raw("comb_lines")
+    expected = f"a list of {one_of(COMB_LINES)}, each once"
+    if (
+        not isinstance(names, (list, tuple))
+        or not all(isinstance(n, str) and n in COMB_LINES for n in names)
+        or len(set(names)) != len(names)
+    ):
+        raise t.error("comb_lines", f"expected {expected}, got {show(names)}")
+    return tuple(names)
 
 
 def _aovs(t: Table) -> tuple[str, ...]:
