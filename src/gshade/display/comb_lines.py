@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from ..analysis.curvature_combs import Comb
     from ..rendering.camera import View
 
-__all__ = ["COMB_COLOUR", "INFLECTION_COLOUR", "draw_combs", "in_sight"]
+__all__ = ["COMB_COLOUR", "INFLECTION_COLOUR", "draw_combs", "draw_rings", "in_sight"]
 
 #: Linear RGB of the spines and envelopes (a deep teal, apart from the junction and
 #: parabolic-line colours) and of the inflection rings (white, with a dark outline).
@@ -173,9 +173,23 @@ def draw_combs(
         both = seen[:-1] & seen[1:]
         envelopes.extend(np.stack([tip[:-1][both], tip[1:][both]], 1))
     rings = _image_points(rings_at, view)[seen_all[start:]]
-    shape = channels["patch"].shape
     lines = [(spines, SPINE_WIDTH), (envelopes, ENVELOPE_WIDTH)]
-    strokes, fills = _coverage(shape, lines, rings)
+    return _laid_over(channels, *_coverage(channels["patch"].shape, lines, rings))
+
+
+def draw_rings(
+    channels: dict[str, NDArray[np.float32]], points: NDArray, view: View
+) -> dict[str, NDArray[np.float32]]:
+    """Channels with a ring (as an inflection's) drawn at each point (n, 3) in sight."""
+    rings = _image_points(points, view)[in_sight(points, channels, view)]
+    return _laid_over(channels, *_coverage(channels["patch"].shape, [], rings))
+
+
+def _laid_over(
+    channels: dict[str, NDArray[np.float32]], strokes: NDArray, fills: NDArray
+) -> dict[str, NDArray[np.float32]]:
+    """The strokes (:data:`COMB_COLOUR`) and then the fills (:data:`INFLECTION_COLOUR`)
+    laid over R, G, B and A."""
     out = dict(channels)
     rgb = np.stack([channels[c] for c in "RGB"], -1).astype(np.float64)
     alpha = channels["A"].astype(np.float64)

@@ -159,11 +159,23 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
             raise GshadeError(f"{where}: {exc}") from None
         combs = _renumbered(scene, combs)
         lap("combs")
+    umbilics = None
+    if settings.parabolic or functions[0][0].order >= 2:
+        from ..analysis.umbilics import scene_umbilics
+
+        umbilics = scene_umbilics(scene)
+        if settings.parabolic and umbilics[0]:
+            from ..display.comb_lines import draw_rings
+
+            channels = draw_rings(channels, np.array([u.point for u in umbilics[0]]), view)
+        lap("umbilics")
     channels["patch"] = _patch_channel(scene, channels["patch"])
     numbers = _statistics(scene, visible_statistics(channels), surface)
+    if umbilics is not None:
+        numbers.update(_umbilic_numbers(scene, *umbilics))
     shown = replace(
         legend(scene.shape, style, _length_unit(scene)),
-        notes=_legend_notes(numbers, combs, _length_unit(scene)),
+        notes=_legend_notes(numbers, combs, _length_unit(scene), settings.parabolic),
     )
     metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
     metadata["statistics"] = json.dumps(numbers, allow_nan=False)
@@ -360,11 +372,25 @@ def _renumbered(scene: Scene, summary: dict[str, Any]) -> dict[str, Any]:
     return summary
 
 
+def _umbilic_numbers(scene: Scene, found: list, everywhere: list[int]) -> dict[str, Any]:
+    """The umbilics for the header and ``--json``: the isolated points (their ``face`` and
+    ``patch`` numbers as the ``patch`` channel gives them) and the patches umbilic all
+    over (planes, spheres)."""
+    numbers = _numbers(scene)
+    label = (lambda k: k) if numbers is None else (lambda k: int(numbers[k]))
+    points = []
+    for u in found:
+        entry = u.as_dict()
+        entry["face"] = entry["patch"] = label(u.patch)
+        points.append(entry)
+    return {"umbilics": points, "umbilic_patches": [label(k) for k in everywhere]}
+
+
 def _legend_notes(
-    numbers: dict[str, Any], combs: dict[str, Any] | None, length: str
+    numbers: dict[str, Any], combs: dict[str, Any] | None, length: str, parabolic: bool
 ) -> tuple[str, ...]:
     """The legend's notes: the smallest radius (a ``min_radius`` render) with where it is,
-    and the combs' scale."""
+    the umbilics ringed with the parabolic lines, and the combs' scale."""
     from .comb_overlay import comb_note
 
     notes = []
@@ -378,6 +404,9 @@ def _legend_notes(
                 f"smallest radius {radius['value']:.4g} {length} ({radius['side']}, "
                 f"{numbers['patch_label']} {radius['patch']} at ({x:.4g}, {y:.4g}, {z:.4g}))"
             )
+    if parabolic:
+        n = len(numbers.get("umbilics", []))
+        notes.append(f"parabolic lines in magenta, {n} umbilic{'' if n == 1 else 's'} ringed")
     if combs is not None:
         notes.append(comb_note(combs, length))
     return tuple(notes)

@@ -1,0 +1,179 @@
+"""Umbilic points: where the principal curvatures are equal, k1 = k2, found as points.
+
+In an orthonormal frame (e1, e2) of the tangent plane the shape operator is the symmetric
+matrix W = [[w11, w12], [w12, w22]], w_ij = II(e_i, e_j) (do Carmo §3-2; Kiciak ch. 6), and
+
+    ((k1 - k2) / 2)^2 = ((w11 - w22) / 2)^2 + w12^2,
+
+so a point is umbilic exactly where F = (w11 - w22, 2 w12) = 0: two equations in (u, v),
+isolated points on a generic surface.  Each patch is searched on a grid for the local minima
+of |F|^2 / |W|^2 (the relative anisotropy), and from each Newton's method on F (the exact
+second derivatives; its Jacobian by central differences) finds the point to round-off.  A
+patch umbilic all over (a plane, a sphere) has no isolated umbilics and is reported apart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry import Patch, regularised_derivatives
+
+__all__ = ["Umbilic", "scene_umbilics", "umbilic_field", "umbilics"]
+
+#: Grid points a patch side is searched at; a grid minimum below CANDIDATE anisotropy is
+#: refined; a patch with more than UMBILIC_SHARE of its grid within ALL_OVER is umbilic all
+#: over (its points are not isolated)
+GRID, CANDIDATE, UMBILIC_SHARE, ALL_OVER = 25, 0.2, 0.25, 1e-8
+#: Newton's iterations, and |F| / |W| at which a point is umbilic
+NEWTON_STEPS, CONVERGED = 40, 1e-9
+
+
+@dataclass(frozen=True)
+class Umbilic:
+    """An umbilic point: the patch, its (u, v), the 3D point and the curvature k1 = k2."""
+
+    patch: int
+    u: float
+    v: float
+    point: tuple[float, float, float]
+    curvature: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "point": list(self.point),
+            "face": self.patch,
+            "patch": self.patch,
+            "u": self.u,
+            "v": self.v,
+            "curvature": self.curvature,
+        }
+
+
+def umbilic_field(patch: Patch, u: NDArray, v: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """F (n, 2) = (w11 - w22, 2 w12), |W| (n,) and the mean curvature (n,) at (u, v), the
+    shape operator in the frame e1 = p_u / |p_u|, e2 = N x e1, N = p_u x p_v / |...|."""
+    d = regularised_derivatives(patch, u, v, 2).d
+    pu, pv = d[1, 0], d[0, 1]
+    cross = np.cross(pu, pv)
+    W = np.linalg.norm(cross, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = cross / W[:, None]
+        E, F = np.sum(pu * pu, -1), np.sum(pu * pv, -1)
+        L, M, N = (np.sum(x * n, -1) for x in (d[2, 0], d[1, 1], d[0, 2]))
+        root = np.sqrt(E)
+        a = 1.0 / root  # e1 = (a, 0) in (du, dv)
+        s, t = -F / (root * W), root / W  # e2 = (s, t)
+        w11 = L * a * a
+        w12 = a * (L * s + M * t)
+        w22 = L * s * s + 2 * M * s * t + N * t * t
+    field = np.stack([w11 - w22, 2.0 * w12], -1)
+    size = np.sqrt(w11**2 + 2 * w12**2 + w22**2)
+    return field, size, 0.5 * (w11 + w22)
+
+
+def _newton(patch: Patch, u: float, v: float) -> tuple[float, float] | None:
+    """The root of F near (u, v) inside the patch's domain, or None."""
+    (u0, u1), (v0, v1) = patch.domain
+    hu, hv = 1e-6 * (u1 - u0), 1e-6 * (v1 - v0)
+    for _ in range(NEWTON_STEPS):
+        U = np.clip([u, u + hu, u - hu, u, u], u0, u1)
+        V = np.clip([v, v, v, v + hv, v - hv], v0, v1)
+        field, size, _ = umbilic_field(patch, U, V)
+        if not np.isfinite(field).all():
+            return None
+        if np.linalg.norm(field[0]) <= CONVERGED * max(size[0], 1e-300):
+            return u, v
+        J = np.stack(
+            [(field[1] - field[2]) / (U[1] - U[2]), (field[3] - field[4]) / (V[3] - V[4])], -1
+        )
+        try:
+            du, dv = np.linalg.solve(J, -field[0])
+        except np.linalg.LinAlgError:
+            return None
+        u, v = u + du, v + dv
+        if not (u0 - hu <= u <= u1 + hu and v0 - hv <= v <= v1 + hv):
+            return None
+        u, v = min(max(u, u0), u1), min(max(v, v0), v1)
+    return None
+
+
+def umbilics(
+    patches: Sequence[Patch],
+    inside: Callable[[int, NDArray], NDArray] | None = None,
+    tolerance: float = 1e-7,
+) -> tuple[list[Umbilic], list[int]]:
+    """The isolated umbilic points of ``patches`` (each once: points within ``tolerance``
+    of one found are the same), and the patches umbilic all over.  ``inside(k, uv)``: which
+    of patch k's parameters (n, 2) lie on the surface (a trimmed face's region).
+
+    Examples
+    --------
+    A sphere is umbilic all over: no isolated points.
+
+    >>> from gshade.geometry.patches.revolution import sphere
+    >>> umbilics([sphere(2.0)])
+    ([], [0])
+    """
+    found: list[Umbilic] = []
+    everywhere: list[int] = []
+    for k, patch in enumerate(patches):
+        (u0, u1), (v0, v1) = patch.domain
+        uu, vv = np.meshgrid(np.linspace(u0, u1, GRID), np.linspace(v0, v1, GRID), indexing="ij")
+        u, v = uu.ravel(), vv.ravel()
+        field, size, _ = umbilic_field(patch, u, v)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.linalg.norm(field, axis=-1) / size
+        flat = ~(size > 0)
+        if np.mean(flat | (ratio < ALL_OVER)) > UMBILIC_SHARE:
+            everywhere.append(k)
+            continue
+        ratio = np.where(np.isfinite(ratio), ratio, np.inf).reshape(GRID, GRID)
+        padded = np.pad(ratio, 1, constant_values=np.inf)
+        windows = np.lib.stride_tricks.sliding_window_view(padded, (3, 3))
+        minima = (ratio <= windows.min(axis=(-1, -2))) & (ratio < CANDIDATE)
+        for i, j in zip(*np.nonzero(minima), strict=True):
+            root = _newton(patch, float(uu[i, j]), float(vv[i, j]))
+            if root is None:
+                continue
+            ru, rv = min(max(root[0], u0), u1), min(max(root[1], v0), v1)
+            if inside is not None and not inside(k, np.array([[ru, rv]]))[0]:
+                continue
+            point = np.ravel(patch(np.array([ru]), np.array([rv])))
+            if any(np.linalg.norm(point - np.array(f.point)) <= tolerance for f in found):
+                continue
+            curvature = float(umbilic_field(patch, np.array([ru]), np.array([rv]))[2][0])
+            found.append(
+                Umbilic(k, ru, rv, (float(point[0]), float(point[1]), float(point[2])), curvature)
+            )
+    return found, everywhere
+
+
+def scene_umbilics(scene: Any) -> tuple[list[Umbilic], list[int]]:
+    """The umbilics of a scene's patches (numbered as the scene numbers them), those of a
+    CAD face inside its trimming loops only."""
+    from ..scene.bodies import CadFaces
+    from .knot_lines import _inside_loops
+
+    faces: dict[int, tuple[CadFaces, int]] = {}
+    start = 0
+    for surface in scene.surfaces:
+        if isinstance(surface.body, CadFaces):
+            for k in range(len(surface.patches)):
+                faces[start + k] = (surface.body, k)
+        start += len(surface.patches)
+
+    def inside(k: int, uv: NDArray) -> NDArray:
+        if k not in faces:
+            return np.ones(len(uv), bool)
+        cad, place = faces[k]
+        face = cad.model.face(cad.faces[place])
+        if not face.trimmed or not face.loops:
+            return np.ones(len(uv), bool)
+        return _inside_loops(face.loops, cad.patch_uv(place, uv))
+
+    return umbilics(scene.patches, inside)
