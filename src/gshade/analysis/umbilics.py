@@ -28,7 +28,9 @@ __all__ = ["Umbilic", "scene_umbilics", "umbilic_field", "umbilics"]
 #: Grid points a patch side is searched at; a grid minimum below CANDIDATE anisotropy is
 #: refined; a patch with more than UMBILIC_SHARE of its grid within ALL_OVER is umbilic all
 #: over (its points are not isolated)
-GRID, CANDIDATE, UMBILIC_SHARE, ALL_OVER = 25, 0.2, 0.25, 1e-8
+GRID, CANDIDATE, UMBILIC_SHARE, ALL_OVER = 33, 0.5, 0.25, 1e-8
+#: Umbilics closer than this (relative to the scene's diagonal) are one (on a shared side)
+SAME_POINT = 1e-6
 #: Newton's iterations, and |F| / |W| at which a point is umbilic
 NEWTON_STEPS, CONVERGED = 40, 1e-9
 
@@ -155,7 +157,8 @@ def umbilics(
 
 def scene_umbilics(scene: Any) -> tuple[list[Umbilic], list[int]]:
     """The umbilics of a scene's patches (numbered as the scene numbers them), those of a
-    CAD face inside its trimming loops only."""
+    CAD face inside its trimming loops only; points within :data:`SAME_POINT` of the
+    scene's diagonal are one."""
     from ..scene.bodies import CadFaces
     from .knot_lines import _inside_loops
 
@@ -176,4 +179,6 @@ def scene_umbilics(scene: Any) -> tuple[list[Umbilic], list[int]]:
             return np.ones(len(uv), bool)
         return _inside_loops(face.loops, cad.patch_uv(place, uv))
 
-    return umbilics(scene.patches, inside)
+    from .scene_junctions import scene_diagonal
+
+    return umbilics(scene.patches, inside, SAME_POINT * scene_diagonal(scene))

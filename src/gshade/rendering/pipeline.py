@@ -160,11 +160,11 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
         combs = _renumbered(scene, combs)
         lap("combs")
     umbilics = None
-    if settings.parabolic or functions[0][0].order >= 2:
+    if settings.parabolic:  # the order-2 overlay: parabolic lines and umbilics
         from ..analysis.umbilics import scene_umbilics
 
         umbilics = scene_umbilics(scene)
-        if settings.parabolic and umbilics[0]:
+        if umbilics[0]:
             from ..display.comb_lines import draw_rings
 
             channels = draw_rings(channels, np.array([u.point for u in umbilics[0]]), view)
