@@ -146,7 +146,7 @@ def _add_render(sub: argparse._SubParsersAction) -> None:
         "--combs",
         action="store_true",
         default=None,
-        help="draw curvature combs along the patch boundaries, B-rep edges and knot lines, "
+        help="draw curvature combs along the patch boundaries and B-rep edges (and knot lines), "
         "inflections ringed (scene keys render.combs, comb_curvature, comb_lines, comb_scale)",
     )
     render.add_argument(

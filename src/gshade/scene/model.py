@@ -175,7 +175,7 @@ class RenderSettings:
     parabolic: bool = False
     combs: bool = False
     comb_curvature: str = "space"
-    comb_lines: tuple[str, ...] = ("edges", "knots")
+    comb_lines: tuple[str, ...] = ("edges",)
     #: spine length per unit of curvature (length²); None: automatic
     comb_scale: float | None = None
 

@@ -133,7 +133,7 @@ RENDER_KEYS = declare_keys(
     Key(
         "comb_lines",
         f"list of {', '.join(COMB_LINES)}",
-        COMB_LINES,
+        ("edges",),
         "the curves with combs: patch boundaries and B-rep edges, knot lines",
     ),
     Key(
