@@ -124,6 +124,12 @@ def _add_render(sub: argparse._SubParsersAction) -> None:
     render.add_argument("scene", help=SCENE_HELP)
     render.add_argument("-o", "--output", help="EXR file (default: <scene name>.exr here)")
     render.add_argument("--png", help="also write this PNG (sRGB)")
+    render.add_argument(
+        "--legend",
+        action="store_true",
+        help="draw the legend under the PNG: the colour bar with its unit, the function, the "
+        "stripe period or the bands, the notes",
+    )
     render.add_argument("--width", type=int, help="image width in pixels")
     render.add_argument("--height", type=int, help="image height in pixels")
     render.add_argument("--spp", type=int, help="samples per pixel")

@@ -65,6 +65,8 @@ def render(args: argparse.Namespace) -> int:
     from ..rendering import render as render_scene
     from ..scene import load_scene
 
+    if args.legend and not args.png:
+        raise GshadeError("--legend: draws the legend under the PNG; expected --png too")
     scene = load_scene(args.scene, _scene_overrides(args), strict=args.strict)
     output = Path(args.output) if args.output else output_file(".", scene.name, ".exr")
     html = args.html
@@ -79,7 +81,7 @@ def render(args: argparse.Namespace) -> int:
         image = render_scene(scene)
         writers = [partial(image.exr_writer, output)]
         if args.png:
-            writers.append(partial(image.png_writer, args.png))
+            writers.append(partial(image.png_writer, args.png, legend=args.legend))
         if html:  # the page of the EXR's channels and header, as `gshade view` makes it
             from ..display.html_view import view_writer
 

@@ -83,12 +83,18 @@ class RenderedImage:
         names = [*CHANNELS, *(k for k in self.channels if k not in CHANNELS)]  # f2, aovs
         return exr_writer(path, {k: self.channels[k] for k in names}, header=self.metadata)
 
-    def png_writer(self, path: str | os.PathLike) -> Callable[[str], None]:
+    def png_writer(self, path: str | os.PathLike, legend: bool = False) -> Callable[[str], None]:
         """The picture as an sRGB PNG with alpha, as a function writing it to a file name
-        given later."""
+        given later; with ``legend``, its legend's strip below it
+        (:func:`gshade.display.legend_strip.with_legend`)."""
         from ..io.image import png_writer
 
-        return png_writer(path, self.straight_rgb, self.alpha)
+        rgb, alpha = self.straight_rgb, self.alpha
+        if legend:
+            from ..display.legend_strip import with_legend
+
+            rgb, alpha = with_legend(rgb, alpha, self.legend)
+        return png_writer(path, rgb, alpha)
 
     def write_exr(self, path: str | os.PathLike) -> None:
         """Write all channels (float32) and the metadata, atomically."""
