@@ -90,7 +90,7 @@ class RenderedImage:
         from ..io.image import png_writer
 
         rgb, alpha = self.straight_rgb, self.alpha
-        if legend:
+        if legend and self.legend is not None:
             from ..display.legend_strip import with_legend
 
             rgb, alpha = with_legend(rgb, alpha, self.legend)
