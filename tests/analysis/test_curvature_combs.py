@@ -14,10 +14,10 @@ import pytest
 from gshade.analysis.curvature_combs import combs, iso_line_family
 from gshade.analysis.scene_combs import scene_combs
 from gshade.app.cli import main
-from gshade.display.comb_lines import in_sight
 from gshade.geometry import BezierPatch
 from gshade.rendering import render
 from gshade.rendering.camera import View
+from gshade.rendering.comb_lines import in_sight
 from gshade.scene import load_scene
 
 R, HEIGHT = 3.0, 5.0

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from ..geometry import Patch, regularised_derivatives
 from ..geometry.core.differential import unit_normal
+from ..scene.model import COMB_CURVATURES, COMB_LINES
 
 __all__ = [
     "COMB_CURVATURES",
@@ -42,10 +43,6 @@ __all__ = [
     "iso_line_family",
 ]
 
-#: Which part of a curve's curvature vector a comb shows.
-COMB_CURVATURES = ("space", "normal", "geodesic")
-#: The curves combs run along: patch boundaries and B-rep edges, and knot lines.
-COMB_LINES = ("edges", "knots")
 #: Points a curve is probed at to choose its number of samples.
 PROBES = 9
 #: Bisection steps refining an inflection (its parameter to 2^-steps of a sample's spacing).

@@ -43,6 +43,8 @@ __all__ = [
     "KNOT_LINE_KINDS",
     "KnotLine",
     "cad_knot_lines",
+    "clipped_box",
+    "inside_loops",
     "interior_knots",
     "knot_line_measures",
     "one_sided_pieces",
@@ -261,7 +263,7 @@ def patch_knot_lines(
     return out
 
 
-def _inside_loops(loops: list[NDArray], uv: NDArray) -> NDArray[np.bool_]:
+def inside_loops(loops: list[NDArray], uv: NDArray) -> NDArray[np.bool_]:
     """Whether each point (n, 2) lies in the trimmed region: inside an odd number of the
     face's loops (the outer loop and its holes; as :func:`gshade.cad.trimmed_points`)."""
     from matplotlib.path import Path as Polygon
@@ -285,7 +287,7 @@ def trimmed_along(
     middle = _spread(lo, hi, cells)
     fixed = np.full(cells, knot)
     uv = np.stack([fixed, middle] if direction == "u" else [middle, fixed], axis=-1)
-    kept = np.flatnonzero(_inside_loops(face.loops, uv))
+    kept = np.flatnonzero(inside_loops(face.loops, uv))
     if len(kept) == 0:
         return None
     position = (np.arange(samples) + 0.5) / samples * len(kept)  # in kept cells' lengths
@@ -294,7 +296,7 @@ def trimmed_along(
     return lo + (kept[cell] + (position - cell)) * width
 
 
-def _clipped(
+def clipped_box(
     box: tuple[tuple[float, float], tuple[float, float]],
     dom: tuple[tuple[float, float], tuple[float, float]],
 ) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -327,7 +329,7 @@ def cad_knot_lines(
         patch = face.patch
         if face.kind not in KNOT_LINE_KINDS or not isinstance(patch, BSplinePatch):
             continue
-        box = _clipped(face.box, patch.domain)  # as the scene's patch of the face
+        box = clipped_box(face.box, patch.domain)  # as the scene's patch of the face
         found = []
         for axis, direction in enumerate("uv"):
             (lo, hi), (a, b) = box[axis], box[1 - axis]

@@ -17,7 +17,7 @@ from ..geometry import Patch
 from ..geometry.patches.bspline import BSplinePatch
 from ..scene.bodies import CadFaces, PatchBody
 from .curvature_combs import Comb, CurveFamily, CurveSamples, combs, iso_line_family
-from .knot_lines import KNOT_LINE_KINDS, _clipped, _inside_loops, interior_knots
+from .knot_lines import KNOT_LINE_KINDS, clipped_box, inside_loops, interior_knots
 
 if TYPE_CHECKING:
     from ..scene.model import Scene
@@ -127,14 +127,14 @@ def _face_knot_family(cad: CadFaces, start: int, patches: Sequence[Patch]) -> Cu
         patch = face.patch
         if face.kind not in KNOT_LINE_KINDS or not isinstance(patch, BSplinePatch):
             continue
-        box = _clipped(face.box, patch.domain)
+        box = clipped_box(face.box, patch.domain)
         for axis, direction in enumerate("uv"):
             (lo, hi), (a, b) = box[axis], box[1 - axis]
             for knot, _ in interior_knots(patch.knots[axis], patch.degree[axis], lo, hi):
                 t = np.linspace(a, b, TRIM_PROBES)
                 fixed = np.full(TRIM_PROBES, knot)
                 uv = np.stack([fixed, t] if direction == "u" else [t, fixed], -1)
-                inside = _inside_loops(face.loops, uv) if face.trimmed and face.loops else None
+                inside = inside_loops(face.loops, uv) if face.trimmed and face.loops else None
                 runs = [(a, b)] if inside is None else _runs(t, inside)
                 on = ("v" if direction == "u" else "u") if cad.swapped[k] else direction
                 for t0, t1 in runs:

@@ -160,7 +160,7 @@ def scene_umbilics(scene: Any) -> tuple[list[Umbilic], list[int]]:
     CAD face inside its trimming loops only; points within :data:`SAME_POINT` of the
     scene's diagonal are one."""
     from ..scene.bodies import CadFaces
-    from .knot_lines import _inside_loops
+    from .knot_lines import inside_loops
 
     faces: dict[int, tuple[CadFaces, int]] = {}
     start = 0
@@ -177,7 +177,7 @@ def scene_umbilics(scene: Any) -> tuple[list[Umbilic], list[int]]:
         face = cad.model.face(cad.faces[place])
         if not face.trimmed or not face.loops:
             return np.ones(len(uv), bool)
-        return _inside_loops(face.loops, cad.patch_uv(place, uv))
+        return inside_loops(face.loops, cad.patch_uv(place, uv))
 
     from .scene_junctions import scene_diagonal
 

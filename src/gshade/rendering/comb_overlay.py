@@ -1,6 +1,6 @@
 """The curvature combs of a render (``render.combs``): the scene's curves sampled every few
 pixels of their images (:mod:`gshade.analysis.scene_combs`), drawn over the picture in one
-scale (:mod:`gshade.display.comb_lines`), and their numbers for the header."""
+scale (:mod:`gshade.rendering.comb_lines`), and their numbers for the header."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from ..analysis.scene_combs import LONGEST_SPINE, comb_scale, comb_summary, scene_combs
 from ..analysis.scene_junctions import scene_diagonal
-from ..display.comb_lines import draw_combs
+from .comb_lines import draw_combs
 
 if TYPE_CHECKING:
     from ..scene.model import RenderSettings, Scene

@@ -165,7 +165,7 @@ def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
 
         umbilics = scene_umbilics(scene)
         if umbilics[0]:
-            from ..display.comb_lines import draw_rings
+            from .comb_lines import draw_rings
 
             channels = draw_rings(channels, np.array([u.point for u in umbilics[0]]), view)
         lap("umbilics")

@@ -156,6 +156,12 @@ class Camera:
             object.__setattr__(self, name, _floats(getattr(self, name)))
 
 
+#: Which part of a curve's curvature vector a comb shows.
+COMB_CURVATURES = ("space", "normal", "geodesic")
+#: The curves combs run along: patch boundaries and B-rep edges, and knot lines.
+COMB_LINES = ("edges", "knots")
+
+
 @dataclass(frozen=True)
 class RenderSettings:
     """The ``[render]`` table.  ``tessellation`` / ``texture_resolution`` None: automatic."""

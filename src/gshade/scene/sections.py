@@ -8,7 +8,6 @@ import math
 from dataclasses import asdict
 from typing import Any
 
-from ..analysis.curvature_combs import COMB_CURVATURES, COMB_LINES
 from ..display import validate_colormap, validate_range
 from ..errors import GshadeError, one_of, show, suggest
 from ..limits import (
@@ -22,6 +21,8 @@ from ..limits import (
 from ..shape import SHAPE_FUNCTIONS, function_bands, validate_parameter
 from .model import (
     CAMERA_TYPES,
+    COMB_CURVATURES,
+    COMB_LINES,
     DISPLAYS,
     LIGHTINGS,
     SAMPLINGS,

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from ..analysis.curvature_combs import Comb
-    from ..rendering.camera import View
+    from .camera import View
 
 __all__ = ["COMB_COLOUR", "INFLECTION_COLOUR", "draw_combs", "draw_rings", "in_sight"]
 
