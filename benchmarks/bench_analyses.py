@@ -1,5 +1,5 @@
 """The analyses against the render they stand beside: each new display (draft_angle and
-min_radius in bands, gaussian bands, the parabolic overlay) against the mean curvature's
+min_radius in bands, gaussian bands, the parabolic overlay, the combs) against the mean curvature's
 colour map of the same scene, and the share of a render the numbers take (issue 29: each
 new function no dearer than mean; the whole surface's numbers at most a tenth of a render).
 
@@ -31,7 +31,15 @@ CASES = [
         "teapot-mean.toml",
         {"shape.function": "mean", "shape.display": "colormap", "render.parabolic": True},
     ),
+    (
+        "teapot-mean.toml",
+        {"shape.function": "mean", "shape.display": "colormap", "render.combs": True},
+    ),
     ("bracket-mean.toml", {"shape.function": "mean", "shape.display": "colormap"}),
+    (
+        "bracket-mean.toml",
+        {"shape.function": "mean", "shape.display": "colormap", "render.combs": True},
+    ),
     ("bracket-mean.toml", {"shape.function": "draft_angle", "shape.display": "bands"}),
     ("bracket-mean.toml", {"shape.function": "min_radius", "shape.display": "bands"}),
 ]
@@ -65,11 +73,10 @@ def main() -> None:
     base = None
     for k, (name, overrides) in enumerate(CASES):
         median = statistics.median(seconds[k])
-        if overrides["shape.function"] == "mean" and "render.parabolic" not in overrides:
+        overlays = [k.removeprefix("render.") for k in overrides if k.startswith("render.")]
+        if overrides["shape.function"] == "mean" and not overlays:
             base = median
-        what = overrides["shape.function"] + (
-            " +parabolic" if "render.parabolic" in overrides else ""
-        )
+        what = overrides["shape.function"] + "".join(f" +{o}" for o in overlays)
         ratio = median / base if base else float("nan")
         print(
             f"{name:18} {what:20} {median:5.2f} s [{min(seconds[k]):.2f}-{max(seconds[k]):.2f}]"

@@ -78,30 +78,48 @@ def umbilic_field(patch: Patch, u: NDArray, v: NDArray) -> tuple[NDArray, NDArra
     return field, size, 0.5 * (w11 + w22)
 
 
-def _newton(patch: Patch, u: float, v: float) -> tuple[float, float] | None:
-    """The root of F near (u, v) inside the patch's domain, or None."""
+def _newton(patch: Patch, u: NDArray, v: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """The roots of F near each (u, v) (m,), all refined together: (u, v, found), found
+    False where an iteration left the domain or stalled."""
     (u0, u1), (v0, v1) = patch.domain
     hu, hv = 1e-6 * (u1 - u0), 1e-6 * (v1 - v0)
+    u, v = np.array(u, dtype=np.float64), np.array(v, dtype=np.float64)
+    going = np.ones(len(u), bool)
+    found = np.zeros(len(u), bool)
     for _ in range(NEWTON_STEPS):
-        U = np.clip([u, u + hu, u - hu, u, u], u0, u1)
-        V = np.clip([v, v, v, v + hv, v - hv], v0, v1)
+        at = np.flatnonzero(going)
+        if not at.size:
+            break
+        a, b = u[at], v[at]
+        U = np.clip(np.concatenate([a, a + hu, a - hu, a, a]), u0, u1)
+        V = np.clip(np.concatenate([b, b, b, b + hv, b - hv]), v0, v1)
         field, size, _ = umbilic_field(patch, U, V)
-        if not np.isfinite(field).all():
-            return None
-        if np.linalg.norm(field[0]) <= CONVERGED * max(size[0], 1e-300):
-            return u, v
-        J = np.stack(
-            [(field[1] - field[2]) / (U[1] - U[2]), (field[3] - field[4]) / (V[3] - V[4])], -1
+        f = field.reshape(5, len(at), 2)
+        ok = np.isfinite(f).all(axis=(0, 2))
+        done = ok & (
+            np.linalg.norm(f[0], axis=-1) <= CONVERGED * np.maximum(size[: len(at)], 1e-300)
         )
-        try:
-            du, dv = np.linalg.solve(J, -field[0])
-        except np.linalg.LinAlgError:
-            return None
-        u, v = u + du, v + dv
-        if not (u0 - hu <= u <= u1 + hu and v0 - hv <= v <= v1 + hv):
-            return None
-        u, v = min(max(u, u0), u1), min(max(v, v0), v1)
-    return None
+        steps = [U.reshape(5, -1), V.reshape(5, -1)]
+        J = np.stack(
+            [
+                (f[1] - f[2]) / (steps[0][1] - steps[0][2])[:, None],
+                (f[3] - f[4]) / (steps[1][3] - steps[1][4])[:, None],
+            ],
+            -1,
+        )  # (m, 2, 2): columns d/du, d/dv
+        det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+        solvable = ok & ~done & (np.abs(det) > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            du = -(J[:, 1, 1] * f[0, :, 0] - J[:, 0, 1] * f[0, :, 1]) / det
+            dv = -(-J[:, 1, 0] * f[0, :, 0] + J[:, 0, 0] * f[0, :, 1]) / det
+        na, nb = a + du, b + dv
+        within = (u0 - hu <= na) & (na <= u1 + hu) & (v0 - hv <= nb) & (nb <= v1 + hv)
+        moved = solvable & within
+        u[at[moved]] = np.clip(na[moved], u0, u1)
+        v[at[moved]] = np.clip(nb[moved], v0, v1)
+        found[at[done]] = True
+        going[at[~moved]] = False
+    return u, v, found
 
 
 def umbilics(
@@ -138,11 +156,8 @@ def umbilics(
         padded = np.pad(ratio, 1, constant_values=np.inf)
         windows = np.lib.stride_tricks.sliding_window_view(padded, (3, 3))
         minima = (ratio <= windows.min(axis=(-1, -2))) & (ratio < CANDIDATE)
-        for i, j in zip(*np.nonzero(minima), strict=True):
-            root = _newton(patch, float(uu[i, j]), float(vv[i, j]))
-            if root is None:
-                continue
-            ru, rv = min(max(root[0], u0), u1), min(max(root[1], v0), v1)
+        roots_u, roots_v, converged = _newton(patch, uu[minima], vv[minima])
+        for ru, rv in zip(roots_u[converged], roots_v[converged], strict=True):
             if inside is not None and not inside(k, np.array([[ru, rv]]))[0]:
                 continue
             point = np.ravel(patch(np.array([ru]), np.array([rv])))
@@ -150,7 +165,13 @@ def umbilics(
                 continue
             curvature = float(umbilic_field(patch, np.array([ru]), np.array([rv]))[2][0])
             found.append(
-                Umbilic(k, ru, rv, (float(point[0]), float(point[1]), float(point[2])), curvature)
+                Umbilic(
+                    k,
+                    float(ru),
+                    float(rv),
+                    (float(point[0]), float(point[1]), float(point[2])),
+                    curvature,
+                )
             )
     return found, everywhere
 
