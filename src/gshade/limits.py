@@ -21,6 +21,7 @@ __all__ = [
     "CAD_READ_MEMORY_BASE",
     "CAD_READ_MEMORY_PER_BYTE",
     "CAD_SECONDS",
+    "MAX_COMB_SECTIONS",
     "MAX_CONTINUITY_SAMPLES",
     "MAX_DATA_FILE_BYTES",
     "MAX_DEGREE",
@@ -71,6 +72,8 @@ MAX_SEED = 2**32 - 1
 MAX_TESSELLATION = 1024
 MAX_TEXTURE_RESOLUTION = 512
 MIN_CHORD_TOLERANCE = 1e-9
+#: Most planes of ``render.comb_sections`` (each cut traced on every patch).
+MAX_COMB_SECTIONS = 256
 #: Shortest direction accepted (a shape function's light or axis, the camera's up):
 #: normalising it stays exact.
 MIN_DIRECTION = 1e-12

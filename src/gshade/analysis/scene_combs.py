@@ -1,7 +1,8 @@
 """The curves a scene's combs run along, by body (:data:`COMB_CURVES`): the patches'
 boundaries (each shared side once, collapsed sides left out) and their interior knot lines;
 a CAD model's B-rep edges (seams and poles left out) and its faces' knot lines inside their
-trims.  Their combs, one scale for all, and the numbers a render reports
+trims; the planar sections of either (:mod:`gshade.analysis.section_curves`).  Their
+combs, one scale for all, and the numbers a render reports
 (:mod:`gshade.analysis.curvature_combs`)."""
 
 from __future__ import annotations
@@ -18,11 +19,19 @@ from ..geometry.patches.bspline import BSplinePatch
 from ..scene.bodies import CadFaces, PatchBody
 from .curvature_combs import Comb, CurveFamily, CurveSamples, combs, iso_line_family
 from .knot_lines import KNOT_LINE_KINDS, clipped_box, inside_loops, interior_knots
+from .section_curves import SectionPlanes, SectionRegion, section_family
 
 if TYPE_CHECKING:
     from ..scene.model import Scene
 
-__all__ = ["COMB_CURVES", "LONGEST_SPINE", "comb_scale", "comb_summary", "scene_combs"]
+__all__ = [
+    "COMB_CURVES",
+    "LONGEST_SPINE",
+    "comb_scale",
+    "comb_summary",
+    "scene_combs",
+    "section_normal",
+]
 
 #: Points each knot line of a trimmed face is probed at for its parts inside the trim.
 TRIM_PROBES = 257
@@ -35,12 +44,21 @@ LONGEST_SPINE = 0.1
 
 
 def _patch_curves(
-    members: list[tuple[Any, int]], lines: tuple[str, ...], diagonal: float
+    members: list[tuple[Any, int]],
+    lines: tuple[str, ...],
+    diagonal: float,
+    planes: SectionPlanes | None,
+    scene_patches: Sequence[Patch],
 ) -> list[CurveFamily]:
     """The boundaries of the patch surfaces' patches (each shared or collapsed side once
-    or not at all) and the B-spline patches' interior knot lines, as iso-parameter lines."""
+    or not at all) and the B-spline patches' interior knot lines, as iso-parameter lines;
+    the patches' planar sections."""
     patches = [p for surface, _ in members for p in surface.patches]
     index = [start + k for surface, start in members for k in range(len(surface.patches))]
+    sections = []
+    if planes is not None:
+        regions = [SectionRegion(i, scene_patches[i].domain, None, f"patch {i}") for i in index]
+        sections.append(section_family(scene_patches, regions, planes))
     found: list[tuple[int, str, float, float, float, str]] = []
     seen: set[tuple] = set()
     probe = np.array([0.25, 0.5, 0.75])
@@ -69,7 +87,7 @@ def _patch_curves(
                     found.append((k, direction, knot, t0, t1, name))
     family = iso_line_family(patches, found)
     renumbered = CurveFamily(family.labels, family.ranges, _renumbered(family, index))
-    return [renumbered]
+    return [renumbered, *sections]
 
 
 def _renumbered(family: CurveFamily, index: list[int]) -> Callable:
@@ -82,10 +100,14 @@ def _renumbered(family: CurveFamily, index: list[int]) -> Callable:
 
 
 def _cad_curves(
-    members: list[tuple[Any, int]], lines: tuple[str, ...], diagonal: float
+    members: list[tuple[Any, int]],
+    lines: tuple[str, ...],
+    diagonal: float,
+    planes: SectionPlanes | None,
+    scene_patches: Sequence[Patch],
 ) -> list[CurveFamily]:
-    """Each CAD surface's B-rep edges (from the kernel's exact curves) and its B-spline
-    faces' interior knot lines, in the parts inside the trims."""
+    """Each CAD surface's B-rep edges (from the kernel's exact curves), its B-spline
+    faces' interior knot lines and its planar sections, in the parts inside the trims."""
     from ..cad.edges import edge_derivatives, edge_ranges
 
     out = []
@@ -100,7 +122,27 @@ def _cad_curves(
             out.append(_edge_family(cad, int(start), place, ranges, edge_derivatives))
         if "knots" in lines:
             out.append(_face_knot_family(cad, int(start), surface.patches))
+        if planes is not None:
+            regions = [_face_region(cad, k, int(start)) for k in range(len(cad.faces))]
+            out.append(section_family(scene_patches, regions, planes))
     return out
+
+
+def _face_region(cad: CadFaces, k: int, start: int) -> SectionRegion:
+    """The region of the face at place ``k`` for its sections: its trimmed part of its
+    box, in its scene patch's (u, v)."""
+    index = cad.faces[k]
+    face = cad.model.face(index)
+    box = clipped_box(face.box, face.patch.domain)
+    if cad.swapped[k]:
+        box = (box[1], box[0])
+    inside = None
+    if face.trimmed and face.loops:
+
+        def inside(uv: NDArray[np.float64]) -> NDArray[np.bool_]:
+            return inside_loops(face.loops, cad.patch_uv(k, uv))
+
+    return SectionRegion(start + k, box, inside, f"face {index}")
 
 
 def _edge_family(
@@ -156,9 +198,11 @@ def _runs(t: NDArray, inside: NDArray) -> list[tuple[float, float]]:
     ]
 
 
-#: The curves a body's surfaces give combs: ``curves(members, lines, diagonal) ->
-#: families``, ``members`` the surfaces of that body each with the scene's index of its
-#: first patch, ``lines`` those of :data:`~gshade.analysis.curvature_combs.COMB_LINES` asked.
+#: The curves a body's surfaces give combs: ``curves(members, lines, diagonal, planes,
+#: patches) -> families``, ``members`` the surfaces of that body each with the scene's index
+#: of its first patch, ``lines`` those of :data:`~gshade.analysis.curvature_combs.COMB_LINES`
+#: asked, ``planes`` the sections' :class:`~gshade.analysis.section_curves.SectionPlanes`
+#: (None without ``"sections"``), ``patches`` the scene's.
 COMB_CURVES: dict[type, Callable[..., list[CurveFamily]]] = {
     PatchBody: _patch_curves,
     CadFaces: _cad_curves,
@@ -171,13 +215,22 @@ def scene_combs(
     lines: tuple[str, ...] = ("edges", "knots"),
     curvature: str = "space",
     samples: Callable[[NDArray[np.float64]], int] | int = 64,
+    sections: int = 8,
+    section_direction: Sequence[float] | None = None,
 ) -> list[Comb]:
     """The combs of a scene's curves (:data:`COMB_CURVES`), ``samples`` each (or a
     function of a curve's probed points giving its count:
-    :func:`~gshade.analysis.curvature_combs.combs`)."""
+    :func:`~gshade.analysis.curvature_combs.combs`).  With ``"sections"`` in ``lines``,
+    the cuts by ``sections`` planes perpendicular to ``section_direction`` (None: the
+    shape function's ``direction`` where it has one, else z) spread over the scene."""
     from .scene_junctions import scene_diagonal
 
     diagonal = scene_diagonal(scene)
+    planes = None
+    if "sections" in lines:
+        points = np.vstack([s.body.size_points(s.patches) for s in scene.surfaces])
+        direction = section_direction or section_normal(scene)
+        planes = SectionPlanes.spread(direction, points, sections)
     members: dict[type, list[tuple[Any, int]]] = {}
     start = 0
     for surface in scene.surfaces:
@@ -186,9 +239,22 @@ def scene_combs(
     families = [
         family
         for kind, surfaces in members.items()
-        for family in COMB_CURVES[kind](surfaces, lines, diagonal)
+        for family in COMB_CURVES[kind](surfaces, lines, diagonal, planes, scene.patches)
     ]
     return combs(families, scene.patches, samples, curvature)
+
+
+def section_normal(scene: Scene) -> tuple[float, ...]:
+    """The default normal of the comb sections' planes: the shape function's
+    ``direction`` parameter (the sections' normal, a pull direction) where it has one,
+    else z."""
+    from ..shape.registry import SHAPE_FUNCTIONS
+
+    parameters = SHAPE_FUNCTIONS[scene.shape.function].parameters
+    if "direction" not in parameters:
+        return (0.0, 0.0, 1.0)
+    given = scene.shape.params_for(scene.shape.function).get("direction")
+    return tuple(given if given is not None else parameters["direction"].default)
 
 
 def comb_scale(found: Sequence[Comb], diagonal: float) -> float:

@@ -152,8 +152,9 @@ def _add_render(sub: argparse._SubParsersAction) -> None:
         "--combs",
         action="store_true",
         default=None,
-        help="draw curvature combs along the patch boundaries and B-rep edges (and knot lines), "
-        "inflections ringed (scene keys render.combs, comb_curvature, comb_lines, comb_scale)",
+        help="draw curvature combs along the patch boundaries and B-rep edges (and knot lines, "
+        "planar sections), inflections ringed (scene keys render.combs, comb_curvature, "
+        "comb_lines, comb_sections, comb_section_direction, comb_scale)",
     )
     render.add_argument(
         "--aovs",

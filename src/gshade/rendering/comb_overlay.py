@@ -44,7 +44,12 @@ def comb_overlay(
         return int(np.clip(n, MIN_SAMPLES, MAX_SAMPLES))
 
     found = scene_combs(
-        scene, lines=settings.comb_lines, curvature=settings.comb_curvature, samples=samples
+        scene,
+        lines=settings.comb_lines,
+        curvature=settings.comb_curvature,
+        samples=samples,
+        sections=settings.comb_sections,
+        section_direction=settings.comb_section_direction,
     )
     diagonal = scene_diagonal(scene)
     scale = settings.comb_scale or comb_scale(found, diagonal)

@@ -52,7 +52,7 @@ def key_tables() -> list[KeyTable]:
 
 
 #: Column widths of the reference: key, type and range, default; the meaning fills the rest.
-_WIDTHS = (18, 34, 18)
+_WIDTHS = (22, 32, 18)
 _LINE = 110
 
 

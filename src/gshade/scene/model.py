@@ -158,8 +158,8 @@ class Camera:
 
 #: Which part of a curve's curvature vector a comb shows.
 COMB_CURVATURES = ("space", "normal", "geodesic")
-#: The curves combs run along: patch boundaries and B-rep edges, and knot lines.
-COMB_LINES = ("edges", "knots")
+#: The curves combs run along: patch boundaries and B-rep edges, knot lines, planar sections.
+COMB_LINES = ("edges", "knots", "sections")
 
 
 @dataclass(frozen=True)
@@ -184,6 +184,9 @@ class RenderSettings:
     comb_lines: tuple[str, ...] = ("edges",)
     #: spine length per unit of curvature (length²); None: automatic
     comb_scale: float | None = None
+    #: the planes of the ``"sections"`` comb lines and their normal (None: automatic)
+    comb_sections: int = 8
+    comb_section_direction: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)

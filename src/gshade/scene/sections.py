@@ -11,12 +11,14 @@ from typing import Any
 from ..display import validate_colormap, validate_range
 from ..errors import GshadeError, one_of, show, suggest
 from ..limits import (
+    MAX_COMB_SECTIONS,
     MAX_IMAGE_SIDE,
     MAX_SEED,
     MAX_SPP,
     MAX_TESSELLATION,
     MAX_TEXTURE_RESOLUTION,
     MIN_CHORD_TOLERANCE,
+    MIN_DIRECTION,
 )
 from ..shape import SHAPE_FUNCTIONS, function_bands, validate_parameter
 from .model import (
@@ -135,7 +137,20 @@ RENDER_KEYS = declare_keys(
         "comb_lines",
         f"list of {', '.join(COMB_LINES)}",
         ("edges",),
-        "the curves with combs: patch boundaries and B-rep edges, knot lines",
+        "the curves with combs: patch boundaries and B-rep edges, knot lines, planar sections",
+    ),
+    Key(
+        "comb_sections",
+        f"integer 1–{MAX_COMB_SECTIONS}",
+        8,
+        "planes of the comb_lines' sections, spread evenly over the scene",
+    ),
+    Key(
+        "comb_section_direction",
+        "[x, y, z] (nonzero)",
+        None,
+        "normal of the sections' planes",
+        "the shape function's direction where it has one (planar_sections, draft_angle), else z",
     ),
     Key(
         "comb_scale",
@@ -311,7 +326,21 @@ def parse_render(file: str, raw: dict[str, Any]) -> RenderSettings:
         comb_curvature=t.choice("comb_curvature", COMB_CURVATURES),
         comb_lines=_comb_lines(t),
         comb_scale=t.number("comb_scale", lo=0),
+        comb_sections=t.integer("comb_sections", maximum=MAX_COMB_SECTIONS),
+        comb_section_direction=_section_direction(t),
     )
+
+
+def _section_direction(t: Table) -> tuple[float, float, float] | None:
+    """``render.comb_section_direction``: a direction (length at least MIN_DIRECTION)."""
+    direction = t.vector("comb_section_direction", what=" (nonzero)")
+    if direction is not None and not math.hypot(*direction) >= MIN_DIRECTION:
+        raise t.error(
+            "comb_section_direction",
+            f"expected a direction [x, y, z] of length at least {MIN_DIRECTION:g}, "
+            f"got {show(t.raw('comb_section_direction'))}",
+        )
+    return direction
 
 
 def _comb_lines(t: Table) -> tuple[str, ...]:
