@@ -165,11 +165,17 @@ def test_parse_scene_from_text():
 
 
 def test_every_shape_function_and_its_parameters_are_accepted(tmp_path):
-    values = {"choice": None, "direction": [1, 2, 3], "point": [0, 0, 20], "vector": [0, 1, 1]}
+    """Each function with every parameter given (directions apart from one another: the
+    rules between parameters are checked when the scene loads)."""
+    directions = [[1, 2, 3], [3, -1, 0.5], [0, 1, -2]]
+    values = {"choice": None, "point": [0, 0, 20], "vector": [0, 1, 1]}
     for name, fn in SHAPE_FUNCTIONS.items():
         lines = [f'function = "{name}"']
+        given = iter(directions)
         for pname, spec in fn.parameters.items():
             value = spec.choices[-1] if spec.kind == "choice" else values.get(spec.kind, 1.5)
+            if spec.kind == "direction":
+                value = next(given)
             lines.append(f"{pname} = {value!r}".replace("'", '"'))
         scene = load_scene(write(tmp_path, SPHERE + "[shape]\n" + "\n".join(lines) + "\n"))
         assert scene.shape.function == name
@@ -831,3 +837,29 @@ def test_bands_are_checked_when_the_scene_loads():
         parse_scene(
             SPHERE + '[shape]\nfunction = "draft_angle"\ndisplay = "bands"\nmin_angle = 90\n'
         )
+
+
+@pytest.mark.parametrize(
+    "shape, message",
+    [
+        ('function = "draft_angle"\nmin_angle = 120', "draft_angle: min_angle: expected degrees"),
+        ('function = "min_radius"\nlimit = -2', "min_radius: limit: expected a positive length"),
+        (
+            'function = "reflection_lines"\nform = "infinity"\naxis = [0, 0, 1]\n'
+            "reference = [0, 0, -3]",
+            "reflection_lines: reference: expected a direction not parallel to axis",
+        ),
+        (
+            'function = "isophotes"\ndisplay = "both"\ncolour_function = "draft_angle"\n'
+            "min_angle = 95",
+            "draft_angle: min_angle",
+        ),
+    ],
+)
+def test_the_rules_between_parameters_are_checked_when_the_scene_loads(tmp_path, shape, message):
+    """Whatever the display: one line naming the file and the table, before any render."""
+    path = write(tmp_path, SPHERE + "[shape]\n" + shape + "\n")
+    with pytest.raises(GshadeError) as caught:
+        load_scene(path)
+    text = str(caught.value)
+    assert text.startswith(f"{path}: [shape] ") and message in text and "\n" not in text

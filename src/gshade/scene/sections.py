@@ -20,7 +20,7 @@ from ..limits import (
     MIN_CHORD_TOLERANCE,
     MIN_DIRECTION,
 )
-from ..shape import SHAPE_FUNCTIONS, function_bands, validate_parameter
+from ..shape import SHAPE_FUNCTIONS, checked_parameters, function_bands, validate_parameter
 from .model import (
     CAMERA_TYPES,
     COMB_CURVATURES,
@@ -244,6 +244,11 @@ def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
             for fn in functions:
                 if key in SHAPE_FUNCTIONS[fn].parameters:
                     params[key] = _parameter(t, fn, key)
+    for fn in functions:  # the rules between parameters (axis not along reference ...)
+        with t.reported():
+            checked_parameters(
+                fn, {k: v for k, v in params.items() if k in SHAPE_FUNCTIONS[fn].parameters}
+            )
     display = t.choice("display", DISPLAYS)
     if display == "bands":
         with t.reported():

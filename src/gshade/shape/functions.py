@@ -52,6 +52,7 @@ from .registry import (
     Parameter,
     ShapeFunction,
     ShapeValues,
+    checked_parameters,
     evaluate,
     function_bands,
     get_shape_function,
@@ -72,6 +73,7 @@ __all__ = [
     "Parameter",
     "ShapeFunction",
     "ShapeValues",
+    "checked_parameters",
     "evaluate",
     "function_bands",
     "get_shape_function",
@@ -191,10 +193,12 @@ def _pack_reflection(fn: str, kw: dict[str, Any]) -> Packed:
     a, w = kw["axis"], kw["reference"]
     if w is None:
         w = _perpendicular(a)
+    given = w
     w = w - np.dot(w, a) * a
     if np.linalg.norm(w) < 1e-9:
         raise GshadeError(
-            f"{fn}: reference: expected a direction not parallel to axis {a.tolist()}"
+            f"{fn}: reference: expected a direction not parallel to axis {a.tolist()}, "
+            f"got {given.tolist()}"
         )
     w = w / np.linalg.norm(w)
     values = {"eye": kw["eye_point"], "across": np.cross(a, w), "reference": w}

@@ -261,9 +261,31 @@ def function_bands(function: str | ShapeFunction, params: dict[str, Any]) -> Ban
         raise GshadeError(
             f'display: "bands" expected a function with bands ({with_bands}), got {fn.name}'
         )
+    return fn.bands(checked_parameters(fn, params))
+
+
+def checked_parameters(function: str | ShapeFunction, params: dict[str, Any]) -> dict[str, Any]:
+    """:func:`validate_parameters`, then the rules between them and on their values that
+    the function's ``pack`` holds (``min_angle`` in [0, 90), ``axis`` not along
+    ``reference`` ...): what a scene is checked with when it is read.
+
+    Raises
+    ------
+    GshadeError
+        ``FUNCTION: NAME: expected ..., got ...``.
+
+    Examples
+    --------
+    >>> import gshade.shape
+    >>> checked_parameters("draft_angle", {"min_angle": 90})
+    Traceback (most recent call last):
+    ...
+    gshade.errors.GshadeError: draft_angle: min_angle: expected degrees in [0, 90), got 90.0
+    """
+    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
     kw = validate_parameters(fn, params)
-    fn.pack(fn.name, kw)  # the parameters' own rules (min_angle in [0, 90) ...)
-    return fn.bands(kw)
+    fn.pack(fn.name, kw)
+    return kw
 
 
 # --------------------------------------------------------------------------- evaluation
