@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gshade.analysis.statistics import PERCENTILES, value_statistics, weighted_percentiles
+from gshade.analysis.statistics import BINS, PERCENTILES, value_statistics, weighted_percentiles
 
 
 @settings(max_examples=40, deadline=None)
@@ -16,6 +16,25 @@ def test_equal_weights_give_numpys_percentiles(values):
         weighted_percentiles(values, PERCENTILES, np.ones(len(values))), expected, atol=1e-6
     )
     np.testing.assert_allclose(weighted_percentiles(values, PERCENTILES), expected)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["normal", "few", "spread", "outlier"]))
+def test_many_weighted_samples_give_numpys_percentiles(seed, kind):
+    """Above BINS samples the weights are binned and one bin sorted a percentile: the
+    same sample as numpy's full sort (integer weights: the same sums in any order), with
+    ties, a few distinct values, values over many decades, one far outlier, zero weights."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(BINS + 1, 4 * BINS))
+    values = {
+        "normal": lambda: rng.normal(size=n),
+        "few": lambda: rng.integers(0, 5, n).astype(float),
+        "spread": lambda: np.exp(rng.normal(0, 10, n)),
+        "outlier": lambda: np.append(rng.normal(size=n - 1), 1e12),
+    }[kind]()
+    weights = rng.integers(0, 6, n).astype(float)
+    expected = np.percentile(values, PERCENTILES, weights=weights, method="inverted_cdf")
+    np.testing.assert_array_equal(weighted_percentiles(values, PERCENTILES, weights), expected)
 
 
 def test_a_sample_counts_by_its_area():

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..analysis.statistics import Extreme, ValueStatistics, value_statistics
+from ..analysis.statistics import Extreme, ValueStatistics, summarised, value_statistics
 from ..geometry import Patch, regularised_derivatives
 from ..geometry.core.patch import unit_to_domain
 from ..shape import ShapeFunction, evaluate
@@ -94,25 +94,31 @@ def surface_statistics(
     valid = tex.valid[0] > 0
     if region is not None:
         valid &= region
-    f = tex.values[0][..., 0].astype(np.float64)
+    f = tex.values[0][..., 0]
     index = np.full(valid.shape, -1, dtype=np.int64)
-    s = np.zeros(valid.shape)
-    t = np.zeros(valid.shape)
-    for k, (rows, cols) in enumerate(atlas.all_tile_slices()):
-        hs, ht = atlas.spacing(k)
+    tiles = atlas.all_tile_slices()
+    for k, (rows, cols) in enumerate(tiles):
         index[rows, cols] = k
-        n_rows, n_cols = rows.stop - rows.start, cols.stop - cols.start
-        s[rows, cols] = np.arange(n_cols)[None, :] * hs
-        t[rows, cols] = np.arange(n_rows)[:, None] * ht
     valid &= index >= 0
     if not valid.any():
         return None
-    texel_patch, values, at = index[valid], f[valid], np.flatnonzero(valid)
+    at = np.flatnonzero(valid)
+    values = f.ravel()[at].astype(np.float64)
     domains = np.array([p.domain for p in patches], dtype=np.float64)
-    u, v = unit_to_domain(domains, s[valid], t[valid], texel_patch)
-    stats = value_statistics(
-        values, texel_patch, u, v, tex.position[valid], texel_areas(tex, valid)
-    )
+
+    def place(i: int) -> Extreme:
+        """The texel of sample i: its patch, (u, v) from its place in its tile."""
+        row, col = np.unravel_index(at[i], valid.shape)
+        k = int(index[row, col])
+        (rows, cols), (hs, ht) = tiles[k], atlas.spacing(k)
+        s, t = (col - cols.start) * hs, (row - rows.start) * ht
+        u, v = unit_to_domain(domains, np.array([s]), np.array([t]), np.array([k]))
+        point = tex.position[row, col]
+        return Extreme(
+            float(values[i]), k, float(u[0]), float(v[0]), tuple(float(x) for x in point)
+        )
+
+    stats = summarised(values, place, texel_areas(tex, valid))
     assert stats is not None
 
     def polished(e: Extreme, sign: float) -> Extreme:
