@@ -72,7 +72,7 @@ def test_a_saddles_sections_are_parabolas():
 
 
 def test_a_cubic_section_has_its_inflection():
-    """z = y³ cut by x = c: an inflection at y = 0, bisected to the point (c, 0, 0)."""
+    """z = y³ cut by x = c: an inflection at y = 0, found at the point (c, 0, 0)."""
     cubic = _graph([0.0, 0.0], [-1.0, 1.0, -1.0, 1.0])
     family = _family(cubic, X, [0.3])
     (comb,) = combs([family], [cubic], samples=40)

@@ -16,7 +16,8 @@ The curve's derivatives are exact: a patch's iso-parameter line (a boundary or a
 c(t) = S(u*, t)) from the patch's derivatives, a B-rep edge from the kernel's 3D curve
 (:func:`gshade.cad.edges.edge_derivatives`).  An inflection — where the shown part of k
 reverses, passing through zero (a planar curve's inflection; a sign change of k_n or k_g) —
-is found between samples where the vectors point apart and then bisected on the exact curve.
+is found between samples where the vectors point apart and then narrowed down on the exact
+curve.
 """
 
 from __future__ import annotations
@@ -45,8 +46,10 @@ __all__ = [
 
 #: Points a curve is probed at to choose its number of samples.
 PROBES = 9
-#: Bisection steps refining an inflection (its parameter to 2^-steps of a sample's spacing).
-INFLECTION_STEPS = 48
+#: Rounds refining an inflection, each probing its bracket at SPLITS - 1 points: its parameter
+#: to SPLITS^-ROUNDS = 2^-48 of a sample's spacing, in few evaluations (a CAD model's edges
+#: are evaluated by the kernel, one call a round).
+INFLECTION_ROUNDS, INFLECTION_SPLITS = 8, 64
 #: Below this fraction of the largest curvature shown, a sample's sign is noise (a line).
 NOISE = 1e-9
 
@@ -160,7 +163,7 @@ def combs(
     curvature: str = "space",
 ) -> list[Comb]:
     """The combs of every curve of ``families`` at ``samples`` parameters each (the
-    middles of equal parts), with their inflections bisected on the exact curves.
+    middles of equal parts), with their inflections found on the exact curves.
     ``samples`` may be a function of a curve's points at :data:`PROBES` parameters (its
     ends and between) giving its count, such as one per few pixels of its image.
 
@@ -216,7 +219,8 @@ def _inflections(
     """Each curve's inflections: between neighbouring samples whose shown vectors point
     apart (both above :data:`NOISE` of the curve's largest or of 1 / its size: a line's
     rounding is no inflection), the root of
-    <vector(t), direction_i - direction_i+1> bisected on the exact curve."""
+    <vector(t), direction_i - direction_i+1> narrowed down on the exact curve (each round
+    the first of :data:`INFLECTION_SPLITS` parts of the bracket where it changes sign)."""
     brackets = []  # (request, lo, hi, reference)
     for r, ((_, t), (vectors, _)) in enumerate(zip(requests, shown, strict=True)):
         size = np.linalg.norm(vectors, axis=-1)
@@ -231,14 +235,17 @@ def _inflections(
     found: list[list[Inflection]] = [[] for _ in requests]
     if not brackets:
         return found
-    for _ in range(INFLECTION_STEPS):
-        middles = [(requests[b[0]][0], np.array([0.5 * (b[1] + b[2])])) for b in brackets]
-        for b, samples in zip(brackets, family.evaluate(middles), strict=True):
-            vector = _shown(samples, patches, curvature)[0][0]
-            if np.dot(vector, b[3]) > 0:
-                b[1] = 0.5 * (b[1] + b[2])
+    inner = np.arange(1, INFLECTION_SPLITS) / INFLECTION_SPLITS
+    for _ in range(INFLECTION_ROUNDS):
+        probes = [(requests[b[0]][0], b[1] + (b[2] - b[1]) * inner) for b in brackets]
+        for b, (_, t), samples in zip(brackets, probes, family.evaluate(probes), strict=True):
+            vectors = _shown(samples, patches, curvature)[0]
+            before = np.flatnonzero(~(vectors @ b[3] > 0))  # the first probe past the root
+            if before.size == 0:
+                b[1] = t[-1]
             else:
-                b[2] = 0.5 * (b[1] + b[2])
+                j = int(before[0])
+                b[1], b[2] = (t[j - 1] if j else b[1]), t[j]
     roots = [(requests[b[0]][0], np.array([0.5 * (b[1] + b[2])])) for b in brackets]
     for b, (c, t), samples in zip(brackets, roots, family.evaluate(roots), strict=True):
         point = samples.derivatives[0, 0]

@@ -118,11 +118,12 @@ def section_points(
     patch: Patch,
     uv: NDArray[np.float64],
     direction: NDArray[np.float64],
-    level: float,
+    level: float | NDArray[np.float64],
     box: tuple[tuple[float, float], tuple[float, float]],
 ) -> NDArray[np.float64]:
-    """The points (n, 2) near ``uv`` on the cut <p(u, v), a> = ``level``, by Newton's
-    method along the gradient of f = <p, a> - level in (u, v), kept in ``box``.
+    """The points (n, 2) near ``uv`` on the cuts <p(u, v), a> = ``level`` (one, or one a
+    point), by Newton's method along the gradient of f = <p, a> - level in (u, v), kept in
+    ``box``; it stops where no point moves by more than rounding.
 
     Examples
     --------
@@ -138,16 +139,19 @@ def section_points(
     """
     uv = np.array(uv, dtype=np.float64)
     (u0, u1), (v0, v1) = box
+    still = 1e-15 * max(u1 - u0, v1 - v0)
     for _ in range(NEWTON_STEPS):
         d = patch.derivatives(uv[:, 0], uv[:, 1], 1)
         f = d[0, 0] @ direction - level
         g = np.stack([d[1, 0] @ direction, d[0, 1] @ direction], -1)
         size = np.sum(g * g, -1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            step = np.where(size[:, None] > 0, -f[:, None] * g / size[:, None], 0.0)
-        uv = uv + np.nan_to_num(step)
+            step = np.nan_to_num(np.where(size[:, None] > 0, -f[:, None] * g / size[:, None], 0.0))
+        uv = uv + step
         uv[:, 0] = np.clip(uv[:, 0], u0, u1)
         uv[:, 1] = np.clip(uv[:, 1], v0, v1)
+        if not np.abs(step).max(initial=0.0) > still:
+            break
     return uv
 
 
@@ -174,6 +178,19 @@ def _section_samples(
     return np.stack([d[0, 0], tangent, k])
 
 
+def _guess(
+    cut: tuple[SectionRegion, float, NDArray], t: NDArray[np.float64]
+) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """At the traced polyline's parameters t: its (u, v) (n, 2), its heading (n, 2), the
+    cut's level (n,) and patch (n,)."""
+    region, level, line = cut
+    index = np.arange(len(line))
+    uv = np.stack([np.interp(t, index, line[:, 0]), np.interp(t, index, line[:, 1])], -1)
+    segment = np.clip(np.floor(t).astype(np.int64), 0, len(line) - 2)
+    n = len(t)
+    return uv, line[segment + 1] - line[segment], np.full(n, level), np.full(n, region.patch)
+
+
 def section_family(
     patches: Sequence[Patch], regions: Sequence[SectionRegion], planes: SectionPlanes
 ) -> CurveFamily:
@@ -181,22 +198,28 @@ def section_family(
     curve, labelled ``"section <p, a> = c (face 12)"``, its parameter the point index of
     the traced polyline (see the module's description)."""
     found: list[tuple[SectionRegion, float, NDArray]] = []
+    boxes = {region.patch: region.box for region in regions}
     for region in regions:
         for level, line in _traced(patches[region.patch], region, planes):
             found.append((region, level, line))
 
     def evaluate(requests: list[tuple[int, NDArray[np.float64]]]) -> list[CurveSamples]:
-        out = []
+        """The requests' points moved onto their cuts and their derivatives, the points
+        on one patch together."""
+        if not requests:
+            return []
+        columns = [_guess(found[c], t) for c, t in requests]
+        guess, heading, level, patch_of = (np.concatenate(x) for x in zip(*columns, strict=True))
+        uv, samples = np.empty((len(guess), 2)), np.empty((3, len(guess), 3))
+        for k in np.unique(patch_of).tolist():
+            on = patch_of == k
+            uv[on] = section_points(patches[k], guess[on], planes.direction, level[on], boxes[k])
+            samples[:, on] = _section_samples(patches[k], uv[on], heading[on], planes.direction)
+        out, start = [], 0
         for c, t in requests:
-            region, level, line = found[c]
-            index = np.arange(len(line))
-            guess = np.stack([np.interp(t, index, line[:, 0]), np.interp(t, index, line[:, 1])], -1)
-            segment = np.clip(np.floor(t).astype(np.int64), 0, len(line) - 2)
-            heading = line[segment + 1] - line[segment]
-            patch = patches[region.patch]
-            uv = section_points(patch, guess, planes.direction, level, region.box)
-            samples = _section_samples(patch, uv, heading, planes.direction)
-            out.append(CurveSamples(samples, region.patch, uv))
+            part = slice(start, start + len(t))
+            out.append(CurveSamples(samples[:, part], found[c][0].patch, uv[part]))
+            start += len(t)
         return out
 
     labels = [f"section <p, a> = {level:.6g} ({region.name})" for region, level, _ in found]

@@ -242,6 +242,23 @@ def edge_ranges(model: CadModel, faces: list[int]) -> list[tuple[int, int, float
     return out
 
 
+#: The last model's edges by number, with the faces each bounds: (model, edges).  A model's
+#: combs evaluate its edges ten times (their samples, then each round refining inflections).
+_RECENT: list[tuple[CadModel, dict[int, tuple[Any, dict[int, Any]]]]] = []
+
+
+def _edges_by_number(model: CadModel) -> dict[int, tuple[Any, dict[int, Any]]]:
+    """Each edge of :func:`_edge_faces` by its number: (edge, face number -> face)."""
+    for held, edges in _RECENT:
+        if held is model:
+            return edges
+    edges = {
+        e: (edge, {f: face for f, face, _ in sharing}) for e, edge, sharing in _edge_faces(model)
+    }
+    _RECENT[:] = [(model, edges)]
+    return edges
+
+
 @kernel_operation("evaluating its edges' curves")
 def edge_derivatives(
     model: CadModel, requests: list[tuple[int, int, NDArray[np.float64]]]
@@ -255,9 +272,7 @@ def edge_derivatives(
     from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d
     from OCP.gp import gp_Pnt, gp_Vec
 
-    found = {
-        e: (edge, {f: face for f, face, _ in sharing}) for e, edge, sharing in _edge_faces(model)
-    }
+    found = _edges_by_number(model)
     usable = {face.index: face for face in model.faces}
     out = []
     p, d1, d2 = gp_Pnt(), gp_Vec(), gp_Vec()

@@ -113,10 +113,8 @@ def surface_statistics(
         (rows, cols), (hs, ht) = tiles[k], atlas.spacing(k)
         s, t = (col - cols.start) * hs, (row - rows.start) * ht
         u, v = unit_to_domain(domains, np.array([s]), np.array([t]), np.array([k]))
-        point = tex.position[row, col]
-        return Extreme(
-            float(values[i]), k, float(u[0]), float(v[0]), tuple(float(x) for x in point)
-        )
+        x, y, z = (float(c) for c in tex.position[row, col])
+        return Extreme(float(values[i]), k, float(u[0]), float(v[0]), (x, y, z))
 
     stats = summarised(values, place, texel_areas(tex, valid))
     assert stats is not None
