@@ -351,6 +351,21 @@ def test_junctions_in_a_column(tmp_path, monkeypatch):
         assert orange.sum() >= 10  # the G1 seam, drawn
 
 
+def test_combs_and_parabolic_lines_in_a_column(tmp_path, monkeypatch):
+    """``combs = true`` and ``parabolic = true`` in a column draw those overlays over its
+    panels, and the notes under them say what they show (the combs' scale, the umbilics)."""
+    columns = '[[column]]\nlabel = "combs"\ncombs = true\n[[column]]\nparabolic = true'
+    row = ROOT / "scenes" / "junctions-isophotes.toml"
+    path = tmp_path / "overlays.toml"
+    path.write_text(FRAMED_SPEC.format(rows=f'"{row}"', extra="", columns=columns))
+    spec, images, notes = _rendered(path, tmp_path, monkeypatch)
+    notes = [n.replace("\n", " ") for n in notes]  # wrapped to the panel's width
+    assert [c.overrides.get("render.combs") for c in spec.columns] == [None, None, True, None]
+    assert ["combs" in i.metadata for i in images] == [False, False, True, False]
+    assert sum("combs: space curvature, spine = " in n for n in notes) == 1
+    assert sum("parabolic lines in magenta" in n for n in notes) == 1
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
@@ -373,6 +388,11 @@ def test_junctions_in_a_column(tmp_path, monkeypatch):
             r"\[\[column\]\] 1: set: render.width: every panel has the spec's size",
         ),
         ('[[column]]\njunctions = "yes"', r"\[\[column\]\] 1: junctions: expected true or false"),
+        ("[[column]]\ncombs = 1", r"\[\[column\]\] 1: combs: expected true or false, got 1"),
+        (
+            '[[column]]\nparabolic = false\nset = { "render.parabolic" = true }',
+            r"\[\[column\]\] 1: parabolic: contradicts set's render.parabolic",
+        ),
         (
             '[[column]]\njunctions = true\nset = { "render.junctions" = false }',
             r"\[\[column\]\] 1: junctions: contradicts",

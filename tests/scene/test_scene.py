@@ -863,3 +863,18 @@ def test_the_rules_between_parameters_are_checked_when_the_scene_loads(tmp_path,
         load_scene(path)
     text = str(caught.value)
     assert text.startswith(f"{path}: [shape] ") and message in text and "\n" not in text
+
+
+def test_comb_sections_keys(tmp_path):
+    """The sections' planes: a count and a nonzero normal (a tuple, as the Python API and
+    ``gshade check`` hand a resolved setting back, or a TOML list)."""
+    path = write(tmp_path, SPHERE)
+    render = load_scene(path, {"render.comb_section_direction": (1, 0, 0)}).render
+    assert (render.comb_sections, render.comb_section_direction) == (8, (1.0, 0.0, 0.0))
+    assert load_scene(path).render.comb_section_direction is None
+    with pytest.raises(GshadeError, match=r"comb_section_direction: expected a direction"):
+        load_scene(path, {"render.comb_section_direction": [0, 0, 0]})
+    with pytest.raises(GshadeError, match=r"comb_sections: expected an integer from 1 to 256"):
+        load_scene(path, {"render.comb_sections": 0})
+    with pytest.raises(GshadeError, match=r"comb_lines: expected a list of"):
+        load_scene(path, {"render.comb_lines": ["sections", "sections"]})

@@ -18,7 +18,8 @@ function's name, order and units) and the stripe period for striped panels::
     [[column]]
     label = "planar sections"
     set = { "shape.function" = "planar_sections", "shape.stripes" = 30 }
-    junctions = true                            # the junction overlay (optional)
+    junctions = true                            # the junction overlay (optional; also
+                                                # combs, parabolic)
 
 One camera per row: every panel of a row is rendered with the same resolved camera, so that
 the panels compare point for point.  It is the row's scene camera (with the spec's
@@ -41,7 +42,9 @@ resolved camera (``gshade render ROW --set camera.origin=... ...`` renders the p
 ``junctions = true`` in a column (or ``"render.junctions" = true`` in its ``set``) draws the
 junctions over that column's panels, coloured by continuity class; the note under the panel
 names the classes drawn and their colours (G0 red, G1 orange, G2 green, G3 blue; magenta
-where the surfaces do not even meet).
+where the surfaces do not even meet).  ``combs = true`` and ``parabolic = true`` draw those
+overlays (``render.combs``, ``render.parabolic``); the notes under the panel give the
+combs' scale, the umbilics ringed and, for ``min_radius``, the smallest radius.
 
 PNG is written at 300 dpi; PDF and SVG are vector around the raster panels.  The figure's
 metadata records gshade's version, every panel's scene hash and every row's camera.
@@ -84,7 +87,13 @@ _KEYS = (
     "margin",
     "camera",
 )
-_COLUMN_KEYS = ("label", "set", "junctions")
+#: A column's overlays (true or false) and the scene keys they stand for.
+OVERLAYS = {
+    "junctions": "render.junctions",
+    "combs": "render.combs",
+    "parabolic": "render.parabolic",
+}
+_COLUMN_KEYS = ("label", "set", *OVERLAYS)
 FORMATS = ("png", "pdf", "svg")
 #: How a row's camera is framed: fitted on the surfaces, or as the scene resolves it.
 FRAMES = ("tight", "scene")
@@ -248,7 +257,7 @@ def _check_texts(spec: FigureSpec) -> None:
 
 def _column(path: Path, k: int, col: Any) -> Column:
     """A ``[[column]]`` table, checked: its keys, its ``set`` (no camera nor image size:
-    those are the row's and the figure's) and ``junctions``."""
+    those are the row's and the figure's) and its overlays (:data:`OVERLAYS`)."""
     where = f"{path}: [[column]] {k}"
     if not isinstance(col, dict):
         raise GshadeError(f"{where}: expected a table")
@@ -272,12 +281,16 @@ def _column(path: Path, k: int, col: Any) -> Column:
                 f"{where}: set: {key}: every panel has the spec's size; set the spec's "
                 f"{key.split('.')[1]} instead"
             )
-    if "junctions" in col:
-        if not isinstance(col["junctions"], bool):
-            raise GshadeError(f"{where}: junctions: expected true or false")
-        if overrides.get("render.junctions", col["junctions"]) != col["junctions"]:
-            raise GshadeError(f"{where}: junctions: contradicts set's render.junctions")
-        overrides["render.junctions"] = col["junctions"]
+    for overlay, key in OVERLAYS.items():
+        if overlay not in col:
+            continue
+        if not isinstance(col[overlay], bool):
+            raise GshadeError(
+                f"{where}: {overlay}: expected true or false, got {show(col[overlay])}"
+            )
+        if overrides.get(key, col[overlay]) != col[overlay]:
+            raise GshadeError(f"{where}: {overlay}: contradicts set's {key}")
+        overrides[key] = col[overlay]
     return Column(str(col.get("label", "")), overrides)
 
 
@@ -427,6 +440,9 @@ def make_figure(spec: FigureSpec, output: str | os.PathLike) -> Path:
 #: with its ticks and label) and the figure title's.
 _PANEL_WIDTH, _GAP, _EDGE = 3.2, 0.2, 0.08
 _TITLE_BAND, _NOTES_BAND, _BAR_BAND, _BAR_HEIGHT, _SUPTITLE_BAND = 0.28, 0.24, 0.55, 0.09, 0.4
+#: The notes under a picture wrap at this many characters (8 pt in a picture's width), each
+#: further line adding _NOTE_LINE inches.
+_NOTE_CHARACTERS, _NOTE_LINE = 56, 0.15
 
 
 def _draw(plt: ModuleType, spec: FigureSpec, panels: list[list[Panel]]) -> Figure:
@@ -436,10 +452,7 @@ def _draw(plt: ModuleType, spec: FigureSpec, panels: list[list[Panel]]) -> Figur
     pic_w = _PANEL_WIDTH
     pic_h = pic_w * spec.height / spec.width
     under = [  # per panel: the height of its notes and colour bar under the picture
-        [
-            (_NOTES_BAND if _notes(p.image) else 0.0, _BAR_BAND if _has_bar(p.image) else 0.0)
-            for p in row_panels
-        ]
+        [(_notes_height(p.image), _BAR_BAND if _has_bar(p.image) else 0.0) for p in row_panels]
         for row_panels in panels
     ]
     top = _SUPTITLE_BAND if spec.title else _EDGE
@@ -470,17 +483,35 @@ def _draw(plt: ModuleType, spec: FigureSpec, panels: list[list[Panel]]) -> Figur
 
 
 def _notes(image: Any) -> list[str]:
-    """The notes under a panel: the stripes' period, the junction classes drawn."""
+    """The notes under a panel: the stripes' period, the bands in words, the junction
+    classes drawn, the legend's notes (the combs' scale, the umbilics ringed, the smallest
+    radius)."""
     legend = image.legend
     notes = []
     if legend.period is not None:
         of = f" of {legend.stripe_function}" if legend.stripe_function else ""
         notes.append(f"stripes{of} every {legend.period:.3g}")
+    if legend.display == "bands" and legend.bands:
+        notes.append(f"bands: {legend.bands}")
     classes = _junction_classes(image)
     if classes:
         named = ", ".join(f"{c} {JUNCTION_COLOUR_NAMES[c]}" for c in classes)
         notes.append(f"junctions: {named}")
+    notes.extend(legend.notes)
     return notes
+
+
+def _note_lines(image: Any) -> list[str]:
+    """The notes under a panel, wrapped to the picture's width."""
+    import textwrap
+
+    return textwrap.wrap("; ".join(_notes(image)), _NOTE_CHARACTERS, break_on_hyphens=False)
+
+
+def _notes_height(image: Any) -> float:
+    """The height (inches) of the band the notes under a panel take (none: 0)."""
+    lines = len(_note_lines(image))
+    return _NOTES_BAND + (lines - 1) * _NOTE_LINE if lines else 0.0
 
 
 def _has_bar(image: Any) -> bool:
@@ -499,9 +530,9 @@ def _draw_panel(
     ax.set_xticks([])
     ax.set_yticks([])
     ax.set_title(title, fontsize=9)
-    notes = _notes(image)
+    notes = _note_lines(image)
     if notes:
-        ax.set_xlabel("; ".join(notes), fontsize=8, labelpad=3)
+        ax.set_xlabel("\n".join(notes), fontsize=8, labelpad=3)
     if _has_bar(image):
         legend = image.legend
         lo, hi = legend.value_range

@@ -306,7 +306,7 @@ class Table:
         if x is default and key not in self.data:
             return x
         if (
-            not isinstance(x, list)
+            not isinstance(x, (list, tuple))
             or len(x) != 3
             or not all(is_number(c) and math.isfinite(c) for c in x)
         ):
