@@ -5,7 +5,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gshade.analysis.statistics import BINS, PERCENTILES, value_statistics, weighted_percentiles
+from gshade.analysis.statistics import (
+    BINS,
+    PERCENTILES,
+    Extreme,
+    summarised,
+    value_statistics,
+    weighted_percentiles,
+)
 
 
 @settings(max_examples=40, deadline=None)
@@ -56,5 +63,21 @@ def test_the_extremes_say_where_they_are():
     assert s.maximum.point == tuple(points[j])
     assert s.mean == pytest.approx(f.mean()) and s.count == 50
     assert s.percentiles[50] == np.sort(f)[24]  # the smallest with half the samples at or below
-    assert set(s.as_dict()) == {"count", "min", "max", "mean", "percentiles"}
+    assert set(s.as_dict()) == {"count", "min", "max", "mean", "percentiles", "singular"}
     assert value_statistics([], [], [], [], np.zeros((0, 3))) is None
+
+
+def test_extremes_leave_out_singular_samples():
+    """Samples where the parametrisation is singular (a pole's limits) count in the mean
+    and the percentiles but not as extremes, unless there is nothing else."""
+    f = np.array([0.5, 1e9, -1e9, 0.25, 0.75])
+    regular = np.array([True, False, False, True, True])
+
+    def place(k):
+        return Extreme(float(f[k]), k, 0.0, 0.0, (0.0, 0.0, 0.0))
+
+    s = summarised(f, place, regular=regular)
+    assert (s.minimum.patch, s.maximum.patch, s.singular) == (3, 4, 2)
+    assert s.mean == pytest.approx(f.mean())
+    everywhere = summarised(f, place, regular=np.zeros(5, bool))
+    assert (everywhere.minimum.patch, everywhere.maximum.patch) == (2, 1)

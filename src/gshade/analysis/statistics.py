@@ -58,13 +58,17 @@ class Extreme:
 class ValueStatistics:
     """A summary of a function's values over ``count`` samples: ``minimum`` and ``maximum``
     (with where they are), the ``mean`` and ``percentiles`` (percent -> value; weighted by
-    area where the samples were)."""
+    area where the samples were), and how many samples at singular points were left out of
+    the extremes."""
 
     count: int
     minimum: Extreme
     maximum: Extreme
     mean: float
     percentiles: dict[int, float]
+    #: samples at singular points of the parametrisation (poles, collapsed edges) left out
+    #: of the extremes (:func:`summarised`)
+    singular: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -73,6 +77,7 @@ class ValueStatistics:
             "max": self.maximum.as_dict(),
             "mean": self.mean,
             "percentiles": {str(k): v for k, v in self.percentiles.items()},
+            "singular": self.singular,
         }
 
     def text(self, label: str = "patch") -> str:
@@ -130,11 +135,25 @@ def weighted_percentiles(
 
 
 def summarised(
-    values: ArrayLike, place: Callable[[int], Extreme], weights: ArrayLike | None = None
+    values: ArrayLike,
+    place: Callable[[int], Extreme],
+    weights: ArrayLike | None = None,
+    regular: ArrayLike | None = None,
 ) -> ValueStatistics | None:
     """The summary of samples ``values`` (n,), each weighing ``weights`` (n,: its area;
     default equal), ``place(k)`` the :class:`Extreme` of sample k (asked for the two
-    extremes only); None for no sample."""
+    extremes only); None for no sample.  With ``regular`` (n, bool), the extremes are
+    those of the samples where the parametrisation is regular (where there are any): at a
+    pole or collapsed edge a value is a limit that may not exist (a curvature unbounded
+    there); the others count as :attr:`ValueStatistics.singular`.
+
+    Examples
+    --------
+    >>> s = summarised([1.0, 9e9, 2.0], lambda k: Extreme(k, k, 0, 0, (0, 0, 0)),
+    ...                regular=[True, False, True])
+    >>> s.maximum.value, s.singular
+    (2, 1)
+    """
     f = np.asarray(values, dtype=np.float64).ravel()
     if f.size == 0:
         return None
@@ -144,8 +163,13 @@ def summarised(
     mean = float(np.average(f, weights=w))
     found = weighted_percentiles(f, PERCENTILES, w)
     percentiles = {k: float(x) for k, x in zip(PERCENTILES, found, strict=True)}
+    candidates = np.arange(f.size)
+    if regular is not None and np.any(regular):
+        candidates = np.flatnonzero(np.asarray(regular, dtype=bool).ravel())
+    lowest = int(candidates[np.argmin(f[candidates])])
+    highest = int(candidates[np.argmax(f[candidates])])
     return ValueStatistics(
-        f.size, place(int(np.argmin(f))), place(int(np.argmax(f))), mean, percentiles
+        f.size, place(lowest), place(highest), mean, percentiles, f.size - candidates.size
     )
 
 

@@ -88,7 +88,9 @@ def surface_statistics(
 ) -> ValueStatistics | None:
     """The summary of the first function of ``tex`` over the whole surface: the texels where
     it is valid (and, with ``region``, inside the trimmed faces), weighted by area; the
-    extremes polished on the exact surface (:func:`_polish`).  ``numbers``: each patch's
+    extremes those of the texels where the parametrisation is regular
+    (:func:`~gshade.analysis.statistics.summarised`), polished on the exact surface
+    (:func:`_polish`).  ``numbers``: each patch's
     number to report (a CAD model's face numbers; default the index)."""
     atlas = tex.atlas
     valid = tex.valid[0] > 0
@@ -106,17 +108,22 @@ def surface_statistics(
     values = f.ravel()[at].astype(np.float64)
     domains = np.array([p.domain for p in patches], dtype=np.float64)
 
+    texel_of: dict[int, tuple[int, int]] = {}  # an extreme (by id) -> its texel
+
     def place(i: int) -> Extreme:
         """The texel of sample i: its patch, (u, v) from its place in its tile."""
-        row, col = np.unravel_index(at[i], valid.shape)
+        row, col = (int(x) for x in np.unravel_index(at[i], valid.shape))
         k = int(index[row, col])
         (rows, cols), (hs, ht) = tiles[k], atlas.spacing(k)
         s, t = (col - cols.start) * hs, (row - rows.start) * ht
         u, v = unit_to_domain(domains, np.array([s]), np.array([t]), np.array([k]))
         x, y, z = (float(c) for c in tex.position[row, col])
-        return Extreme(float(values[i]), k, float(u[0]), float(v[0]), (x, y, z))
+        found = Extreme(float(values[i]), k, float(u[0]), float(v[0]), (x, y, z))
+        texel_of[id(found)] = row, col
+        return found
 
-    stats = summarised(values, place, texel_areas(tex, valid))
+    regular = np.ones(valid.shape, dtype=bool) if tex.regular is None else tex.regular
+    stats = summarised(values, place, texel_areas(tex, valid), regular.ravel()[at])
     assert stats is not None
 
     def polished(e: Extreme, sign: float) -> Extreme:
@@ -127,11 +134,11 @@ def surface_statistics(
             patch, fn, params, e.u, e.v, (float(hs) * (u1 - u0), float(ht) * (v1 - v0)), sign
         )
         # within a texel of a smooth extreme, f moves by at most about its change to the
-        # next texels: a polished value beyond that ran into a singular point (a collapsed
-        # edge's corner), and the grid's own value stands
-        row, col = np.unravel_index(at[int(np.argmax(sign * values))], valid.shape)
+        # next regular texels: a polished value beyond that ran into a singular point (a
+        # collapsed edge's corner), and the grid's own value stands
+        row, col = texel_of[id(e)]
         window = (slice(max(row - 1, 0), row + 2), slice(max(col - 1, 0), col + 2))
-        near = valid[window] & (index[window] == e.patch)
+        near = valid[window] & (index[window] == e.patch) & regular[window]
         reach = 2.0 * float(np.abs(f[window][near] - f[row, col]).max(initial=0.0))
         if not np.isfinite(value) or abs(value - e.value) > reach + 1e-6 * abs(e.value):
             value, pu, pv = e.value, e.u, e.v
@@ -145,6 +152,7 @@ def surface_statistics(
         polished(stats.maximum, 1.0),
         stats.mean,
         stats.percentiles,
+        stats.singular,
     )
 
 

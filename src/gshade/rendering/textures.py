@@ -35,7 +35,7 @@ class ShapeTextures:
     function: the data of a bicubic Hermite interpolant, accurate to O(h^4);
     ``position`` = p, ``tangent_s`` = p_s, ``tangent_t`` = p_t and ``twist_st`` = p_st, the
     bicubic Hermite data with which the renderer moves each sample from the mesh onto the
-    exact surface (one Newton step).
+    exact surface (one Newton step); ``regular`` where the parametrisation is regular.
     """
 
     atlas: Atlas
@@ -46,6 +46,9 @@ class ShapeTextures:
     tangent_s: NDArray[np.float32]
     tangent_t: NDArray[np.float32]
     twist_st: NDArray[np.float32]
+    #: (H, W): whether each texel's parametrisation is regular (False on a collapsed edge,
+    #: at an extraordinary vertex: its values are limits taken from inside); None: all
+    regular: NDArray[np.bool_] | None = None
 
     def geometry(self) -> dict[str, NDArray[np.float32]]:
         """The surface's images by quantity (see :data:`gshade.rendering.atlas.GEOMETRY`)."""
@@ -151,6 +154,7 @@ def shape_textures(
     twist = [p[..., f_st] for p in packed]
     valid = [p[..., SHAPE.channel("valid")] for p in packed]
     surface = np.zeros((H, W, GEOMETRY.size), dtype=np.float32)
+    regular_image = np.ones((H, W), dtype=bool)
     geometry = [
         surface[..., GEOMETRY.channel(q) : GEOMETRY.channel(q) + 3]
         for q in ("p", "p_s", "p_t", "p_st")
@@ -180,10 +184,14 @@ def shape_textures(
         for c, k in enumerate(chunk):
             tile = atlas.tile_slices(k)
             # rows follow t (v), columns follow s (u): a tile is the transpose of the grid
+            regular_image[tile] = regular[c].T
             for image, field in zip(geometry, (d[0, 0, c], p_s[c], p_t[c], p_st[c]), strict=True):
                 image[tile] = field.transpose(1, 0, 2)
             for j, (res, f_s, f_t, f_st) in enumerate(shaped):
                 values[j][tile] = np.stack([res.f[c], f_s[c], f_t[c]], -1).transpose(1, 0, 2)
                 twist[j][tile] = f_st[c].T
                 valid[j][tile] = res.valid[c].T
-    return ShapeTextures(atlas, values, twist, valid, *geometry)
+    position, tangent_s, tangent_t, twist_st = geometry
+    return ShapeTextures(
+        atlas, values, twist, valid, position, tangent_s, tangent_t, twist_st, regular_image
+    )
