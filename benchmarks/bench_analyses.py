@@ -40,14 +40,39 @@ CASES = [
         "bracket-mean.toml",
         {"shape.function": "mean", "shape.display": "colormap", "render.combs": True},
     ),
+    (
+        "bracket-mean.toml",
+        {
+            "shape.function": "mean",
+            "shape.display": "colormap",
+            "render.combs": True,
+            "render.comb_lines": ["edges", "sections"],
+        },
+    ),
     ("bracket-mean.toml", {"shape.function": "draft_angle", "shape.display": "bands"}),
     ("bracket-mean.toml", {"shape.function": "min_radius", "shape.display": "bands"}),
+]
+#: The cases of a CAD file given with --cad (not committed: a real part from elsewhere)
+CAD_CASES = [
+    {"shape.function": "mean", "shape.display": "colormap"},
+    {"shape.function": "mean", "shape.display": "colormap", "render.combs": True},
+    {
+        "shape.function": "mean",
+        "shape.display": "colormap",
+        "render.combs": True,
+        "render.comb_lines": ["edges", "sections"],
+    },
+    {"shape.function": "draft_angle", "shape.display": "bands"},
+    {"shape.function": "min_radius", "shape.display": "bands"},
 ]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="timed rounds (default 3)")
+    parser.add_argument(
+        "--cad", action="append", default=[], help="also a CAD file (a scene of its own)"
+    )
     args = parser.parse_args()
 
     import gshade
@@ -55,11 +80,13 @@ def main() -> None:
     from gshade.scene import load_scene
 
     setup()
-    seconds: list[list[float]] = [[] for _ in CASES]
-    shares: list[list[float]] = [[] for _ in CASES]
+    cases = [(SCENES / name, o) for name, o in CASES]
+    cases += [(Path(f).resolve(), o) for f in args.cad for o in CAD_CASES]
+    seconds: list[list[float]] = [[] for _ in cases]
+    shares: list[list[float]] = [[] for _ in cases]
     for round_ in range(args.rounds + 1):
-        for k, (name, overrides) in enumerate(CASES):
-            scene = load_scene(SCENES / name, overrides)
+        for k, (path, overrides) in enumerate(cases):
+            scene = load_scene(path, overrides)
             start = time.perf_counter()
             image = gshade.render(scene)
             elapsed = time.perf_counter() - start
@@ -71,9 +98,10 @@ def main() -> None:
         f"{time.strftime('%Y-%m-%d')}, {args.rounds} rounds"
     )
     base = None
-    for k, (name, overrides) in enumerate(CASES):
+    for k, (path, overrides) in enumerate(cases):
+        name = path.name
         median = statistics.median(seconds[k])
-        overlays = [k.removeprefix("render.") for k in overrides if k.startswith("render.")]
+        overlays = [o.removeprefix("render.") for o in overrides if o.startswith("render.")]
         if overrides["shape.function"] == "mean" and not overlays:
             base = median
         what = overrides["shape.function"] + "".join(f" +{o}" for o in overlays)

@@ -41,8 +41,8 @@ from .curvature_combs import CurveFamily, CurveSamples
 
 __all__ = ["GRID", "SectionPlanes", "SectionRegion", "section_family", "section_points"]
 
-#: Grid points a side a patch's box is traced on.
-GRID = 49
+#: Grid points a side a patch's box is traced on, and probed on first for the levels near.
+GRID, PROBE_GRID = 49, 9
 #: Newton steps moving a traced point onto its section (quadratic: a grid cell's error
 #: is below rounding after four).
 NEWTON_STEPS = 6
@@ -87,15 +87,32 @@ class SectionRegion:
     name: str
 
 
+def _crossed(patch: Patch, box: tuple, planes: SectionPlanes, n: int) -> bool:
+    """Whether a plane may cut the patch's ``box``: its level within the range of
+    f = <p, a> on an n x n grid widened by f's largest step between neighbouring points."""
+    (u0, u1), (v0, v1) = box
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+    f = (np.asarray(patch(u.ravel(), v.ravel())) @ planes.direction).reshape(n, n)
+    reach = max(np.abs(np.diff(f, axis=0)).max(), np.abs(np.diff(f, axis=1)).max())
+    near = (planes.levels >= f.min() - reach) & (planes.levels <= f.max() + reach)
+    return bool(near.any())
+
+
 def _traced(
     patch: Patch, region: SectionRegion, planes: SectionPlanes
 ) -> list[tuple[float, NDArray[np.float64]]]:
-    """The cuts of one region as (level, (u, v) polyline (m, 2)), two points at least."""
+    """The cuts of one region as (level, (u, v) polyline (m, 2)), two points at least (a
+    region no level comes near on a coarse grid first is passed over)."""
     from skimage.measure import find_contours
 
+    if not _crossed(patch, region.box, planes, PROBE_GRID):
+        return []
     (u0, u1), (v0, v1) = region.box
     u, v = np.meshgrid(np.linspace(u0, u1, GRID), np.linspace(v0, v1, GRID), indexing="ij")
     f = np.asarray(patch(u.ravel(), v.ravel())) @ planes.direction
+    lo, hi = f.min(), f.max()
+    if not np.any((planes.levels >= lo) & (planes.levels <= hi)) or lo == hi:
+        return []
     if region.inside is not None:
         inside = region.inside(np.stack([u.ravel(), v.ravel()], -1))
         f = np.where(inside, f, np.nan)
