@@ -71,35 +71,44 @@ def foot_points(
     (u0, u1), (v0, v1) = patch.domain
     lo, hi = np.array([u0, v0]), np.array([u1, v1])
     still = 1e-15 * max(u1 - u0, v1 - v0)
+    active = np.arange(len(q))  # the points still moving
     for _ in range(steps):
-        d = patch.derivatives(uv[:, 0], uv[:, 1], 2)
-        r = d[0, 0] - q
-        su, sv = d[1, 0], d[0, 1]
-        g = np.stack([np.sum(su * r, -1), np.sum(sv * r, -1)], -1)
-        E, F, G = np.sum(su * su, -1), np.sum(su * sv, -1), np.sum(sv * sv, -1)
-        a = E + np.sum(d[2, 0] * r, -1)
-        b = F + np.sum(d[1, 1] * r, -1)
-        c = G + np.sum(d[0, 2] * r, -1)
-        definite = (a > 0) & (a * c - b * b > 0)
-        a, b, c = np.where(definite, a, E), np.where(definite, b, F), np.where(definite, c, G)
-        # a side reached and the descent -g leading out of it: hold that parameter there
-        held = ((uv <= lo) & (g > 0)) | ((uv >= hi) & (g < 0))
-        a = a + 1e-14 * (E + G) + 1e-300  # a degenerate point (a pole) stays solvable
-        c = c + 1e-14 * (E + G) + 1e-300
-        det = a * c - b * b
-        step = np.stack([(-c * g[:, 0] + b * g[:, 1]) / det, (b * g[:, 0] - a * g[:, 1]) / det], -1)
-        only_v = held[:, 0] & ~held[:, 1]
-        only_u = held[:, 1] & ~held[:, 0]
-        step[only_v] = np.stack([np.zeros(only_v.sum()), -g[only_v, 1] / c[only_v]], -1)
-        step[only_u] = np.stack([-g[only_u, 0] / a[only_u], np.zeros(only_u.sum())], -1)
-        step[held[:, 0] & held[:, 1]] = 0.0
-        step = np.nan_to_num(step)
-        moved = np.clip(uv + step, lo, hi)
-        done = not np.abs(moved - uv).max(initial=0.0) > still
-        uv = moved
-        if done:
+        if active.size == 0:
             break
+        moved = uv[active] + _newton_step(patch, q[active], uv[active], lo, hi)
+        moved = np.clip(moved, lo, hi)
+        going = np.abs(moved - uv[active]).max(axis=-1) > still
+        uv[active] = moved
+        active = active[going]
     return uv
+
+
+def _newton_step(
+    patch: Patch, q: NDArray, uv: NDArray, lo: NDArray, hi: NDArray
+) -> NDArray[np.float64]:
+    """One step (n, 2) of the foot-point Newton method (see the module), a parameter
+    held at a side it reached where the descent leads out of the domain."""
+    d = patch.derivatives(uv[:, 0], uv[:, 1], 2)
+    r = d[0, 0] - q
+    su, sv = d[1, 0], d[0, 1]
+    g = np.stack([np.sum(su * r, -1), np.sum(sv * r, -1)], -1)
+    E, F, G = np.sum(su * su, -1), np.sum(su * sv, -1), np.sum(sv * sv, -1)
+    a = E + np.sum(d[2, 0] * r, -1)
+    b = F + np.sum(d[1, 1] * r, -1)
+    c = G + np.sum(d[0, 2] * r, -1)
+    definite = (a > 0) & (a * c - b * b > 0)
+    a, b, c = np.where(definite, a, E), np.where(definite, b, F), np.where(definite, c, G)
+    held = ((uv <= lo) & (g > 0)) | ((uv >= hi) & (g < 0))
+    a = a + 1e-14 * (E + G) + 1e-300  # a degenerate point (a pole) stays solvable
+    c = c + 1e-14 * (E + G) + 1e-300
+    det = a * c - b * b
+    step = np.stack([(-c * g[:, 0] + b * g[:, 1]) / det, (b * g[:, 0] - a * g[:, 1]) / det], -1)
+    only_v = held[:, 0] & ~held[:, 1]
+    only_u = held[:, 1] & ~held[:, 0]
+    step[only_v] = np.stack([np.zeros(only_v.sum()), -g[only_v, 1] / c[only_v]], -1)
+    step[only_u] = np.stack([-g[only_u, 0] / a[only_u], np.zeros(only_u.sum())], -1)
+    step[held[:, 0] & held[:, 1]] = 0.0
+    return np.nan_to_num(step)
 
 
 def _samples(patches: Sequence[Patch], grid: int) -> tuple[NDArray, NDArray, NDArray]:
@@ -126,8 +135,9 @@ def closest_points(
     candidates: int = CANDIDATES,
 ) -> ClosestPoints:
     """The points of ``patches`` nearest to each of ``queries`` (n, 3): from the
-    ``candidates`` nearest of every patch's ``grid`` x ``grid`` samples, Newton's method
-    on the exact patches (:func:`foot_points`), the nearest foot point kept.
+    ``candidates`` nearest of every patch's ``grid`` x ``grid`` samples (the nearest one
+    on each patch among them), Newton's method on the exact patches
+    (:func:`foot_points`), the nearest foot point kept.
 
     Examples
     --------
@@ -146,10 +156,14 @@ def closest_points(
     best = ClosestPoints(
         np.zeros_like(q), np.zeros(len(q), np.int64), np.zeros((len(q), 2)), np.full(len(q), np.inf)
     )
+    tried = owner[nearest]  # each query asks a patch once, from its nearest sample there
+    first = np.ones(tried.shape, dtype=bool)
+    for j in range(1, k):
+        first[:, j] = ~np.any(tried[:, :j] == tried[:, j : j + 1], axis=1)
     for j in range(k):
         start, on = uv[nearest[:, j]], owner[nearest[:, j]]
-        for p in np.unique(on).tolist():
-            mine = np.flatnonzero(on == p)
+        for p in np.unique(on[first[:, j]]).tolist():
+            mine = np.flatnonzero((on == p) & first[:, j])
             feet = foot_points(patches[p], q[mine], start[mine])
             at = np.asarray(patches[p](feet[:, 0], feet[:, 1]), dtype=np.float64).reshape(-1, 3)
             distance = np.linalg.norm(at - q[mine], axis=-1)

@@ -1,0 +1,98 @@
+"""Geometric deviation: how far the points of one surface lie from another, signed, and the
+numbers a CAD-kernel team signs off on (issue 30).
+
+For a point p of surface A with A's oriented unit normal n, the signed deviation from
+surface B is
+
+    d(p) = sign(<c - p, n>) |c - p|,    c the point of B nearest to p
+
+(:func:`gshade.analysis.closest_points.closest_points`, exact up to rounding): positive
+where B lies on the side A's normal points to (outside a solid), negative inside.  Its
+summary: the largest |d| and where it is, the mean, the RMS, the 95th percentile of |d|
+and the fraction within a tolerance, with the counts they are over.  Plain functions on
+arrays.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..geometry import Patch
+from .closest_points import ClosestPoints, closest_points
+
+__all__ = ["Deviation", "deviation_summary", "signed_deviation"]
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """The signed deviation ``distance`` (n,) of each point, and the closest points on
+    the other surface (:class:`~gshade.analysis.closest_points.ClosestPoints`)."""
+
+    distance: NDArray[np.float64]
+    closest: ClosestPoints
+
+
+def signed_deviation(points: ArrayLike, normals: ArrayLike, patches: Sequence[Patch]) -> Deviation:
+    """The signed deviation of ``points`` (n, 3), whose surface's unit normals are
+    ``normals`` (n, 3), from the surface of ``patches`` (see the module).  A point on B
+    (distance 0) counts as positive.
+
+    Examples
+    --------
+    The sphere of radius 2 against the sphere of radius 2.5, outward normals: 0.5.
+
+    >>> from gshade.geometry import sphere
+    >>> p = np.array([[0.0, 0.0, 2.0], [1.2, 1.6, 0.0]])
+    >>> found = signed_deviation(p, p / 2, [sphere(2.5)])
+    >>> np.round(found.distance, 12).tolist()
+    [0.5, 0.5]
+    >>> np.round(signed_deviation(p, p / 2, [sphere(1.5)]).distance, 12).tolist()
+    [-0.5, -0.5]
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    found = closest_points(patches, p)
+    side = np.sum((found.point - p) * n, axis=-1)
+    return Deviation(np.where(side < 0, -found.distance, found.distance), found)
+
+
+def deviation_summary(
+    distance: ArrayLike, tolerance: float, points: ArrayLike | None = None
+) -> dict[str, Any]:
+    """The numbers of signed deviations ``distance`` (n,) against ``tolerance`` (>= 0):
+    ``count``, ``max_abs`` with its ``index`` (and ``point`` where ``points`` (n, 3) are
+    given), ``min`` and ``max`` (signed), ``mean``, ``rms``, ``p95`` (of |d|, numpy's
+    ``inverted_cdf``) and ``within`` (the fraction with |d| <= tolerance); None values
+    for no point.
+
+    Examples
+    --------
+    >>> s = deviation_summary([0.1, -0.3, 0.2, 0.0], 0.25)
+    >>> s["max_abs"], s["index"], s["within"], round(s["rms"], 6)
+    (0.3, 1, 0.75, 0.187083)
+    """
+    d = np.asarray(distance, dtype=np.float64).ravel()
+    if d.size == 0:
+        return {"count": 0, "tolerance": tolerance, "max_abs": None, "index": None}
+    size = np.abs(d)
+    k = int(np.argmax(size))
+    out: dict[str, Any] = {
+        "count": int(d.size),
+        "tolerance": float(tolerance),
+        "max_abs": float(size[k]),
+        "index": k,
+        "min": float(d.min()),
+        "max": float(d.max()),
+        "mean": float(d.mean()),
+        "rms": float(np.sqrt(np.mean(d * d))),
+        "p95": float(np.percentile(size, 95, method="inverted_cdf")),
+        "within": float(np.mean(size <= tolerance)),
+    }
+    if points is not None:
+        out["point"] = np.asarray(points, dtype=np.float64).reshape(-1, 3)[k].tolist()
+    return out

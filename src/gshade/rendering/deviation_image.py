@@ -1,0 +1,219 @@
+"""The deviation picture (``gshade deviation``): scene A rendered from its view, every
+covered pixel's exact point P on A given its signed distance to scene B's exact surfaces
+(:mod:`gshade.analysis.deviation`), shown in tolerance bands.
+
+Channels: A's render's, with ``f`` (and ``f.mean``) the signed deviation at the pixel
+centre's P (0 off the surface), ``B.X B.Y B.Z`` the closest point on B and ``B.patch`` its
+patch (a CAD model's face number; -1 off the surface).  Colours: within ±T a neutral grey;
+beyond, the diverging colour map of d on [-R, R] (R the largest |d|, at least 2T): the
+side A's normal points to red, the other blue.  The band edges are box-filtered over each
+pixel's footprint like every band (:func:`gshade.display.bands.band_shares`; d's change
+across the pixel from its neighbours), and the colours are shaded by the exact normal
+toward the eye.  The header's ``deviation`` holds the numbers
+(:func:`gshade.analysis.deviation.deviation_summary`) with B's file and the tolerance.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..analysis.deviation import deviation_summary, signed_deviation
+from ..display import Legend, colour_map
+from ..display.bands import band_shares, band_text, settled_on_levels
+from ..display.colour import srgb_to_linear
+from ..shape.registry import Bands
+from .rendered_image import RenderedImage
+
+if TYPE_CHECKING:
+    from ..scene.model import Scene
+
+__all__ = ["DEVIATION_CHANNELS", "NEUTRAL", "deviation_bands", "deviation_image"]
+
+#: The channels a deviation picture adds to A's render's.
+DEVIATION_CHANNELS = ("B.X", "B.Y", "B.Z", "B.patch")
+#: The colour within tolerance (sRGB).
+NEUTRAL = (0.78, 0.78, 0.76)
+
+
+def deviation_bands(tolerance: float) -> Bands:
+    """The tolerance bands: below -T, within ±T (a value of exactly ±T is within), above T.
+
+    Examples
+    --------
+    >>> deviation_bands(0.1).names
+    ('beyond, inside', 'within tolerance', 'beyond, outside')
+    """
+    t = float(tolerance)
+    edges = (-t, t) if t > 0 else (0.0,)
+    names = (
+        ("beyond, inside", "within tolerance", "beyond, outside")
+        if t > 0
+        else (
+            "inside",
+            "outside",
+        )
+    )
+    colours = ((0.23, 0.3, 0.75), NEUTRAL, (0.7, 0.02, 0.15))
+    return Bands(
+        edges,
+        names,
+        colours if t > 0 else (colours[0], colours[2]),
+        closed_above=(1,) if t > 0 else (),
+    )
+
+
+def _footprint(f: NDArray, on: NDArray) -> tuple[NDArray, NDArray]:
+    """f's change across one pixel in x and y: central differences where both neighbours
+    are on the surface, one-sided where one is, 0 where none."""
+
+    def along(axis: int) -> NDArray:
+        ahead, behind = np.roll(f, -1, axis), np.roll(f, 1, axis)
+        on_ahead, on_behind = np.roll(on, -1, axis), np.roll(on, 1, axis)
+        edge = [slice(None)] * 2
+        edge[axis] = slice(-1, None)
+        on_ahead[tuple(edge)] = False
+        edge[axis] = slice(0, 1)
+        on_behind[tuple(edge)] = False
+        both = 0.5 * (ahead - behind)
+        return np.where(
+            on_ahead & on_behind,
+            both,
+            np.where(on_ahead, ahead - f, np.where(on_behind, f - behind, 0.0)),
+        )
+
+    return along(1), along(0)
+
+
+def _exact_hits(
+    scene: Scene, channels: dict[str, NDArray], metadata: dict[str, str]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """P and the unit normal N (n, 3) in double precision where the pixel centres' rays meet
+    the surface (the channels hold them in single precision): the rays' Newton solve on the
+    exact patches, started from the channels' (u, v)."""
+    from ..geometry.evaluation.regularity import patch_normals
+    from .camera import View
+    from .surface_hits import surface_hits
+
+    camera = json.loads(metadata["settings"])["camera"]
+    H, W = channels["patch"].shape
+    view = View(
+        camera["type"],
+        np.array(camera["origin"]),
+        np.array(camera["target"]),
+        np.array(camera["up"]),
+        camera["fov"],
+        camera["width"],
+        W,
+        H,
+    )
+    rows, cols = np.nonzero(channels["patch"] >= 0)
+    numbers = _patch_numbers(scene)
+    order = np.argsort(numbers)
+    index = order[np.searchsorted(numbers[order], channels["patch"][rows, cols].astype(np.int64))]
+    u = channels["u"][rows, cols].astype(np.float64)
+    v = channels["v"][rows, cols].astype(np.float64)
+    u, v, d, _ = surface_hits(scene.patches, index, u, v, *view.pixel_rays(rows, cols), steps=3)
+    normal = np.empty((len(u), 3))
+    for k in np.unique(index).tolist():
+        at = index == k
+        normal[at] = patch_normals(scene.patches[k], u[at], v[at]).n
+    return d[0, 0], normal
+
+
+def _patch_numbers(scene: Scene) -> NDArray[np.int64]:
+    """Each scene patch's number in the ``patch`` channel: a lone surface's own (a CAD
+    model's face numbers), else the index."""
+    if len(scene.surfaces) == 1:
+        return np.asarray(scene.surfaces[0].body.patch_numbers(0, len(scene.patches)))
+    return np.arange(len(scene.patches))
+
+
+def _shading(channels: dict[str, NDArray], metadata: dict[str, str]) -> NDArray:
+    """Lambert's |<N, toward the eye>| with an ambient part, per pixel, from the exact N."""
+    camera = json.loads(metadata["settings"])["camera"]
+    P = np.stack([channels[f"P.{c}"] for c in "XYZ"], -1).astype(np.float64)
+    N = np.stack([channels[f"N.{c}"] for c in "XYZ"], -1).astype(np.float64)
+    origin, target = np.array(camera["origin"]), np.array(camera["target"])
+    if camera["type"] == "orthographic":
+        toward = np.broadcast_to(origin - target, P.shape)
+    else:
+        toward = origin - P
+    with np.errstate(invalid="ignore", divide="ignore"):
+        toward = toward / np.linalg.norm(toward, axis=-1, keepdims=True)
+    facing = np.abs(np.nan_to_num(np.sum(N * toward, -1)))
+    return 0.35 + 0.65 * facing
+
+
+def deviation_image(
+    a: Scene, b: Scene, tolerance: float, **overrides: Any
+) -> tuple[RenderedImage, dict[str, Any]]:
+    """Scene ``a`` rendered (with ``overrides``, as :func:`gshade.rendering.render`) and
+    coloured by its signed deviation from scene ``b`` within ``tolerance`` (see the
+    module), and the numbers."""
+    from .pipeline import render
+
+    image = render(a, **overrides)
+    channels = dict(image.channels)
+    on = channels["patch"] >= 0
+    P, N = _exact_hits(a, channels, image.metadata)
+    found = signed_deviation(P, N, b.patches)
+    f = np.zeros(on.shape)
+    f[on] = found.distance
+    foot = np.zeros((*on.shape, 3))
+    foot[on] = found.closest.point
+    patch = np.full(on.shape, -1.0)
+    patch[on] = _patch_numbers(b)[found.closest.patch]
+    summary = deviation_summary(found.distance, tolerance, P)
+    summary["b"] = b.name
+    if summary["count"]:
+        k = int(np.flatnonzero(on.ravel())[summary["index"]])
+        row, col = divmod(k, on.shape[1])
+        summary["pixel"] = [col, row]
+        summary["patch_a"] = int(channels["patch"][row, col])
+        summary["patch_b"] = int(patch[row, col])
+    rgb = _colours(f, on, tolerance, summary.get("max_abs") or 0.0)
+    rgb *= _shading(channels, image.metadata)[..., None]
+    alpha = channels["A"].astype(np.float64)
+    for i, c in enumerate("RGB"):
+        channels[c] = (rgb[..., i] * alpha).astype(np.float32)
+    channels["f"] = channels["f.mean"] = f.astype(np.float32)
+    for i, c in enumerate("XYZ"):
+        channels[f"B.{c}"] = foot[..., i].astype(np.float32)
+    channels["B.patch"] = patch.astype(np.float32)
+    metadata = dict(image.metadata)
+    metadata["deviation"] = json.dumps(summary, allow_nan=False)
+    length = image.metadata.get("length_unit", "length")
+    spread = max(summary.get("max_abs") or 0.0, 2.0 * tolerance) or 1.0
+    legend = Legend(
+        "deviation",
+        0,
+        "bands",
+        value_range=(-spread, spread),
+        colormap="coolwarm",
+        units=length,
+        bands=band_text(deviation_bands(tolerance), length),
+    )
+    metadata["legend"] = legend.text()
+    return replace(image, channels=channels, metadata=metadata, legend=legend), summary
+
+
+def _colours(f: NDArray, on: NDArray, tolerance: float, largest: float) -> NDArray:
+    """Linear RGB (H, W, 3): the bands of f, box-filtered over the pixels' footprints,
+    the beyond-tolerance ones in the diverging map on [-R, R]."""
+    bands = deviation_bands(tolerance)
+    fx, fy = _footprint(f, on)
+    settled, fx, fy = settled_on_levels(f, fx, fy, bands)
+    shares, _ = band_shares(settled, fx, fy, bands)
+    spread = max(largest, 2.0 * tolerance) or 1.0
+    mapped = colour_map(f, on, value_range=(-spread, spread), cmap="coolwarm").rgb
+    neutral = srgb_to_linear(np.asarray(NEUTRAL))
+    if len(shares) == 3:
+        rgb = (shares[0] + shares[2])[..., None] * mapped + shares[1][..., None] * neutral
+    else:
+        rgb = mapped
+    return np.where(on[..., None], rgb, 0.0)
