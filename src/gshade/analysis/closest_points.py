@@ -28,14 +28,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
 
-__all__ = ["CANDIDATES", "GRID", "ClosestPoints", "closest_points", "foot_points"]
+__all__ = ["CANDIDATES", "GRID", "ON_SURFACE", "ClosestPoints", "closest_points", "foot_points"]
 
 #: Samples a side of each patch's grid for the coarse search.
 GRID = 17
 #: Nearest samples each query starts Newton's method from (on their patches).
 CANDIDATES = 4
-#: Newton steps at most (quadratic convergence: a grid cell's start is exact in ~5).
-NEWTON_STEPS = 12
+#: A query this near a foot point, relative to the patches' size, is on the surface: no
+#: patch can hold a nearer point worth the search.
+ON_SURFACE = 1e-13
+#: Newton steps at most (quadratic convergence: a grid cell's start is exact in ~5; near a
+#: pole, where it is linear, more).
+NEWTON_STEPS = 24
 
 
 @dataclass(frozen=True)
@@ -99,14 +103,18 @@ def _newton_step(
     definite = (a > 0) & (a * c - b * b > 0)
     a, b, c = np.where(definite, a, E), np.where(definite, b, F), np.where(definite, c, G)
     held = ((uv <= lo) & (g > 0)) | ((uv >= hi) & (g < 0))
-    a = a + 1e-14 * (E + G) + 1e-300  # a degenerate point (a pole) stays solvable
-    c = c + 1e-14 * (E + G) + 1e-300
     det = a * c - b * b
-    step = np.stack([(-c * g[:, 0] + b * g[:, 1]) / det, (b * g[:, 0] - a * g[:, 1]) / det], -1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = np.stack([(-c * g[:, 0] + b * g[:, 1]) / det, (b * g[:, 0] - a * g[:, 1]) / det], -1)
+    # where the matrix is singular (a pole: S_v = 0), one parameter at a time
+    singular = ~(det > 1e-30 * (E + G) ** 2)
+    held[singular & (c > a), 0] = True
+    held[singular & ~(c > a), 1] = True
     only_v = held[:, 0] & ~held[:, 1]
     only_u = held[:, 1] & ~held[:, 0]
-    step[only_v] = np.stack([np.zeros(only_v.sum()), -g[only_v, 1] / c[only_v]], -1)
-    step[only_u] = np.stack([-g[only_u, 0] / a[only_u], np.zeros(only_u.sum())], -1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step[only_v] = np.stack([np.zeros(only_v.sum()), -g[only_v, 1] / c[only_v]], -1)
+        step[only_u] = np.stack([-g[only_u, 0] / a[only_u], np.zeros(only_u.sum())], -1)
     step[held[:, 0] & held[:, 1]] = 0.0
     return np.nan_to_num(step)
 
@@ -150,25 +158,71 @@ def closest_points(
 
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
     points, owner, uv = _samples(patches, grid)
-    k = min(candidates, len(points))
-    _, nearest = cKDTree(points).query(q, k=k)
-    nearest = np.asarray(nearest).reshape(len(q), k)
+    tree = cKDTree(points)
+    reach = _cell_reach(points, grid)
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
     best = ClosestPoints(
         np.zeros_like(q), np.zeros(len(q), np.int64), np.zeros((len(q), 2)), np.full(len(q), np.inf)
     )
-    tried = owner[nearest]  # each query asks a patch once, from its nearest sample there
-    first = np.ones(tried.shape, dtype=bool)
-    for j in range(1, k):
-        first[:, j] = ~np.any(tried[:, :j] == tried[:, j : j + 1], axis=1)
+    asked = np.arange(len(q))  # the queries to look further for
+    done = np.zeros((len(q), 0), dtype=np.int64)  # the patches each of them has asked
+    k = min(candidates, len(points))
+    while asked.size:
+        distance, nearest = tree.query(q[asked], k=k)
+        nearest = np.asarray(nearest).reshape(len(asked), k)
+        tried = np.concatenate([done, owner[nearest]], axis=1)
+        _improve(patches, q, uv, owner, best, asked, nearest, tried, done.shape[1])
+        if k >= len(points):
+            break
+        # samples beyond the k nearest are farther than the k-th: a patch among them can
+        # hold a nearer point only if the k-th lies within the best distance + a cell's
+        # reach; a query on the surface (to rounding) has its answer
+        farthest = np.asarray(distance).reshape(len(asked), k)[:, -1]
+        found = best.distance[asked]
+        unsure = (farthest - reach < found) & (found > ON_SURFACE * size)
+        asked, done = asked[unsure], tried[unsure]
+        k = min(4 * k, len(points))
+    return best
+
+
+def _cell_reach(points: NDArray, grid: int) -> float:
+    """How far a point of a patch may lie from its nearest sample: the longest diagonal of
+    the sample lattice's cells (a point beyond the lattice's outer half cells is nearer
+    its border sample than that)."""
+    lattice = points.reshape(-1, grid, grid, 3)
+    if grid < 2:
+        return float("inf")
+    one = np.linalg.norm(lattice[:, 1:, 1:] - lattice[:, :-1, :-1], axis=-1).max()
+    other = np.linalg.norm(lattice[:, 1:, :-1] - lattice[:, :-1, 1:], axis=-1).max()
+    return float(max(one, other))
+
+
+def _improve(
+    patches: Sequence[Patch],
+    q: NDArray,
+    uv: NDArray,
+    owner: NDArray,
+    best: ClosestPoints,
+    asked: NDArray,
+    nearest: NDArray,
+    tried: NDArray,
+    before: int,
+) -> None:
+    """Newton's method from each of ``asked``'s ``nearest`` samples on a patch it has not
+    asked yet (``tried``: the patches asked before, the first ``before`` columns, then
+    these), the nearer foot points kept in ``best``."""
+    k = nearest.shape[1]
     for j in range(k):
+        column = before + j
+        new = ~np.any(tried[:, :column] == tried[:, column : column + 1], axis=1)
         start, on = uv[nearest[:, j]], owner[nearest[:, j]]
-        for p in np.unique(on[first[:, j]]).tolist():
-            mine = np.flatnonzero((on == p) & first[:, j])
-            feet = foot_points(patches[p], q[mine], start[mine])
+        for p in np.unique(on[new]).tolist():
+            mine = np.flatnonzero((on == p) & new)
+            who = asked[mine]
+            feet = foot_points(patches[p], q[who], start[mine])
             at = np.asarray(patches[p](feet[:, 0], feet[:, 1]), dtype=np.float64).reshape(-1, 3)
-            distance = np.linalg.norm(at - q[mine], axis=-1)
-            better = distance < best.distance[mine]
-            take = mine[better]
+            distance = np.linalg.norm(at - q[who], axis=-1)
+            better = distance < best.distance[who]
+            take = who[better]
             best.point[take], best.uv[take] = at[better], feet[better]
             best.patch[take], best.distance[take] = p, distance[better]
-    return best

@@ -24,6 +24,7 @@ from .. import __version__
 from ..errors import GshadeError
 from ..runtime.cache_folder import CACHE_VARIABLE
 from . import commands
+from .deviation_command import add_deviation
 from .flags import in_flags
 from .terminal import printable
 
@@ -357,6 +358,7 @@ SUBCOMMANDS = (
     _add_render,
     _add_view,
     _add_compare,
+    add_deviation,
     _add_check,
     _add_batch,
     _add_figure,

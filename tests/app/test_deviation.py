@@ -1,0 +1,126 @@
+"""``gshade deviation`` (issue 30) against closed forms: spheres of radii R and R + delta
+(|d| = delta at every pixel, B's closest point radial), a scene against itself (0), the
+teapot with one inner control point moved (the deviation inside that patch only), and the
+exit statuses a CI reads."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gshade.app.cli import main
+from gshade.io.image import read_exr
+
+ROOT = Path(__file__).resolve().parents[2]
+SPHERE = """name = "{name}"
+[[surface]]
+type = "sphere"
+radius = {radius}
+[camera]
+type = "perspective"
+origin = [2, -4, 2.5]
+target = [0, 0, 0]
+up = [0, 0, 1]
+[render]
+width = 96
+height = 72
+spp = 1
+"""
+
+
+@pytest.fixture
+def spheres(tmp_path):
+    a = tmp_path / "a.toml"
+    b = tmp_path / "b.toml"
+    a.write_text(SPHERE.format(name="a", radius=2.0))
+    b.write_text(SPHERE.format(name="b", radius=2.003))
+    return a, b
+
+
+def test_spheres_r_and_r_plus_delta(spheres, tmp_path, capsys):
+    """Every covered pixel: |d| = 0.003 to 1e-12 relative, B's closest point radial; beyond
+    a tolerance of 0.001: exit 2; within 0.005: exit 0, warning above 0.002: exit 1."""
+    a, b = spheres
+    out = tmp_path / "d.exr"
+    assert main(["deviation", str(a), str(b), "-o", str(out), "--tolerance", "0.001"]) == 2
+    channels, header = read_exr(out)
+    on = channels["patch"] >= 0
+    assert on.sum() > 1000
+    np.testing.assert_allclose(np.abs(channels["f"][on]), 0.003, rtol=1e-6)  # float32 EXR
+    summary = json.loads(header["deviation"])
+    assert summary["max_abs"] == pytest.approx(0.003, rel=1e-12)
+    assert summary["rms"] == pytest.approx(0.003, rel=1e-12)
+    assert summary["within"] == 0.0 and summary["count"] == int(on.sum())
+    P = np.stack([channels[f"P.{c}"][on] for c in "XYZ"], -1)
+    foot = np.stack([channels[f"B.{c}"][on] for c in "XYZ"], -1)
+    np.testing.assert_allclose(foot, P * 2.003 / 2.0, atol=1e-5)
+    assert main(["deviation", str(a), str(b), "-o", str(out), "--tolerance", "0.005"]) == 0
+    args = ["deviation", str(a), str(b), "-o", str(out), "--tolerance", "0.005", "--warn", "0.002"]
+    capsys.readouterr()
+    assert main([*args, "--json"]) == 1
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["status"] == 1 and listed["max_abs"] == pytest.approx(0.003, rel=1e-12)
+
+
+def test_a_scene_against_itself_is_zero(spheres, tmp_path, capsys):
+    a, _ = spheres
+    out = tmp_path / "same.exr"
+    assert main(["deviation", str(a), str(a), "-o", str(out), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["max_abs"] < 1e-12 and listed["within"] == 1.0
+
+
+def _moved_teapot(folder: Path) -> int:
+    """The teapot's data with one inner control point of a patch (used by that patch only)
+    raised by 0.05; the patch's number."""
+    lines = (ROOT / "scenes" / "data" / "teapot.txt").read_text().splitlines()
+    n = int(lines[0])
+    patches = [[int(i) for i in line.split(",")] for line in lines[1 : n + 1]]
+    uses = np.bincount([i for p in patches for i in p])
+    for k, patch in enumerate(patches):
+        inner = [patch[i] for i in (5, 6, 9, 10) if uses[patch[i]] == 1]
+        if inner:
+            vertex = inner[0]
+            break
+    row = n + 1 + vertex  # the vertex count's line, then the vertices from 1
+    x, y, z = (float(c) for c in lines[row].split(","))
+    lines[row] = f"{x},{y},{z + 0.05}"
+    (folder / "data").mkdir()
+    (folder / "data" / "teapot.txt").write_text("\n".join(lines) + "\n")
+    return k
+
+
+def test_a_teapot_with_one_control_point_moved(tmp_path, capsys):
+    """The deviation lies inside the moved patch; every other pixel is on B to 1e-12."""
+    moved = tmp_path / "moved"
+    moved.mkdir()
+    k = _moved_teapot(moved)
+    scene = (ROOT / "scenes" / "teapot-mean.toml").read_text()
+    (moved / "teapot.toml").write_text(scene)
+    out = tmp_path / "teapot.exr"
+    args = ["deviation", str(ROOT / "scenes" / "teapot-mean.toml"), str(moved / "teapot.toml")]
+    assert main([*args, "-o", str(out), "--width", "160", "--height", "120", "--json"]) == 2
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["patch_a"] == k and listed["patch_b"] == k and listed["max_abs"] > 1e-3
+    channels, _ = read_exr(out)
+    on = channels["patch"] >= 0
+    elsewhere = on & (channels["patch"] != k)
+    assert np.abs(channels["f"][elsewhere]).max() < 1e-12
+    assert np.abs(channels["f"][channels["patch"] == k]).max() > 1e-3
+
+
+def test_exit_statuses_for_files_and_usage(spheres, tmp_path, capsys):
+    a, b = spheres
+    assert main(["deviation", str(a), str(tmp_path / "none.toml")]) == 4
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[surface]]\ntype = 'nothing'\n")
+    assert main(["deviation", str(bad), str(b)]) == 4
+    assert main(["deviation", str(a), str(b), "--tolerance", "-1"]) == 5
+    assert main(["deviation", str(a), str(b), "--tolerance", "1", "--warn", "2"]) == 5
+    assert main(["deviation", str(a), str(b), "-o", str(b)]) == 5
+    assert not (tmp_path / "a-deviation.exr").exists()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 5 and "Traceback" not in err
