@@ -34,6 +34,8 @@ __all__ = ["CANDIDATES", "GRID", "ON_SURFACE", "ClosestPoints", "closest_points"
 GRID = 17
 #: Nearest samples each query starts Newton's method from (on their patches).
 CANDIDATES = 4
+#: Halvings of a Newton step that would take a point farther from its query.
+HALVINGS = 30
 #: A query this near a foot point, relative to the patches' size, is on the surface: no
 #: patch can hold a nearer point worth the search.
 ON_SURFACE = 1e-13
@@ -76,15 +78,33 @@ def foot_points(
     lo, hi = np.array([u0, v0]), np.array([u1, v1])
     still = 1e-15 * max(u1 - u0, v1 - v0)
     active = np.arange(len(q))  # the points still moving
+    gap = _gap(patch, q, uv)
     for _ in range(steps):
         if active.size == 0:
             break
-        moved = uv[active] + _newton_step(patch, q[active], uv[active], lo, hi)
-        moved = np.clip(moved, lo, hi)
-        going = np.abs(moved - uv[active]).max(axis=-1) > still
-        uv[active] = moved
+        here = uv[active]
+        step = _newton_step(patch, q[active], here, lo, hi)
+        moved = np.clip(here + step, lo, hi)
+        after = _gap(patch, q[active], moved)
+        # a step that does not bring the point nearer is halved (Newton's full step may
+        # leap to another critical point of a curved patch)
+        for _ in range(HALVINGS):
+            worse = after > gap[active] * (1 + 1e-12) + 1e-300
+            if not worse.any():
+                break
+            step[worse] *= 0.5
+            moved[worse] = np.clip(here[worse] + step[worse], lo, hi)
+            after[worse] = _gap(patch, q[active][worse], moved[worse])
+        going = np.abs(moved - here).max(axis=-1) > still
+        uv[active], gap[active] = moved, after
         active = active[going]
     return uv
+
+
+def _gap(patch: Patch, q: NDArray, uv: NDArray) -> NDArray[np.float64]:
+    """|S(u, v) - q| (n,)."""
+    at = np.asarray(patch(uv[:, 0], uv[:, 1]), dtype=np.float64).reshape(-1, 3)
+    return np.linalg.norm(at - q, axis=-1)
 
 
 def _newton_step(

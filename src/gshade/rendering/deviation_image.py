@@ -115,8 +115,10 @@ def _exact_hits(
     numbers = _patch_numbers(scene)
     order = np.argsort(numbers)
     index = order[np.searchsorted(numbers[order], channels["patch"][rows, cols].astype(np.int64))]
-    u = channels["u"][rows, cols].astype(np.float64)
-    v = channels["v"][rows, cols].astype(np.float64)
+    domains = np.array([p.domain for p in scene.patches], dtype=np.float64)[index]
+    # the channels' single precision may round a parameter just out of its domain
+    u = np.clip(channels["u"][rows, cols].astype(np.float64), domains[:, 0, 0], domains[:, 0, 1])
+    v = np.clip(channels["v"][rows, cols].astype(np.float64), domains[:, 1, 0], domains[:, 1, 1])
     u, v, d, _ = surface_hits(scene.patches, index, u, v, *view.pixel_rays(rows, cols), steps=3)
     normal = np.empty((len(u), 3))
     for k in np.unique(index).tolist():
