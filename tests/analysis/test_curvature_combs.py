@@ -16,7 +16,7 @@ from gshade.analysis.scene_combs import scene_combs
 from gshade.app.cli import main
 from gshade.geometry import BezierPatch
 from gshade.rendering import render
-from gshade.rendering.camera import View
+from gshade.rendering.camera import View, header_view
 from gshade.rendering.comb_lines import in_sight
 from gshade.scene import load_scene
 
@@ -110,18 +110,8 @@ def test_a_cylinders_circular_edges_have_constant_combs(cylinder):
 
 
 def _view(image) -> View:
-    camera = json.loads(image.metadata["settings"])["camera"]
     H, W = image["patch"].shape
-    return View(
-        camera["type"],
-        np.array(camera["origin"]),
-        np.array(camera["target"]),
-        np.array(camera["up"]),
-        camera["fov"],
-        camera["width"],
-        W,
-        H,
-    )
+    return header_view(image.metadata, W, H)
 
 
 def test_combs_are_drawn_where_the_edges_are_seen(cylinder):

@@ -80,11 +80,12 @@ def _moved_teapot(folder: Path) -> int:
     n = int(lines[0])
     patches = [[int(i) for i in line.split(",")] for line in lines[1 : n + 1]]
     uses = np.bincount([i for p in patches for i in p])
-    for k, patch in enumerate(patches):
-        inner = [patch[i] for i in (5, 6, 9, 10) if uses[patch[i]] == 1]
-        if inner:
-            vertex = inner[0]
-            break
+    k, vertex = next(
+        (k, patch[i])
+        for k, patch in enumerate(patches)
+        for i in (5, 6, 9, 10)
+        if uses[patch[i]] == 1
+    )
     row = n + 1 + vertex  # the vertex count's line, then the vertices from 1
     x, y, z = (float(c) for c in lines[row].split(","))
     lines[row] = f"{x},{y},{z + 0.05}"

@@ -21,7 +21,7 @@ from ..scene import validate_view
 from ..scene.model import Camera
 from ..scene.tables import reported
 
-__all__ = ["View", "fit_view", "frame_view"]
+__all__ = ["View", "fit_view", "frame_view", "header_view"]
 
 #: Default viewing direction for automatic framing (from the target toward the eye).
 AUTO_DIRECTION = np.array([0.55, -0.75, 0.45])
@@ -311,3 +311,21 @@ def _aimed(view: View, points: NDArray) -> tuple[View, NDArray, NDArray, NDArray
         forward = forward + cx * fitted.right + cy * fitted.true_up
         forward /= np.linalg.norm(forward)
     return fitted, sx, sy, z
+
+
+def header_view(metadata: dict[str, Any], width: int, height: int) -> View:
+    """The view a render was made with, from its header's ``settings`` (the camera as
+    rendered), for a picture of ``width`` x ``height`` pixels."""
+    import json
+
+    camera = json.loads(str(metadata["settings"]))["camera"]
+    return View(
+        camera["type"],
+        np.array(camera["origin"]),
+        np.array(camera["target"]),
+        np.array(camera["up"]),
+        camera["fov"],
+        camera["width"],
+        width,
+        height,
+    )

@@ -96,21 +96,11 @@ def _exact_hits(
     the surface (the channels hold them in single precision): the rays' Newton solve on the
     exact patches, started from the channels' (u, v)."""
     from ..geometry.evaluation.regularity import patch_normals
-    from .camera import View
+    from .camera import header_view
     from .surface_hits import surface_hits
 
-    camera = json.loads(metadata["settings"])["camera"]
     H, W = channels["patch"].shape
-    view = View(
-        camera["type"],
-        np.array(camera["origin"]),
-        np.array(camera["target"]),
-        np.array(camera["up"]),
-        camera["fov"],
-        camera["width"],
-        W,
-        H,
-    )
+    view = header_view(metadata, W, H)
     rows, cols = np.nonzero(channels["patch"] >= 0)
     numbers = _patch_numbers(scene)
     order = np.argsort(numbers)
