@@ -55,6 +55,28 @@ class ClosestPoints:
     distance: NDArray[np.float64]
 
 
+class _Surfaces:
+    """Patches evaluated together
+    (:class:`~gshade.geometry.evaluation.patch_cells.ManyPatches`) with their domains'
+    corners (m, 2)."""
+
+    def __init__(self, patches: Sequence[Patch]) -> None:
+        from ..geometry.evaluation.patch_cells import ManyPatches
+
+        # numpy's batches: the Newton steps' many small calls (few points still moving,
+        # halvings) cost less than Dr.Jit's kernel launches (linkrods.step: 2.2 s vs 3.5 s)
+        self.many = ManyPatches(patches, drjit=False)
+        domains = np.array([p.domain for p in patches], dtype=np.float64).reshape(-1, 2, 2)
+        self.lo, self.hi = domains[:, :, 0], domains[:, :, 1]
+
+    def derivatives(self, index: NDArray, uv: NDArray, order: int) -> NDArray[np.float64]:
+        return self.many.derivatives(index, uv[:, 0], uv[:, 1], order)
+
+    def gap(self, index: NDArray, q: NDArray, uv: NDArray) -> NDArray[np.float64]:
+        """|S(u, v) - q| (n,)."""
+        return np.linalg.norm(self.derivatives(index, uv, 0)[0, 0] - q, axis=-1)
+
+
 def foot_points(
     patch: Patch, queries: ArrayLike, start: ArrayLike, steps: int = NEWTON_STEPS
 ) -> NDArray[np.float64]:
@@ -69,50 +91,54 @@ def foot_points(
     >>> ball = sphere(1.0)
     >>> (u0, u1), (v0, v1) = ball.domain
     >>> uv = foot_points(ball, [[0.0, 0.0, 3.0]], [[0.8 * u1 + 0.2 * u0, 0.5 * (v0 + v1)]])
-    >>> np.round(ball(*uv.T), 12).tolist()
+    >>> (np.round(ball(*uv.T), 12) + 0.0).tolist()
     [[0.0, 0.0, 1.0]]
     """
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
+    start = np.asarray(start, dtype=np.float64).reshape(-1, 2)
+    return _feet(_Surfaces([patch]), np.zeros(len(q), np.int64), q, start, steps)
+
+
+def _feet(
+    surfaces: _Surfaces, index: NDArray, q: NDArray, start: NDArray, steps: int = NEWTON_STEPS
+) -> NDArray[np.float64]:
+    """:func:`foot_points` of each query on its patch ``index`` of ``surfaces``, all
+    patches at once."""
     uv = np.array(start, dtype=np.float64).reshape(-1, 2)
-    (u0, u1), (v0, v1) = patch.domain
-    lo, hi = np.array([u0, v0]), np.array([u1, v1])
-    still = 1e-15 * max(u1 - u0, v1 - v0)
+    lo, hi = surfaces.lo[index], surfaces.hi[index]
+    still = 1e-15 * (hi - lo).max(axis=-1)
     active = np.arange(len(q))  # the points still moving
-    gap = _gap(patch, q, uv)
+    gap = surfaces.gap(index, q, uv)
     for _ in range(steps):
         if active.size == 0:
             break
-        here = uv[active]
-        step = _newton_step(patch, q[active], here, lo, hi)
-        moved = np.clip(here + step, lo, hi)
-        after = _gap(patch, q[active], moved)
+        here, at = uv[active], index[active]
+        step = _newton_step(
+            surfaces.derivatives(at, here, 2), q[active], here, lo[active], hi[active]
+        )
+        moved = np.clip(here + step, lo[active], hi[active])
+        after = surfaces.gap(at, q[active], moved)
         # a step that does not bring the point nearer is halved (Newton's full step may
         # leap to another critical point of a curved patch)
         for _ in range(HALVINGS):
-            worse = after > gap[active] * (1 + 1e-12) + 1e-300
-            if not worse.any():
+            worse = np.flatnonzero(after > gap[active] * (1 + 1e-12) + 1e-300)
+            if not worse.size:
                 break
             step[worse] *= 0.5
-            moved[worse] = np.clip(here[worse] + step[worse], lo, hi)
-            after[worse] = _gap(patch, q[active][worse], moved[worse])
-        going = np.abs(moved - here).max(axis=-1) > still
+            moved[worse] = np.clip(here[worse] + step[worse], lo[active][worse], hi[active][worse])
+            after[worse] = surfaces.gap(at[worse], q[active][worse], moved[worse])
+        going = np.abs(moved - here).max(axis=-1) > still[active]
         uv[active], gap[active] = moved, after
         active = active[going]
     return uv
 
 
-def _gap(patch: Patch, q: NDArray, uv: NDArray) -> NDArray[np.float64]:
-    """|S(u, v) - q| (n,)."""
-    at = np.asarray(patch(uv[:, 0], uv[:, 1]), dtype=np.float64).reshape(-1, 3)
-    return np.linalg.norm(at - q, axis=-1)
-
-
 def _newton_step(
-    patch: Patch, q: NDArray, uv: NDArray, lo: NDArray, hi: NDArray
+    d: NDArray, q: NDArray, uv: NDArray, lo: NDArray, hi: NDArray
 ) -> NDArray[np.float64]:
-    """One step (n, 2) of the foot-point Newton method (see the module), a parameter
-    held at a side it reached where the descent leads out of the domain."""
-    d = patch.derivatives(uv[:, 0], uv[:, 1], 2)
+    """One step (n, 2) of the foot-point Newton method from the derivatives ``d`` at
+    ``uv`` (see the module), a parameter held at a side it reached where the descent leads
+    out of the domain."""
     r = d[0, 0] - q
     su, sv = d[1, 0], d[0, 1]
     g = np.stack([np.sum(su * r, -1), np.sum(sv * r, -1)], -1)
@@ -171,7 +197,7 @@ def closest_points(
     --------
     >>> from gshade.geometry import sphere
     >>> found = closest_points([sphere(2.0)], [[0.0, 3.0, 4.0]])
-    >>> np.round(found.point, 12).tolist(), round(float(found.distance[0]), 12)
+    >>> (np.round(found.point, 12) + 0.0).tolist(), round(float(found.distance[0]), 12)
     ([[0.0, 1.2, 1.6]], 3.0)
     """
     from scipy.spatial import cKDTree
@@ -179,6 +205,7 @@ def closest_points(
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
     points, owner, uv = _samples(patches, grid)
     tree = cKDTree(points)
+    surfaces = _Surfaces(patches)
     reach = _cell_reach(points, grid)
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     best = ClosestPoints(
@@ -191,7 +218,7 @@ def closest_points(
         distance, nearest = tree.query(q[asked], k=k)
         nearest = np.asarray(nearest).reshape(len(asked), k)
         tried = np.concatenate([done, owner[nearest]], axis=1)
-        _improve(patches, q, uv, owner, best, asked, nearest, tried, done.shape[1])
+        _improve(surfaces, q, uv, owner, best, asked, nearest, tried, done.shape[1])
         if k >= len(points):
             break
         # samples beyond the k nearest are farther than the k-th: a patch among them can
@@ -218,7 +245,7 @@ def _cell_reach(points: NDArray, grid: int) -> float:
 
 
 def _improve(
-    patches: Sequence[Patch],
+    surfaces: _Surfaces,
     q: NDArray,
     uv: NDArray,
     owner: NDArray,
@@ -230,19 +257,22 @@ def _improve(
 ) -> None:
     """Newton's method from each of ``asked``'s ``nearest`` samples on a patch it has not
     asked yet (``tried``: the patches asked before, the first ``before`` columns, then
-    these), the nearer foot points kept in ``best``."""
-    k = nearest.shape[1]
-    for j in range(k):
-        column = before + j
-        new = ~np.any(tried[:, :column] == tried[:, column : column + 1], axis=1)
-        start, on = uv[nearest[:, j]], owner[nearest[:, j]]
-        for p in np.unique(on[new]).tolist():
-            mine = np.flatnonzero((on == p) & new)
-            who = asked[mine]
-            feet = foot_points(patches[p], q[who], start[mine])
-            at = np.asarray(patches[p](feet[:, 0], feet[:, 1]), dtype=np.float64).reshape(-1, 3)
-            distance = np.linalg.norm(at - q[who], axis=-1)
-            better = distance < best.distance[who]
-            take = who[better]
-            best.point[take], best.uv[take] = at[better], feet[better]
-            best.patch[take], best.distance[take] = p, distance[better]
+    these), all patches at once, the nearer foot points kept in ``best``."""
+    columns = np.arange(before, before + nearest.shape[1])
+    first = np.stack(
+        [~np.any(tried[:, :c] == tried[:, c : c + 1], axis=1) for c in columns], axis=1
+    )
+    rows, js = np.nonzero(first)  # every (query, sample) pair on a patch new to the query
+    if not rows.size:
+        return
+    who, sample = asked[rows], nearest[rows, js]
+    on = owner[sample]
+    feet = _feet(surfaces, on, q[who], uv[sample])
+    at = surfaces.derivatives(on, feet, 0)[0, 0]
+    distance = np.linalg.norm(at - q[who], axis=-1)
+    order = np.lexsort((distance, who))  # each query's nearest foot point first
+    lead = order[np.r_[True, who[order][1:] != who[order][:-1]]]
+    better = lead[distance[lead] < best.distance[who[lead]]]
+    take = who[better]
+    best.point[take], best.uv[take] = at[better], feet[better]
+    best.patch[take], best.distance[take] = on[better], distance[better]
