@@ -217,14 +217,15 @@ def closest_points(
     while asked.size:
         distance, nearest = tree.query(q[asked], k=k)
         nearest = np.asarray(nearest).reshape(len(asked), k)
+        spacing = np.asarray(distance).reshape(len(asked), k)
+        _improve(surfaces, q, uv, owner, best, asked, nearest, spacing, done)
         tried = np.concatenate([done, owner[nearest]], axis=1)
-        _improve(surfaces, q, uv, owner, best, asked, nearest, tried, done.shape[1])
         if k >= len(points):
             break
         # samples beyond the k nearest are farther than the k-th: a patch among them can
         # hold a nearer point only if the k-th lies within the best distance + a cell's
         # reach; a query on the surface (to rounding) has its answer
-        farthest = np.asarray(distance).reshape(len(asked), k)[:, -1]
+        farthest = spacing[:, -1]
         found = best.distance[asked]
         unsure = (farthest - reach < found) & (found > ON_SURFACE * size)
         asked, done = asked[unsure], tried[unsure]
@@ -252,16 +253,23 @@ def _improve(
     best: ClosestPoints,
     asked: NDArray,
     nearest: NDArray,
-    tried: NDArray,
-    before: int,
+    spacing: NDArray,
+    done: NDArray,
 ) -> None:
-    """Newton's method from each of ``asked``'s ``nearest`` samples on a patch it has not
-    asked yet (``tried``: the patches asked before, the first ``before`` columns, then
-    these), all patches at once, the nearer foot points kept in ``best``."""
-    columns = np.arange(before, before + nearest.shape[1])
-    first = np.stack(
-        [~np.any(tried[:, :c] == tried[:, c : c + 1], axis=1) for c in columns], axis=1
-    )
+    """Newton's method from each of ``asked``'s ``nearest`` samples (at ``spacing`` from
+    it): in the first round from all, later from the nearest of each patch among them
+    where the query has not asked that patch yet (``done``: the patches asked before) or
+    the sample is nearer than the best foot point found, all patches at once; the nearer
+    foot points kept in ``best``."""
+    patch = owner[nearest]
+    first = np.ones(patch.shape, dtype=bool)
+    if done.shape[1]:  # the first round tries every start: a patch folding back (a tube)
+        for j in range(1, patch.shape[1]):  # has its nearest samples on several sheets
+            first[:, j] = ~np.any(patch[:, :j] == patch[:, j : j + 1], axis=1)
+    before = np.zeros(patch.shape, dtype=bool)
+    for j in range(done.shape[1]):
+        before |= done[:, j : j + 1] == patch
+    first &= ~before | (spacing < best.distance[asked][:, None])
     rows, js = np.nonzero(first)  # every (query, sample) pair on a patch new to the query
     if not rows.size:
         return
