@@ -28,7 +28,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
 
-__all__ = ["CANDIDATES", "GRID", "ON_SURFACE", "ClosestPoints", "closest_points", "foot_points"]
+__all__ = [
+    "CANDIDATES",
+    "GRID",
+    "ON_SURFACE",
+    "ClosestPoints",
+    "Samples",
+    "closest_points",
+    "foot_points",
+    "grid_samples",
+]
 
 #: Samples a side of each patch's grid for the coarse search.
 GRID = 17
@@ -68,6 +77,27 @@ class _Surfaces:
         self.many = ManyPatches(patches, drjit=False)
         domains = np.array([p.domain for p in patches], dtype=np.float64).reshape(-1, 2, 2)
         self.lo, self.hi = domains[:, :, 0], domains[:, :, 1]
+        self.closed = self._closed(len(patches))
+
+    def _closed(self, n: int) -> NDArray[np.bool_]:
+        """(m, 2): whether each patch closes on itself across u (its sides u0 and u1 one
+        curve, a periodic face's seam) and across v, judged at 9 points of the sides."""
+        t = np.linspace(0.0, 1.0, 9)
+        index = np.repeat(np.arange(n), t.size)
+        out = np.zeros((n, 2), dtype=bool)
+        for axis in range(2):
+            across = np.tile(t, n)
+            other = 1 - axis
+            a, b = np.empty((index.size, 2)), np.empty((index.size, 2))
+            a[:, axis], b[:, axis] = self.lo[index, axis], self.hi[index, axis]
+            a[:, other] = b[:, other] = self.lo[index, other] + across * (
+                self.hi[index, other] - self.lo[index, other]
+            )
+            pa, pb = self.derivatives(index, a, 0)[0, 0], self.derivatives(index, b, 0)[0, 0]
+            size = np.linalg.norm(np.ptp(pa.reshape(n, -1, 3), axis=1), axis=-1)
+            apart = np.linalg.norm(pa - pb, axis=-1).reshape(n, -1).max(axis=1)
+            out[:, axis] = apart <= 1e-9 * np.maximum(size, 1e-300)
+        return out
 
     def derivatives(self, index: NDArray, uv: NDArray, order: int) -> NDArray[np.float64]:
         return self.many.derivatives(index, uv[:, 0], uv[:, 1], order)
@@ -100,10 +130,16 @@ def foot_points(
 
 
 def _feet(
-    surfaces: _Surfaces, index: NDArray, q: NDArray, start: NDArray, steps: int = NEWTON_STEPS
+    surfaces: _Surfaces,
+    index: NDArray,
+    q: NDArray,
+    start: NDArray,
+    steps: int = NEWTON_STEPS,
+    wrap: bool = True,
 ) -> NDArray[np.float64]:
     """:func:`foot_points` of each query on its patch ``index`` of ``surfaces``, all
-    patches at once."""
+    patches at once; with ``wrap``, a foot stopped at a seam searched again from across
+    it (:func:`_wrapped`)."""
     uv = np.array(start, dtype=np.float64).reshape(-1, 2)
     lo, hi = surfaces.lo[index], surfaces.hi[index]
     still = 1e-15 * (hi - lo).max(axis=-1)
@@ -130,6 +166,27 @@ def _feet(
         going = np.abs(moved - here).max(axis=-1) > still[active]
         uv[active], gap[active] = moved, after
         active = active[going]
+    if wrap:
+        uv = _wrapped(surfaces, index, q, uv, gap, steps)
+    return uv
+
+
+def _wrapped(
+    surfaces: _Surfaces, index: NDArray, q: NDArray, uv: NDArray, gap: NDArray, steps: int
+) -> NDArray[np.float64]:
+    """Feet that stopped at a side of a patch closed across it (a periodic face's seam)
+    searched again from the other side, the nearer kept."""
+    lo, hi = surfaces.lo[index], surfaces.hi[index]
+    closed = surfaces.closed[index]
+    at_lo, at_hi = closed & (uv <= lo), closed & (uv >= hi)
+    again = np.flatnonzero((at_lo | at_hi).any(axis=1))
+    if not again.size:
+        return uv
+    start = uv[again].copy()
+    start = np.where(at_lo[again], hi[again], np.where(at_hi[again], lo[again], start))
+    other = _feet(surfaces, index[again], q[again], start, steps, wrap=False)
+    nearer = surfaces.gap(index[again], q[again], other) < gap[again]
+    uv[again[nearer]] = other[nearer]
     return uv
 
 
@@ -181,17 +238,35 @@ def _samples(patches: Sequence[Patch], grid: int) -> tuple[NDArray, NDArray, NDA
     return np.concatenate(points), np.concatenate(owner), np.concatenate(uv)
 
 
+@dataclass(frozen=True)
+class Samples:
+    """Points of the surface for the coarse search: ``points`` (m, 3) on patches
+    ``patch`` (m,) at parameters ``uv`` (m, 2), and their ``reach``: how far any point of
+    the surface may lie from its nearest sample (a grid's cell diagonal, a mesh's longest
+    edge)."""
+
+    points: NDArray[np.float64]
+    patch: NDArray[np.int64]
+    uv: NDArray[np.float64]
+    reach: float
+
+
+def grid_samples(patches: Sequence[Patch], grid: int = GRID) -> Samples:
+    """Every patch's ``grid`` x ``grid`` samples at the middles of its cells."""
+    points, owner, uv = _samples(patches, grid)
+    return Samples(points, owner, uv, _cell_reach(points, grid))
+
+
 def closest_points(
     patches: Sequence[Patch],
     queries: ArrayLike,
     *,
-    grid: int = GRID,
+    samples: Samples | None = None,
     candidates: int = CANDIDATES,
 ) -> ClosestPoints:
     """The points of ``patches`` nearest to each of ``queries`` (n, 3): from the
-    ``candidates`` nearest of every patch's ``grid`` x ``grid`` samples (the nearest one
-    on each patch among them), Newton's method on the exact patches
-    (:func:`foot_points`), the nearest foot point kept.
+    ``candidates`` nearest of the ``samples`` (default :func:`grid_samples`), Newton's
+    method on the exact patches (:func:`foot_points`), the nearest foot point kept.
 
     Examples
     --------
@@ -203,10 +278,10 @@ def closest_points(
     from scipy.spatial import cKDTree
 
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
-    points, owner, uv = _samples(patches, grid)
+    samples = samples if samples is not None else grid_samples(patches)
+    points, owner, uv, reach = samples.points, samples.patch, samples.uv, samples.reach
     tree = cKDTree(points)
     surfaces = _Surfaces(patches)
-    reach = _cell_reach(points, grid)
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     best = ClosestPoints(
         np.zeros_like(q), np.zeros(len(q), np.int64), np.zeros((len(q), 2)), np.full(len(q), np.inf)

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
-from .closest_points import ClosestPoints, closest_points
+from .closest_points import ClosestPoints, Samples, closest_points
 
 __all__ = ["Deviation", "deviation_summary", "signed_deviation"]
 
@@ -37,10 +37,16 @@ class Deviation:
     closest: ClosestPoints
 
 
-def signed_deviation(points: ArrayLike, normals: ArrayLike, patches: Sequence[Patch]) -> Deviation:
+def signed_deviation(
+    points: ArrayLike,
+    normals: ArrayLike,
+    patches: Sequence[Patch],
+    samples: Samples | None = None,
+) -> Deviation:
     """The signed deviation of ``points`` (n, 3), whose surface's unit normals are
-    ``normals`` (n, 3), from the surface of ``patches`` (see the module).  A point on B
-    (distance 0) counts as positive.
+    ``normals`` (n, 3), from the surface of ``patches`` (see the module; ``samples``: its
+    points for the coarse search, :class:`~gshade.analysis.closest_points.Samples`).  A
+    point on B (distance 0) counts as positive.
 
     Examples
     --------
@@ -56,7 +62,7 @@ def signed_deviation(points: ArrayLike, normals: ArrayLike, patches: Sequence[Pa
     """
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    found = closest_points(patches, p)
+    found = closest_points(patches, p, samples=samples)
     side = np.sum((found.point - p) * n, axis=-1)
     return Deviation(np.where(side < 0, -found.distance, found.distance), found)
 

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..analysis.closest_points import Samples, grid_samples
 from ..analysis.deviation import deviation_summary, signed_deviation
 from ..display import Legend, colour_map
 from ..display.bands import band_shares, band_text, settled_on_levels
@@ -32,10 +33,21 @@ from .rendered_image import RenderedImage
 if TYPE_CHECKING:
     from ..scene.model import Scene
 
-__all__ = ["DEVIATION_CHANNELS", "NEUTRAL", "deviation_bands", "deviation_image"]
+__all__ = [
+    "DEVIATION_CHANNELS",
+    "MAX_SAMPLE_GRID",
+    "NEUTRAL",
+    "SAMPLE_CHORD",
+    "deviation_bands",
+    "deviation_image",
+    "mesh_samples",
+]
 
 #: The channels a deviation picture adds to A's render's.
 DEVIATION_CHANNELS = ("B.X", "B.Y", "B.Z", "B.patch")
+#: The chord tolerance of the mesh whose vertices start the closest-point search, relative
+#: to the scene's diagonal, and the most grid points a patch side (patches on a grid).
+SAMPLE_CHORD, MAX_SAMPLE_GRID = 2e-3, 65
 #: The colour within tolerance (sRGB).
 NEUTRAL = (0.78, 0.78, 0.76)
 
@@ -87,6 +99,39 @@ def _footprint(f: NDArray, on: NDArray) -> tuple[NDArray, NDArray]:
         )
 
     return along(1), along(0)
+
+
+def mesh_samples(scene: Scene) -> Samples:
+    """The coarse search's points of a scene: every patch's grid samples
+    (:func:`~gshade.analysis.closest_points.grid_samples`: a periodic face's seam and a
+    long tube's far side have samples near them) and its render mesh within
+    :data:`SAMPLE_CHORD` of its diagonal (a CAD model's trimmed faces by the kernel's
+    mesher, where a face's grid may miss its trimmed region), each with its patch and
+    (u, v); their reach the longer of the grids' cell diagonals and the mesh's edges."""
+    from ..analysis.scene_junctions import scene_diagonal
+    from ..geometry.core.patch import unit_to_domain
+    from .surface_meshes import gridded_patches, mesh_parts
+    from .tessellate import join_meshes, max_chord_resolution
+
+    tolerance = SAMPLE_CHORD * scene_diagonal(scene)
+    gridded = gridded_patches(scene)
+    resolution = 2
+    if gridded:
+        resolution = int(np.clip(max_chord_resolution(gridded, tolerance), 5, MAX_SAMPLE_GRID))
+    parts = mesh_parts(scene, resolution, tolerance, scene.name)
+    mesh = join_meshes([(part.mesh, part.index) for part in parts], resolution)
+    patch = mesh.patch.astype(np.int64)
+    domains = np.array([p.domain for p in scene.patches], dtype=np.float64)
+    u, v = unit_to_domain(domains, mesh.params[:, 0], mesh.params[:, 1], patch)
+    corners = mesh.positions[mesh.faces]
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=-1)
+    grid = grid_samples(scene.patches)
+    return Samples(
+        np.concatenate([grid.points, mesh.positions]),
+        np.concatenate([grid.patch, patch]),
+        np.concatenate([grid.uv, np.stack([u, v], -1)]),
+        max(grid.reach, float(edges.max(initial=0.0))),
+    )
 
 
 def _exact_hits(
@@ -153,7 +198,7 @@ def deviation_image(
     channels = dict(image.channels)
     on = channels["patch"] >= 0
     P, N = _exact_hits(a, channels, image.metadata)
-    found = signed_deviation(P, N, b.patches)
+    found = signed_deviation(P, N, b.patches, mesh_samples(b))
     f = np.zeros(on.shape)
     f[on] = found.distance
     foot = np.zeros((*on.shape, 3))
