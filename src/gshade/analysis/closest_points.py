@@ -303,6 +303,11 @@ def closest_points(
         farthest = spacing[:, -1]
         found = best.distance[asked]
         unsure = (farthest - reach < found) & (found > ON_SURFACE * size)
+        if len(patches) <= tried.shape[1]:  # nothing left to ask where every patch was
+            every = np.ones(len(asked), dtype=bool)
+            for p in range(len(patches)):
+                every &= np.any(tried == p, axis=1)
+            unsure &= ~every
         asked, done = asked[unsure], tried[unsure]
         k = min(4 * k, len(points))
     return best
