@@ -8,7 +8,7 @@ method's error against the exact distances.
 
 The sphere pair (radii 2 and 2.003) is built in; each ``--cad`` file is measured against
 itself (exact distance 0: the mesh's error is its own deflection).  B's mesh is the one
-gshade renders B with (``gshade.rendering.deviation_image.mesh_samples``' mesh: the
+gshade renders B with (``gshade.rendering.deviation_image.sample_mesh``: the
 kernel's within 2e-3 of the diagonal for a CAD model).
 """
 
@@ -37,21 +37,12 @@ up = [0, 0, 1]
 
 
 def _mesh_of(scene):
-    """B's render mesh as a PyVista PolyData (the mesh the coarse search starts from)."""
+    """B's mesh as a PyVista PolyData: the one the closest-point search starts from."""
     import pyvista as pv
 
-    from gshade.analysis.scene_junctions import scene_diagonal
-    from gshade.rendering.deviation_image import MAX_SAMPLE_GRID, SAMPLE_CHORD
-    from gshade.rendering.surface_meshes import gridded_patches, mesh_parts
-    from gshade.rendering.tessellate import join_meshes, max_chord_resolution
+    from gshade.rendering.deviation_image import sample_mesh
 
-    tolerance = SAMPLE_CHORD * scene_diagonal(scene)
-    gridded = gridded_patches(scene)
-    resolution = 2
-    if gridded:
-        resolution = int(np.clip(max_chord_resolution(gridded, tolerance), 5, MAX_SAMPLE_GRID))
-    parts = mesh_parts(scene, resolution, tolerance, scene.name)
-    mesh = join_meshes([(part.mesh, part.index) for part in parts], resolution)
+    mesh = sample_mesh(scene)
     faces = np.hstack([np.full((len(mesh.faces), 1), 3), mesh.faces]).ravel()
     return pv.PolyData(mesh.positions, faces)
 

@@ -29,6 +29,7 @@ from ..display.bands import band_shares, band_text, settled_on_levels
 from ..display.colour import srgb_to_linear
 from ..shape.registry import Bands
 from .rendered_image import RenderedImage
+from .tessellate import TriangleMesh
 
 if TYPE_CHECKING:
     from ..scene.model import Scene
@@ -41,6 +42,7 @@ __all__ = [
     "deviation_bands",
     "deviation_image",
     "mesh_samples",
+    "sample_mesh",
 ]
 
 #: The channels a deviation picture adds to A's render's.
@@ -101,15 +103,11 @@ def _footprint(f: NDArray, on: NDArray) -> tuple[NDArray, NDArray]:
     return along(1), along(0)
 
 
-def mesh_samples(scene: Scene) -> Samples:
-    """The coarse search's points of a scene: every patch's grid samples
-    (:func:`~gshade.analysis.closest_points.grid_samples`: a periodic face's seam and a
-    long tube's far side have samples near them) and its render mesh within
-    :data:`SAMPLE_CHORD` of its diagonal (a CAD model's trimmed faces by the kernel's
-    mesher, where a face's grid may miss its trimmed region), each with its patch and
-    (u, v); their reach the longer of the grids' cell diagonals and the mesh's edges."""
+def sample_mesh(scene: Scene) -> TriangleMesh:
+    """A scene's render mesh within :data:`SAMPLE_CHORD` of its diagonal: a CAD model's
+    trimmed faces by the kernel's mesher, patches on a grid of at most
+    :data:`MAX_SAMPLE_GRID` points a side."""
     from ..analysis.scene_junctions import scene_diagonal
-    from ..geometry.core.patch import unit_to_domain
     from .surface_meshes import gridded_patches, mesh_parts
     from .tessellate import join_meshes, max_chord_resolution
 
@@ -119,7 +117,19 @@ def mesh_samples(scene: Scene) -> Samples:
     if gridded:
         resolution = int(np.clip(max_chord_resolution(gridded, tolerance), 5, MAX_SAMPLE_GRID))
     parts = mesh_parts(scene, resolution, tolerance, scene.name)
-    mesh = join_meshes([(part.mesh, part.index) for part in parts], resolution)
+    return join_meshes([(part.mesh, part.index) for part in parts], resolution)
+
+
+def mesh_samples(scene: Scene) -> Samples:
+    """The coarse search's points of a scene: every patch's grid samples
+    (:func:`~gshade.analysis.closest_points.grid_samples`: a periodic face's seam and a
+    long tube's far side have samples near them) and the vertices of its
+    :func:`sample_mesh` (where a trimmed face's grid may miss its trimmed region), each
+    with its patch and (u, v); their reach the longer of the grids' cell diagonals and the
+    mesh's edges."""
+    from ..geometry.core.patch import unit_to_domain
+
+    mesh = sample_mesh(scene)
     patch = mesh.patch.astype(np.int64)
     domains = np.array([p.domain for p in scene.patches], dtype=np.float64)
     u, v = unit_to_domain(domains, mesh.params[:, 0], mesh.params[:, 1], patch)
