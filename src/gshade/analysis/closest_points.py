@@ -222,20 +222,42 @@ def _newton_step(
     return np.nan_to_num(step)
 
 
-def _samples(patches: Sequence[Patch], grid: int) -> tuple[NDArray, NDArray, NDArray]:
-    """Every patch's grid x grid samples, at the middles of its cells (none on a side: the
-    samples of a pole or a seam would be many at one point, each a poor start): points
-    (m, 3), their patch (m,) and (u, v)."""
-    t = (np.arange(grid) + 0.5) / grid
-    s, r = (x.ravel() for x in np.meshgrid(t, t, indexing="ij"))
+def _lattice(patch: Patch, grid: int) -> tuple[int, int]:
+    """The samples along u and along v of a patch's ``grid`` x ``grid`` budget, in the
+    ratio of its lengths across (a long, thin face gets its samples along its length)."""
+    t = np.linspace(0.0, 1.0, 5)
+    (u0, u1), (v0, v1) = patch.domain
+    u, v = np.meshgrid(u0 + (u1 - u0) * t, v0 + (v1 - v0) * t, indexing="ij")
+    p = np.asarray(patch(u.ravel(), v.ravel()), dtype=np.float64).reshape(5, 5, 3)
+    along_u = np.linalg.norm(np.diff(p, axis=0), axis=-1).sum(axis=0).max()
+    along_v = np.linalg.norm(np.diff(p, axis=1), axis=-1).sum(axis=1).max()
+    if not (along_u > 0 and along_v > 0):
+        return grid, grid
+    nu = int(np.clip(round(grid * np.sqrt(along_u / along_v)), 3, grid * grid // 3))
+    return nu, max(3, (grid * grid) // nu)
+
+
+def _samples(patches: Sequence[Patch], grid: int) -> tuple[NDArray, NDArray, NDArray, float]:
+    """Every patch's samples, ``grid`` x ``grid`` of them spread in the ratio of its
+    lengths (:func:`_lattice`), at the middles of its cells (none on a side: the samples
+    of a pole or a seam would be many at one point, each a poor start): points (m, 3),
+    their patch (m,) and (u, v), and the longest diagonal of a cell (how far a point of a
+    patch may lie from its nearest sample)."""
     points, owner, uv = [], [], []
+    reach = 0.0
     for k, patch in enumerate(patches):
+        nu, nv = _lattice(patch, grid)
         (u0, u1), (v0, v1) = patch.domain
-        u, v = u0 + (u1 - u0) * s, v0 + (v1 - v0) * r
-        points.append(np.asarray(patch(u, v), dtype=np.float64).reshape(-1, 3))
+        s, r = np.meshgrid((np.arange(nu) + 0.5) / nu, (np.arange(nv) + 0.5) / nv, indexing="ij")
+        u, v = u0 + (u1 - u0) * s.ravel(), v0 + (v1 - v0) * r.ravel()
+        at = np.asarray(patch(u, v), dtype=np.float64).reshape(nu, nv, 3)
+        one = np.linalg.norm(at[1:, 1:] - at[:-1, :-1], axis=-1).max()
+        other = np.linalg.norm(at[1:, :-1] - at[:-1, 1:], axis=-1).max()
+        reach = max(reach, float(one), float(other))
+        points.append(at.reshape(-1, 3))
         owner.append(np.full(u.size, k))
         uv.append(np.stack([u, v], -1))
-    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv)
+    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), reach
 
 
 @dataclass(frozen=True)
@@ -252,9 +274,9 @@ class Samples:
 
 
 def grid_samples(patches: Sequence[Patch], grid: int = GRID) -> Samples:
-    """Every patch's ``grid`` x ``grid`` samples at the middles of its cells."""
-    points, owner, uv = _samples(patches, grid)
-    return Samples(points, owner, uv, _cell_reach(points, grid))
+    """Every patch's ``grid`` x ``grid`` samples at the middles of its cells, spread in
+    the ratio of its lengths across."""
+    return Samples(*_samples(patches, grid))
 
 
 def closest_points(
@@ -311,18 +333,6 @@ def closest_points(
         asked, done = asked[unsure], tried[unsure]
         k = min(4 * k, len(points))
     return best
-
-
-def _cell_reach(points: NDArray, grid: int) -> float:
-    """How far a point of a patch may lie from its nearest sample: the longest diagonal of
-    the sample lattice's cells (a point beyond the lattice's outer half cells is nearer
-    its border sample than that)."""
-    lattice = points.reshape(-1, grid, grid, 3)
-    if grid < 2:
-        return float("inf")
-    one = np.linalg.norm(lattice[:, 1:, 1:] - lattice[:, :-1, :-1], axis=-1).max()
-    other = np.linalg.norm(lattice[:, 1:, :-1] - lattice[:, :-1, 1:], axis=-1).max()
-    return float(max(one, other))
 
 
 def _improve(
