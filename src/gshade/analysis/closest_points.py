@@ -126,7 +126,7 @@ def foot_points(
     """
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
     start = np.asarray(start, dtype=np.float64).reshape(-1, 2)
-    return _feet(_Surfaces([patch]), np.zeros(len(q), np.int64), q, start, steps)
+    return _feet(_Surfaces([patch]), np.zeros(len(q), np.int64), q, start, steps)[0]
 
 
 def _feet(
@@ -136,10 +136,10 @@ def _feet(
     start: NDArray,
     steps: int = NEWTON_STEPS,
     wrap: bool = True,
-) -> NDArray[np.float64]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:func:`foot_points` of each query on its patch ``index`` of ``surfaces``, all
     patches at once; with ``wrap``, a foot stopped at a seam searched again from across
-    it (:func:`_wrapped`)."""
+    it (:func:`_wrapped`): the parameters (n, 2) and the distances (n,)."""
     uv = np.array(start, dtype=np.float64).reshape(-1, 2)
     lo, hi = surfaces.lo[index], surfaces.hi[index]
     still = 1e-15 * (hi - lo).max(axis=-1)
@@ -167,27 +167,27 @@ def _feet(
         uv[active], gap[active] = moved, after
         active = active[going]
     if wrap:
-        uv = _wrapped(surfaces, index, q, uv, gap, steps)
-    return uv
+        _wrapped(surfaces, index, q, uv, gap, steps)
+    return uv, gap
 
 
 def _wrapped(
     surfaces: _Surfaces, index: NDArray, q: NDArray, uv: NDArray, gap: NDArray, steps: int
-) -> NDArray[np.float64]:
-    """Feet that stopped at a side of a patch closed across it (a periodic face's seam)
-    searched again from the other side, the nearer kept."""
+) -> None:
+    """Feet (``uv``, at distances ``gap``) that stopped at a side of a patch closed across
+    it (a periodic face's seam) searched again from the other side, the nearer kept (in
+    place)."""
     lo, hi = surfaces.lo[index], surfaces.hi[index]
     closed = surfaces.closed[index]
     at_lo, at_hi = closed & (uv <= lo), closed & (uv >= hi)
     again = np.flatnonzero((at_lo | at_hi).any(axis=1))
     if not again.size:
-        return uv
+        return
     start = uv[again].copy()
     start = np.where(at_lo[again], hi[again], np.where(at_hi[again], lo[again], start))
-    other = _feet(surfaces, index[again], q[again], start, steps, wrap=False)
-    nearer = surfaces.gap(index[again], q[again], other) < gap[again]
-    uv[again[nearer]] = other[nearer]
-    return uv
+    other, distance = _feet(surfaces, index[again], q[again], start, steps, wrap=False)
+    nearer = distance < gap[again]
+    uv[again[nearer]], gap[again[nearer]] = other[nearer], distance[nearer]
 
 
 def _newton_step(
@@ -365,12 +365,11 @@ def _improve(
         return
     who, sample = asked[rows], nearest[rows, js]
     on = owner[sample]
-    feet = _feet(surfaces, on, q[who], uv[sample])
-    at = surfaces.derivatives(on, feet, 0)[0, 0]
-    distance = np.linalg.norm(at - q[who], axis=-1)
+    feet, distance = _feet(surfaces, on, q[who], uv[sample])
     order = np.lexsort((distance, who))  # each query's nearest foot point first
     lead = order[np.r_[True, who[order][1:] != who[order][:-1]]]
     better = lead[distance[lead] < best.distance[who[lead]]]
     take = who[better]
-    best.point[take], best.uv[take] = at[better], feet[better]
+    at = surfaces.derivatives(on[better], feet[better], 0)[0, 0]
+    best.point[take], best.uv[take] = at, feet[better]
     best.patch[take], best.distance[take] = on[better], distance[better]

@@ -28,6 +28,7 @@ from ..display import Legend, colour_map
 from ..display.bands import band_shares, band_text, settled_on_levels
 from ..display.colour import srgb_to_linear
 from ..shape.registry import Bands
+from .camera import View, header_view
 from .rendered_image import RenderedImage
 from .tessellate import TriangleMesh
 
@@ -145,17 +146,14 @@ def mesh_samples(scene: Scene) -> Samples:
 
 
 def _exact_hits(
-    scene: Scene, channels: dict[str, NDArray], metadata: dict[str, str]
+    scene: Scene, channels: dict[str, NDArray], view: View
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """P and the unit normal N (n, 3) in double precision where the pixel centres' rays meet
     the surface (the channels hold them in single precision): the rays' Newton solve on the
     exact patches, started from the channels' (u, v)."""
     from ..geometry.evaluation.regularity import patch_normals
-    from .camera import header_view
     from .surface_hits import surface_hits
 
-    H, W = channels["patch"].shape
-    view = header_view(metadata, W, H)
     rows, cols = np.nonzero(channels["patch"] >= 0)
     numbers = _patch_numbers(scene)
     order = np.argsort(numbers)
@@ -180,16 +178,14 @@ def _patch_numbers(scene: Scene) -> NDArray[np.int64]:
     return np.arange(len(scene.patches))
 
 
-def _shading(channels: dict[str, NDArray], metadata: dict[str, str]) -> NDArray:
+def _shading(channels: dict[str, NDArray], view: View) -> NDArray:
     """Lambert's |<N, toward the eye>| with an ambient part, per pixel, from the exact N."""
-    camera = json.loads(metadata["settings"])["camera"]
     P = np.stack([channels[f"P.{c}"] for c in "XYZ"], -1).astype(np.float64)
     N = np.stack([channels[f"N.{c}"] for c in "XYZ"], -1).astype(np.float64)
-    origin, target = np.array(camera["origin"]), np.array(camera["target"])
-    if camera["type"] == "orthographic":
-        toward = np.broadcast_to(origin - target, P.shape)
+    if view.type == "orthographic":
+        toward = np.broadcast_to(view.origin - view.target, P.shape)
     else:
-        toward = origin - P
+        toward = view.origin - P
     with np.errstate(invalid="ignore", divide="ignore"):
         toward = toward / np.linalg.norm(toward, axis=-1, keepdims=True)
     facing = np.abs(np.nan_to_num(np.sum(N * toward, -1)))
@@ -207,7 +203,9 @@ def deviation_image(
     image = render(a, **overrides)
     channels = dict(image.channels)
     on = channels["patch"] >= 0
-    P, N = _exact_hits(a, channels, image.metadata)
+    H, W = on.shape
+    view = header_view(image.metadata, W, H)  # the view the picture was rendered with
+    P, N = _exact_hits(a, channels, view)
     found = signed_deviation(P, N, b.patches, mesh_samples(b))
     f = np.zeros(on.shape)
     f[on] = found.distance
@@ -224,7 +222,7 @@ def deviation_image(
         summary["patch_a"] = int(channels["patch"][row, col])
         summary["patch_b"] = int(patch[row, col])
     rgb = _colours(f, on, tolerance, summary.get("max_abs") or 0.0)
-    rgb *= _shading(channels, image.metadata)[..., None]
+    rgb *= _shading(channels, view)[..., None]
     alpha = channels["A"].astype(np.float64)
     for i, c in enumerate("RGB"):
         channels[c] = (rgb[..., i] * alpha).astype(np.float32)
