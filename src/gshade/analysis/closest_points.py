@@ -43,11 +43,14 @@ __all__ = [
 GRID = 17
 #: Nearest samples each query starts Newton's method from (on their patches).
 CANDIDATES = 4
-#: Halvings of a Newton step that would take a point farther from its query.
-HALVINGS = 30
+#: Shortenings (each by 4) of a Newton step that would take a point farther from its
+#: query.
+SHORTENINGS = 15
 #: A query this near a foot point, relative to the patches' size, is on the surface: no
 #: patch can hold a nearer point worth the search.
 ON_SURFACE = 1e-13
+#: Points at which a batch is evaluated by Dr.Jit (where it works) rather than numpy.
+BIG_BATCH = 4096
 #: Newton steps at most (quadratic convergence: a grid cell's start is exact in ~5; near a
 #: pole, where it is linear, more).
 NEWTON_STEPS = 24
@@ -71,10 +74,12 @@ class _Surfaces:
 
     def __init__(self, patches: Sequence[Patch]) -> None:
         from ..geometry.evaluation.patch_cells import ManyPatches
+        from ..shape.kernels import backend
 
-        # numpy's batches: the Newton steps' many small calls (few points still moving,
-        # halvings) cost less than Dr.Jit's kernel launches (linkrods.step: 2.2 s vs 3.5 s)
-        self.many = ManyPatches(patches, drjit=False)
+        # numpy for the Newton steps' many small calls (few points still moving, halvings:
+        # Dr.Jit's kernel launches cost more there), Dr.Jit for the big batches
+        self.small = ManyPatches(patches, drjit=False)
+        self.big = ManyPatches(patches, drjit=True) if backend() == "drjit" else self.small
         domains = np.array([p.domain for p in patches], dtype=np.float64).reshape(-1, 2, 2)
         self.lo, self.hi = domains[:, :, 0], domains[:, :, 1]
         self.closed = self._closed(len(patches))
@@ -100,7 +105,8 @@ class _Surfaces:
         return out
 
     def derivatives(self, index: NDArray, uv: NDArray, order: int) -> NDArray[np.float64]:
-        return self.many.derivatives(index, uv[:, 0], uv[:, 1], order)
+        many = self.big if len(index) >= BIG_BATCH else self.small
+        return many.derivatives(index, uv[:, 0], uv[:, 1], order)
 
     def gap(self, index: NDArray, q: NDArray, uv: NDArray) -> NDArray[np.float64]:
         """|S(u, v) - q| (n,)."""
@@ -142,30 +148,52 @@ def _feet(
     it (:func:`_wrapped`): the parameters (n, 2) and the distances (n,)."""
     uv = np.array(start, dtype=np.float64).reshape(-1, 2)
     lo, hi = surfaces.lo[index], surfaces.hi[index]
-    still = 1e-15 * (hi - lo).max(axis=-1)
+    d = surfaces.derivatives(index, uv, 2)  # at the points still moving
+    gap = np.linalg.norm(d[0, 0] - q, axis=-1)
+    # a distance's rounding: a step within it neither nearer nor farther
+    rounding = 1e-15 * np.abs(q).max(axis=-1) + 1e-300
     active = np.arange(len(q))  # the points still moving
-    gap = surfaces.gap(index, q, uv)
     for _ in range(steps):
         if active.size == 0:
             break
-        here, at = uv[active], index[active]
-        step = _newton_step(
-            surfaces.derivatives(at, here, 2), q[active], here, lo[active], hi[active]
-        )
-        moved = np.clip(here + step, lo[active], hi[active])
-        after = surfaces.gap(at, q[active], moved)
-        # a step that does not bring the point nearer is halved (Newton's full step may
-        # leap to another critical point of a curved patch)
-        for _ in range(HALVINGS):
-            worse = np.flatnonzero(after > gap[active] * (1 + 1e-12) + 1e-300)
-            if not worse.size:
-                break
-            step[worse] *= 0.5
-            moved[worse] = np.clip(here[worse] + step[worse], lo[active][worse], hi[active][worse])
-            after[worse] = surfaces.gap(at[worse], q[active][worse], moved[worse])
-        going = np.abs(moved - here).max(axis=-1) > still[active]
+        here, at, target = uv[active], index[active], q[active]
+        low, high = lo[active], hi[active]
+        step = _newton_step(d, target, here, low, high)
+        moved = np.clip(here + step, low, high)
+        d = surfaces.derivatives(at, moved, 2)
+        after = np.linalg.norm(d[0, 0] - target, axis=-1)
+        # a step that does not bring the point nearer is shortened (Newton's full step may
+        # leap to another critical point of a curved patch): the longest of its fractions
+        # 4^-1 ... 4^-SHORTENINGS that does, all tried in one batch; none: a minimum to
+        # rounding, the point stays
+        worse = np.flatnonzero(after > gap[active] * (1 + 1e-12) + rounding[active])
+        if worse.size:
+            scale = 0.25 ** np.arange(1, SHORTENINGS + 1)
+            tries = np.clip(
+                here[worse, None] + scale[:, None] * step[worse, None],
+                low[worse, None],
+                high[worse, None],
+            ).reshape(-1, 2)
+            which = np.repeat(worse, SHORTENINGS)
+            far = np.linalg.norm(
+                surfaces.derivatives(at[which], tries, 0)[0, 0] - target[which], axis=-1
+            ).reshape(-1, SHORTENINGS)
+            nearer = far <= (gap[active] * (1 + 1e-12) + rounding[active])[worse, None]
+            first = np.argmax(nearer, axis=1)
+            found = nearer[np.arange(worse.size), first]
+            moved[worse] = np.where(
+                found[:, None],
+                tries.reshape(-1, SHORTENINGS, 2)[np.arange(worse.size), first],
+                here[worse],
+            )
+            d[:, :, worse] = surfaces.derivatives(at[worse], moved[worse], 2)
+            after[worse] = np.linalg.norm(d[0, 0, worse] - target[worse], axis=-1)
+        # moving on while the point moves in space by more than its rounding
+        change = moved - here
+        shift = d[1, 0] * change[:, :1] + d[0, 1] * change[:, 1:]
+        going = np.linalg.norm(shift, axis=-1) > 4 * rounding[active]
         uv[active], gap[active] = moved, after
-        active = active[going]
+        active, d = active[going], d[:, :, going]
     if wrap:
         _wrapped(surfaces, index, q, uv, gap, steps)
     return uv, gap
@@ -237,17 +265,20 @@ def _lattice(patch: Patch, grid: int) -> tuple[int, int]:
     return nu, max(3, (grid * grid) // nu)
 
 
-def _samples(patches: Sequence[Patch], grid: int) -> tuple[NDArray, NDArray, NDArray, float]:
+def _samples(
+    patches: Sequence[Patch], grid: int
+) -> tuple[NDArray, NDArray, NDArray, float, NDArray]:
     """Every patch's samples, ``grid`` x ``grid`` of them spread in the ratio of its
     lengths (:func:`_lattice`), at the middles of its cells (none on a side: the samples
     of a pole or a seam would be many at one point, each a poor start): points (m, 3),
-    their patch (m,) and (u, v), and the longest diagonal of a cell (how far a point of a
-    patch may lie from its nearest sample)."""
-    points, owner, uv = [], [], []
+    their patch (m,) and (u, v), the longest diagonal of a cell (how far a point of a
+    patch may lie from its nearest sample) and each patch's cell in its domain (k, 2)."""
+    points, owner, uv, cells = [], [], [], []
     reach = 0.0
     for k, patch in enumerate(patches):
         nu, nv = _lattice(patch, grid)
         (u0, u1), (v0, v1) = patch.domain
+        cells.append(((u1 - u0) / nu, (v1 - v0) / nv))
         s, r = np.meshgrid((np.arange(nu) + 0.5) / nu, (np.arange(nv) + 0.5) / nv, indexing="ij")
         u, v = u0 + (u1 - u0) * s.ravel(), v0 + (v1 - v0) * r.ravel()
         at = np.asarray(patch(u, v), dtype=np.float64).reshape(nu, nv, 3)
@@ -257,7 +288,8 @@ def _samples(patches: Sequence[Patch], grid: int) -> tuple[NDArray, NDArray, NDA
         points.append(at.reshape(-1, 3))
         owner.append(np.full(u.size, k))
         uv.append(np.stack([u, v], -1))
-    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), reach
+    cell = np.array(cells, dtype=np.float64).reshape(-1, 2)
+    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), reach, cell
 
 
 @dataclass(frozen=True)
@@ -265,12 +297,14 @@ class Samples:
     """Points of the surface for the coarse search: ``points`` (m, 3) on patches
     ``patch`` (m,) at parameters ``uv`` (m, 2), and their ``reach``: how far any point of
     the surface may lie from its nearest sample (a grid's cell diagonal, a mesh's longest
-    edge)."""
+    edge); ``cell`` (k, 2): each patch's grid cell in its domain, within which two
+    samples of the patch are one start of Newton's method."""
 
     points: NDArray[np.float64]
     patch: NDArray[np.int64]
     uv: NDArray[np.float64]
     reach: float
+    cell: NDArray[np.float64]
 
 
 def grid_samples(patches: Sequence[Patch], grid: int = GRID) -> Samples:
@@ -301,7 +335,7 @@ def closest_points(
 
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
     samples = samples if samples is not None else grid_samples(patches)
-    points, owner, uv, reach = samples.points, samples.patch, samples.uv, samples.reach
+    points, owner, reach = samples.points, samples.patch, samples.reach
     tree = cKDTree(points)
     surfaces = _Surfaces(patches)
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
@@ -315,7 +349,7 @@ def closest_points(
         distance, nearest = tree.query(q[asked], k=k)
         nearest = np.asarray(nearest).reshape(len(asked), k)
         spacing = np.asarray(distance).reshape(len(asked), k)
-        _improve(surfaces, q, uv, owner, best, asked, nearest, spacing, done)
+        _improve(surfaces, q, samples, best, asked, nearest, spacing, done)
         tried = np.concatenate([done, owner[nearest]], axis=1)
         if k >= len(points):
             break
@@ -338,8 +372,7 @@ def closest_points(
 def _improve(
     surfaces: _Surfaces,
     q: NDArray,
-    uv: NDArray,
-    owner: NDArray,
+    samples: Samples,
     best: ClosestPoints,
     asked: NDArray,
     nearest: NDArray,
@@ -347,15 +380,24 @@ def _improve(
     done: NDArray,
 ) -> None:
     """Newton's method from each of ``asked``'s ``nearest`` samples (at ``spacing`` from
-    it): in the first round from all, later from the nearest of each patch among them
-    where the query has not asked that patch yet (``done``: the patches asked before) or
-    the sample is nearer than the best foot point found, all patches at once; the nearer
-    foot points kept in ``best``."""
+    it): in the first round from each of them but those within a grid cell of a nearer
+    one on its patch (one start per sheet: a patch folding back, a tube, has its nearest
+    samples on several), later from the nearest of each patch among them where the query
+    has not asked that patch yet (``done``: the patches asked before) or the sample is
+    nearer than the best foot point found, all patches at once; the nearer foot points
+    kept in ``best``."""
+    owner, uv = samples.patch, samples.uv
     patch = owner[nearest]
     first = np.ones(patch.shape, dtype=bool)
-    if done.shape[1]:  # the first round tries every start: a patch folding back (a tube)
-        for j in range(1, patch.shape[1]):  # has its nearest samples on several sheets
+    if done.shape[1]:
+        for j in range(1, patch.shape[1]):
             first[:, j] = ~np.any(patch[:, :j] == patch[:, j : j + 1], axis=1)
+    else:
+        cell = samples.cell[patch]
+        for j in range(1, patch.shape[1]):
+            for i in range(j):
+                near = np.all(np.abs(uv[nearest[:, i]] - uv[nearest[:, j]]) <= cell[:, j], -1)
+                first[:, j] &= ~(first[:, i] & (patch[:, i] == patch[:, j]) & near)
     before = np.zeros(patch.shape, dtype=bool)
     for j in range(done.shape[1]):
         before |= done[:, j : j + 1] == patch

@@ -25,7 +25,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..geometry import Patch
 from .closest_points import ClosestPoints, Samples, closest_points
 
-__all__ = ["Deviation", "deviation_summary", "signed_deviation"]
+__all__ = ["RELATIVE_TOLERANCE", "Deviation", "deviation_summary", "signed_deviation"]
+
+#: The default tolerance of a deviation (``gshade deviation``, ``[check] deviation``),
+#: relative to A's size (its bounding box's diagonal): far above the exact distances'
+#: rounding, far below a modelling change.
+RELATIVE_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)

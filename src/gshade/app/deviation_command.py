@@ -19,7 +19,6 @@ from .terminal import say
 __all__ = [
     "BEYOND",
     "INCOMPARABLE",
-    "RELATIVE_TOLERANCE",
     "UNREADABLE",
     "USAGE",
     "WARNING",
@@ -29,9 +28,6 @@ __all__ = [
 
 #: The exit statuses (0: within the warning level).
 WARNING, BEYOND, INCOMPARABLE, UNREADABLE, USAGE = 1, 2, 3, 4, 5
-#: The default tolerance, relative to A's size (its bounding box's diagonal): far above
-#: the exact distances' rounding, far below a modelling change.
-RELATIVE_TOLERANCE = 1e-6
 
 
 def add_deviation(sub: argparse._SubParsersAction) -> None:
@@ -71,8 +67,11 @@ def add_deviation(sub: argparse._SubParsersAction) -> None:
 
 def _levels(args: argparse.Namespace, diagonal: float) -> tuple[float, float]:
     """(tolerance, warning level), checked: finite, >= 0, the warning level at most the
-    tolerance."""
+    tolerance (default: :data:`gshade.analysis.deviation.RELATIVE_TOLERANCE` of A's
+    diagonal)."""
     import math
+
+    from ..analysis.deviation import RELATIVE_TOLERANCE
 
     tolerance = RELATIVE_TOLERANCE * diagonal if args.tolerance is None else args.tolerance
     if not (math.isfinite(tolerance) and tolerance >= 0):

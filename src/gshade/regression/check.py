@@ -5,8 +5,13 @@ Per scene: render at the ``[check]`` table's settings (small defaults, so that a
 fast), compare with ``references/<name>.exr`` (channels and idiff thresholds from ``[check]``,
 defaults below), and report a verdict.  References are written only on request, atomically:
 ``update`` writes those of new or failing scenes (Blender's rule), ``update_all`` every one.
-A scene that fails to render is reported and the others go on.  The HTML report of the
-results is :mod:`gshade.regression.report`'s, their JUnit XML :mod:`gshade.regression.junit`'s.
+A scene whose ``[check]`` names a ``reference_model`` is also measured against that geometry
+(:func:`gshade.rendering.deviation_image.deviation_image` at the check's settings): it fails
+when its largest |d| exceeds ``deviation`` (default
+:data:`~gshade.analysis.deviation.RELATIVE_TOLERANCE` of its bounding-box diagonal) or
+when none of it is in view, whatever its pixels.  A scene that fails to render is
+reported and the others go on.  The HTML report of the results is
+:mod:`gshade.regression.report`'s, their JUnit XML :mod:`gshade.regression.junit`'s.
 :func:`check_scene` is one scene's check, for a scene file or a loaded scene (the pytest
 plugin, :mod:`gshade.app.pytest_plugin`, runs it per test).
 """
@@ -18,7 +23,7 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -67,7 +72,16 @@ class CheckResult:
     yet, and one was written).  ``name``, ``message`` and ``log`` are printable text
     (:func:`gshade.io.printable.printable`: a file name's control characters and bytes
     that are not UTF-8 escaped), as terminals, XML, HTML and JSON can show them; ``scene``
-    and ``reference`` are the files' real paths."""
+    and ``reference`` are the files' real paths.
+
+    A scene with a ``[check] reference_model`` (that file's path) also has ``geometry``, the
+    verdict of its deviation from it: PASS (max |d| within ``[check] deviation``), FAILURE
+    (beyond it, or nothing in view) or ERROR (the model does not load, or the deviation
+    cannot be measured); ``deviation`` holds the numbers
+    (:func:`gshade.analysis.deviation.deviation_summary`, with ``b`` the model's name) and
+    ``deviation_image`` the picture.  A geometry FAILURE or ERROR makes ``status`` so too
+    (``message`` says which part failed), and fails the check even when a reference was
+    written."""
 
     name: str
     scene: Path
@@ -79,10 +93,15 @@ class CheckResult:
     seconds: float = 0.0
     image: RenderedImage | None = field(default=None, repr=False)
     log: str = ""
+    reference_model: Path | None = None
+    geometry: str = ""
+    deviation: dict[str, Any] | None = None
+    deviation_image: RenderedImage | None = field(default=None, repr=False)
 
     @property
     def ok(self) -> bool:
-        return self.status in ("PASS", "WARNING") or bool(self.written)
+        pixels = self.status in ("PASS", "WARNING") or bool(self.written)
+        return pixels and self.geometry in ("", "PASS")
 
     def line(self) -> str:
         tag = f"{self.status} ({self.written} reference)" if self.written else self.status
@@ -264,9 +283,62 @@ def check_scene(
             else:
                 result.written, result.status = "created", "NEW"
                 result.message = f"new scene: {reference} written"
+    if "reference_model" in settings:
+        _check_geometry(result, scene, settings)
     result.message = printable(result.message)  # it names the reference folder
     result.seconds = time.perf_counter() - start
     return result
+
+
+def _check_geometry(result: CheckResult, scene: Scene, settings: dict[str, Any]) -> None:
+    """Measure ``scene`` against its ``[check] reference_model`` at the check's settings and
+    add the verdict to ``result`` (see :class:`CheckResult`): its status, its message (``;
+    geometry VERDICT: …``), the numbers and the picture."""
+    from ..analysis.deviation import RELATIVE_TOLERANCE
+    from ..analysis.scene_junctions import scene_diagonal
+    from ..rendering.deviation_image import deviation_image
+    from ..scene import load_scene
+
+    model = Path(settings["reference_model"])
+    result.reference_model = model
+    try:
+        reference = load_scene(model)
+        tolerance = settings.get("deviation")
+        if tolerance is None:
+            tolerance = RELATIVE_TOLERANCE * scene_diagonal(scene)
+        picture, summary = deviation_image(
+            scene,
+            reference,
+            float(tolerance),
+            width=settings["width"],
+            height=settings["height"],
+            spp=settings["spp"],
+        )
+    except Exception as exc:  # the pixels' verdict stands, and the other scenes go on
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        result.geometry, result.status = "ERROR", "ERROR"
+        result.message += f"; geometry ERROR: [check] reference_model: {reason}"
+        if not isinstance(exc, GshadeError):
+            result.log = printable(traceback.format_exc(), keep_lines=True)
+        return
+    result.deviation, result.deviation_image = summary, picture
+    if not summary["count"]:
+        result.geometry = "FAILURE"
+        text = f"incomparable: no point of {scene.name} in view"
+    elif summary["max_abs"] > tolerance:
+        result.geometry = "FAILURE"
+        x, y, z = summary["point"]
+        text = (
+            f"max |d| {summary['max_abs']:.6g} > {tolerance:.6g} at ({x:.6g}, {y:.6g}, "
+            f"{z:.6g}) (face {summary['patch_a']} of {scene.name}, {summary['patch_b']} of "
+            f"{reference.name})"
+        )
+    else:
+        result.geometry = "PASS"
+        text = f"max |d| {summary['max_abs']:.6g} ≤ {tolerance:.6g}"
+    result.message += f"; geometry {result.geometry}: {text}"
+    if result.geometry == "FAILURE" and result.status != "ERROR":
+        result.status = "FAILURE"
 
 
 def check(

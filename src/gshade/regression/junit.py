@@ -9,9 +9,15 @@ an ``<error>``; the element's ``message`` is the verdict with its one-line summa
 ``type`` the verdict, and its text the line ``gshade check`` prints (with the metrics), the
 scene file, the reference and the HTML report when there is one.  Every test case's
 ``<system-out>`` holds that line and those paths, passing ones too (a WARNING is a pass, as
-in ``gshade check``; so is a reference just written).  Only the elements and attributes of
-the common JUnit schema are used (those of Jenkins' ``junit-10.xsd``, which pytest's
-``xunit2`` files follow, and ``<error>``); names, paths and messages are written as
+in ``gshade check``; so is a reference just written).  A scene checked against a geometric
+reference (``[check] reference_model``) also has its deviation numbers as the test case's
+``<properties>`` (``deviation.max_abs``, ``deviation.point``, ... , ``geometry`` the
+verdict), and in the line (so in a failure's message); the reference model is named with the
+paths.  Only the elements and attributes of the common JUnit schema are used (those of
+Jenkins' ``junit-10.xsd``, which pytest's ``xunit2`` files follow, and ``<error>``), but for
+those test-case properties (as pytest's ``xunit1`` files write them, and Jenkins' JUnit
+plugin reads them), which only scenes with a reference model have; names, paths and
+messages are written as
 :func:`gshade.io.printable.printable` shows them: control characters (those XML cannot
 hold, terminal escapes), format characters and bytes of a file name that are not UTF-8 as
 ``\\xNN`` / ``\\uNNNN``, so that the file is always written and always valid UTF-8 XML.
@@ -57,9 +63,51 @@ def _details(result: CheckResult, report: Path | None) -> str:
     lines = [result.line(), f"scene: {result.scene}"]
     if result.reference is not None:
         lines.append(f"reference: {result.reference}")
+    if result.reference_model is not None:
+        lines.append(f"reference model: {result.reference_model}")
     if report is not None:
         lines.append(f"report: {report}")
     return "\n".join(lines)
+
+
+#: The deviation summary's numbers a test case's properties give, in order.
+_DEVIATION_NUMBERS = (
+    "tolerance",
+    "count",
+    "max_abs",
+    "point",
+    "pixel",
+    "patch_a",
+    "patch_b",
+    "min",
+    "max",
+    "mean",
+    "rms",
+    "p95",
+    "within",
+)
+
+
+def _deviation_properties(result: CheckResult) -> dict[str, str]:
+    """A scene's deviation numbers as test-case properties (none without a reference
+    model): the verdict, the tolerance and count, max |d| with its point, pixel and faces,
+    the signed min and max, mean, RMS, 95th percentile of |d| and fraction within, full
+    precision."""
+    if result.reference_model is None:
+        return {}
+    facts = {"geometry": result.geometry, "reference_model": str(result.reference_model)}
+    d = result.deviation or {}
+    for key in _DEVIATION_NUMBERS:
+        if d.get(key) is not None:
+            facts[f"deviation.{key}"] = _number(d[key])
+    return facts
+
+
+def _number(value: object) -> str:
+    """A number (repr: every digit) or a list of them (``x y z``)."""
+    if isinstance(value, (list, tuple)):
+        return " ".join(repr(v) for v in value)
+    return repr(value)
 
 
 def junit_xml(
@@ -120,6 +168,11 @@ def junit_xml(
             {"classname": CLASSNAME, "name": _text(r.name), "time": f"{r.seconds:.3f}"},
         )
         details = _details(r, report_path)
+        deviation = _deviation_properties(r)
+        if deviation:
+            numbers = ET.SubElement(case, "properties")
+            for key, value in deviation.items():
+                ET.SubElement(numbers, "property", {"name": key, "value": _text(value)})
         if not r.ok:
             kind = "error" if r.status == "ERROR" else "failure"
             problem = ET.SubElement(

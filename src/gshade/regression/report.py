@@ -2,7 +2,9 @@
 first, ``summary.json`` with every scene's verdict, message and metrics, and for every
 rendered scene an inspectable view (``views/NAME.html``, :mod:`gshade.display.html_view`:
 exact values under the cursor, new and reference flipped, side by side and differenced),
-the failures' views shown in the report itself."""
+the failures' views shown in the report itself.  A scene checked against a geometric
+reference (``[check] reference_model``) also shows its deviation numbers and picture (with
+its legend), and ``summary.json`` its ``geometry`` verdict and ``deviation`` numbers."""
 
 from __future__ import annotations
 
@@ -12,12 +14,17 @@ import io
 import json
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import GshadeError
+from ..io.printable import printable
 from .check import CheckResult
 from .comparison import Comparison, heat_map
+
+if TYPE_CHECKING:
+    from ..rendering.rendered_image import RenderedImage
 
 __all__ = ["write_report"]
 
@@ -71,11 +78,55 @@ def _figures(r: CheckResult, reference: _Image | None) -> str:
     if r.comparison is not None:
         label = f"|difference| (max {r.comparison.overall.max_error:.3g})"
         cells.append((label, _encode_png(heat_map(r.comparison))))
+    if r.deviation_image is not None and r.deviation is not None:
+        label = f"deviation from {printable(r.deviation['b'])} (±{r.deviation['tolerance']:.6g})"
+        cells.append((label, _deviation_picture(r.deviation_image)))
     return "".join(
         f'<figure><img src="{src}" alt="{html.escape(label)}"><figcaption>'
         f"{html.escape(label)}</figcaption></figure>"
         for label, src in cells
         if src
+    )
+
+
+def _deviation_picture(image: RenderedImage) -> str:
+    """The deviation picture with its legend's strip below it, as a data: URL."""
+    from ..display.legend_strip import with_legend
+    from ..io.image import srgb8
+
+    rgb, alpha = image.straight_rgb, image.alpha
+    if image.legend is not None:
+        rgb, alpha = with_legend(rgb, alpha, image.legend)
+    return _encode_png(srgb8(rgb, alpha))
+
+
+def _deviation(r: CheckResult) -> str:
+    """The deviation numbers of a scene with a reference model, as a table."""
+    d = r.deviation
+    if r.reference_model is None or d is None:
+        return ""
+    rows = [
+        ("geometry", r.geometry),
+        ("reference model", printable(r.reference_model)),
+        ("tolerance", f"{d['tolerance']:.6g}"),
+        ("points", str(d["count"])),
+    ]
+    if d["count"]:
+        x, y, z = d["point"]
+        rows += [
+            ("max |d|", f"{d['max_abs']:.9g}"),
+            ("at", f"({x:.9g}, {y:.9g}, {z:.9g}), pixel ({d['pixel'][0]}, {d['pixel'][1]})"),
+            ("faces", f"{d['patch_a']} of {r.name}, {d['patch_b']} of {printable(d['b'])}"),
+            ("min, max d", f"{d['min']:.6g}, {d['max']:.6g}"),
+            ("mean", f"{d['mean']:.6g}"),
+            ("RMS", f"{d['rms']:.6g}"),
+            ("95 % of |d|", f"{d['p95']:.6g}"),
+            ("within ±tolerance", f"{100 * d['within']:.4g} %"),
+        ]
+    return (
+        '<table class="deviation">'
+        + "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows)
+        + "</table>"
     )
 
 
@@ -157,10 +208,22 @@ def _section(r: CheckResult, reference: _Image | None, view: str | None, notes: 
     return (
         f'<section class="{html.escape(r.status.lower())}"><h2>{html.escape(status)}: '
         f"{html.escape(r.name)}</h2><p>{html.escape(str(r.scene))}: "
-        f"{html.escape(r.message)}</p>{_figures(r, reference)}{_metrics(r.comparison)}{inspect}"
+        f"{html.escape(r.message)}</p>{_figures(r, reference)}{_metrics(r.comparison)}"
+        f"{_deviation(r)}{inspect}"
         + (f"<pre>{html.escape(r.log)}</pre>" if r.log else "")
         + "</section>"
     )
+
+
+def _geometry_entry(r: CheckResult) -> dict[str, Any]:
+    """summary.json's geometry of a scene with a reference model (nothing without one)."""
+    if r.reference_model is None:
+        return {}
+    return {
+        "reference_model": printable(r.reference_model),
+        "geometry": r.geometry,
+        "deviation": r.deviation,
+    }
 
 
 _STYLE = (
@@ -169,6 +232,7 @@ _STYLE = (
     "section{border-top:1px solid #ccc;padding:.5em 0}.failure h2,.error h2{color:#b00}"
     ".warning h2{color:#a60}.pass h2{color:#070}td,th{padding:0 .6em;text-align:right}"
     "iframe{width:100%;height:720px;border:1px solid #ccc}"
+    ".deviation th{text-align:left}"
     ".note{border-left:3px solid #c80;padding:2px 6px;background:#fff6e0}"
 )
 
@@ -196,7 +260,8 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
     except OSError as exc:
         raise GshadeError(f"{folder}: cannot create the report folder ({exc.strerror})") from None
     ordered = sorted(
-        results, key=lambda r: (_ORDER.get(r.status, 0) if not r.written else 4, r.name)
+        results,
+        key=lambda r: (_ORDER.get(r.status, 0) if not (r.written and r.ok) else 4, r.name),
     )
     counts = {s: sum(r.status == s for r in results) for s in _ORDER}
     taken: set[str] = set()
@@ -230,6 +295,7 @@ def write_report(results: list[CheckResult], folder: Path) -> Path:
                 "metrics": r.comparison.as_dict() if r.comparison is not None else None,
                 "view": views.get(id(r)),
                 "view_notes": notes.get(id(r), []),
+                **_geometry_entry(r),
             }
             for r in ordered
         ],

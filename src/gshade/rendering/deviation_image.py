@@ -142,6 +142,7 @@ def mesh_samples(scene: Scene) -> Samples:
         np.concatenate([grid.patch, patch]),
         np.concatenate([grid.uv, np.stack([u, v], -1)]),
         max(grid.reach, float(edges.max(initial=0.0))),
+        grid.cell,
     )
 
 
@@ -151,6 +152,7 @@ def _exact_hits(
     """P and the unit normal N (n, 3) in double precision where the pixel centres' rays meet
     the surface (the channels hold them in single precision): the rays' Newton solve on the
     exact patches, started from the channels' (u, v)."""
+    from ..geometry.core.differential import derivative_scales, irregular_mask
     from ..geometry.evaluation.regularity import patch_normals
     from .surface_hits import surface_hits
 
@@ -163,9 +165,12 @@ def _exact_hits(
     u = np.clip(channels["u"][rows, cols].astype(np.float64), domains[:, 0, 0], domains[:, 0, 1])
     v = np.clip(channels["v"][rows, cols].astype(np.float64), domains[:, 1, 0], domains[:, 1, 1])
     u, v, d, _ = surface_hits(scene.patches, index, u, v, *view.pixel_rays(rows, cols), steps=3)
-    normal = np.empty((len(u), 3))
-    for k in np.unique(index).tolist():
-        at = index == k
+    normal = np.cross(d[1, 0], d[0, 1])
+    # the normals' limits where the parametrisation is irregular (a collapsed edge)
+    irregular = irregular_mask(d[:2, :2], scale=derivative_scales(d[:2, :2], index))
+    normal /= np.where(irregular, 1.0, np.linalg.norm(normal, axis=-1))[:, None]
+    for k in np.unique(index[irregular]).tolist():
+        at = np.flatnonzero(irregular & (index == k))
         normal[at] = patch_normals(scene.patches[k], u[at], v[at]).n
     return d[0, 0], normal
 

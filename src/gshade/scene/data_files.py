@@ -41,9 +41,10 @@ class DataFiles:
     roots: Sequence[Path]
     used: Path | None = None
 
-    def find(self, t: Table, name: str) -> Path:
-        """The data file a surface's ``file`` key names (relative to the scene file),
-        checked to lie within one of the roots once symbolic links are resolved."""
+    def find(self, t: Table, name: str, key: str = "file") -> Path:
+        """The data file a table's ``key`` (a surface's ``file``) names (relative to the
+        scene file), checked to lie within one of the roots once symbolic links are
+        resolved."""
         from ..io.files import file_kind  # here: gshade.io loads OpenEXR
 
         data_file = self.base / name
@@ -53,25 +54,25 @@ class DataFiles:
             kind = file_kind(resolved) if exists else None
         except (OSError, ValueError, RuntimeError) as exc:
             raise t.error(
-                "file",
+                key,
                 f"expected a path to an existing file, got {show(name)} "
                 f"({getattr(exc, 'strerror', None) or 'not a usable path'})",
             ) from None
         if not any(resolved.is_relative_to(root) for root in self.roots):
             raise t.error(
-                "file",
+                key,
                 f"expected a file within the scene's folder {self.roots[0]} (or a folder in "
                 f"{DATA_PATH_VARIABLE}), got {show(name)}",
             )
         if not exists:
             raise t.error(
-                "file",
+                key,
                 f"expected an existing file (relative to the scene file), got {show(name)} "
                 f"(no such file: {data_file})",
             )
         if kind is not None:  # a folder, a FIFO, a device: said so, not "no such file"
             raise t.error(
-                "file",
+                key,
                 f"expected a regular file (relative to the scene file), got {show(name)}, "
                 f"which is {kind}",
             )

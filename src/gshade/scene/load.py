@@ -14,7 +14,7 @@ from typing import Any
 from ..errors import GshadeError, show
 from ..geometry.evaluation.regularity import degenerate_patch
 from ..limits import MAX_MAGNITUDE, MAX_NESTING, MAX_PATCHES, MAX_STRING
-from .data_files import data_roots
+from .data_files import DataFiles, data_roots
 from .model import Scene
 from .overrides import apply_overrides
 from .sections import parse_camera, parse_check, parse_render, parse_shape, parse_sweep
@@ -30,7 +30,7 @@ TOP_KEYS = declare_keys(
     Key("shape", "table", None, "the shape function and how it is shown", _TABLE),
     Key("camera", "table", None, "the view", _TABLE),
     Key("render", "table", None, "the image and its sampling", _TABLE),
-    Key("check", "table", None, "gshade check's render size and thresholds", _TABLE),
+    Key("check", "table", None, "gshade check's render size, thresholds, reference model", _TABLE),
     Key("sweep", "table", None, "values gshade batch renders the scene with", _TABLE),
 )
 
@@ -159,10 +159,10 @@ def _build(
     shape = parse_shape(file, _table(file, raw, "shape"))
     camera = parse_camera(file, _table(file, raw, "camera"))
     render = parse_render(file, _table(file, raw, "render"))
-    check = parse_check(file, _table(file, raw, "check"))
+    roots = data_roots(base, data_path)
+    check = parse_check(file, _table(file, raw, "check"), DataFiles(base, roots))
     sweep = parse_sweep(file, _table(file, raw, "sweep"))
     surfaces, data_files = [], []
-    roots = data_roots(base, data_path)
     count = 0
     for index, table in enumerate(tables, start=1):
         surface, data_file = build_surface(file, index, table, base, roots)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict
+from pathlib import Path
 from typing import Any
 
 from ..display import validate_colormap, validate_range
@@ -21,6 +22,7 @@ from ..limits import (
     MIN_DIRECTION,
 )
 from ..shape import SHAPE_FUNCTIONS, checked_parameters, function_bands, validate_parameter
+from .data_files import DataFiles, data_roots
 from .model import (
     CAMERA_TYPES,
     COMB_CURVATURES,
@@ -189,6 +191,21 @@ CHECK_KEYS = declare_keys(
     Key("warnpercent", _PERCENT, 0.0, "% of the pixels allowed over warn"),
     Key("statistical", "true | false", False, "compare by a z-test over several renders"),
     Key("runs", "integer 1–64", 4, "statistical: renders of the scene (at least 2)"),
+    Key(
+        "reference_model",
+        "path to a scene file or a CAD file",
+        None,
+        "geometry to measure the scene's surfaces against (relative to the scene file): the "
+        "check fails when they deviate from it by more than deviation",
+        "none",
+    ),
+    Key(
+        "deviation",
+        _THRESHOLD,
+        None,
+        "reference_model: the largest |d| allowed, in model units",
+        "1e-6 of the scene's bounding-box diagonal",
+    ),
 )
 #: The tables of one-level keys, in the order messages list them.
 SECTION_KEYS = {
@@ -387,13 +404,29 @@ def validate_render_settings(settings: RenderSettings, source: str = "render") -
 # --------------------------------------------------------------------------- [check], [sweep]
 
 
-def parse_check(file: str, raw: dict[str, Any]) -> dict[str, Any]:
-    """The ``[check]`` keys given, checked (``gshade check`` supplies the defaults)."""
+def parse_check(file: str, raw: dict[str, Any], files: DataFiles | None = None) -> dict[str, Any]:
+    """The ``[check]`` keys given, checked (``gshade check`` supplies the defaults).
+
+    ``reference_model`` is found as a surface's data file is, by ``files`` (default: relative
+    to ``file``'s folder, within it or a folder in ``GSHADE_DATA_PATH``): its value is the
+    file's path; ``deviation`` needs it."""
     t = Table(file, "[check] ", raw)
     t.reject_unknown(tuple(CHECK_KEYS))
+    if "deviation" in raw and "reference_model" not in raw:
+        raise t.error(
+            "deviation",
+            f"expected together with reference_model (the geometry it is measured against), "
+            f"got deviation = {show(raw['deviation'])} alone",
+        )
     out: dict[str, Any] = {}
     for key in raw:
-        if key in ("width", "height"):
+        if key == "reference_model":
+            name = t.string(key, expected="a path to a scene file (TOML) or a CAD file")
+            if files is None:
+                base = Path(file).parent
+                files = DataFiles(base, data_roots(base, None))
+            out[key] = files.find(t, name, key)
+        elif key in ("width", "height"):
             out[key] = t.integer(key, maximum=MAX_IMAGE_SIDE)
         elif key == "spp":
             out[key] = t.integer(key, maximum=MAX_SPP)
