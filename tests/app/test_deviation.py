@@ -125,3 +125,56 @@ def test_exit_statuses_for_files_and_usage(spheres, tmp_path, capsys):
     assert not (tmp_path / "a-deviation.exr").exists()
     err = capsys.readouterr().err
     assert err.count("\n") == 5 and "Traceback" not in err
+
+
+@pytest.fixture(scope="module")
+def sheets(tmp_path_factory):
+    """A 10 x 8 plane sheet at z = 4 (A) and the same sheet with a hole of radius 2 cut
+    around (2, 0) (B: an open face whose hole's circle is a free edge, no wall), seen from
+    above."""
+    pytest.importorskip("OCP")
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeCylinder
+    from OCP.BRepTools import BRepTools
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pln, gp_Pnt
+
+    sheet = BRepBuilderAPI_MakeFace(gp_Pln(gp_Pnt(0, 0, 4), gp_Dir(0, 0, 1)), -5, 5, -4, 4).Face()
+    drill = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(2, 0, -1), gp_Dir(0, 0, 1)), 2.0, 6).Shape()
+    folder = tmp_path_factory.mktemp("sheets")
+    BRepTools.Write_s(sheet, str(folder / "sheet.brep"))
+    BRepTools.Write_s(BRepAlgoAPI_Cut(sheet, drill).Shape(), str(folder / "holed.brep"))
+    view = (
+        '[camera]\ntype = "orthographic"\norigin = [0, 0, 20]\ntarget = [0, 0, 0]\n'
+        "up = [0, 1, 0]\nwidth = 12\n[render]\nwidth = 96\nheight = 80\nspp = 1\n"
+    )
+    for name in ("sheet", "holed"):
+        (folder / f"{name}.toml").write_text(
+            f'name = "{name}"\n[[surface]]\ntype = "cad"\nfile = "{name}.brep"\n' + view
+        )
+    return folder / "sheet.toml", folder / "holed.toml"
+
+
+def test_a_hole_in_b_is_measured_to_its_edge(sheets, tmp_path):
+    """A's points over B's hole: B's closest point is on the hole's circle (a B-rep edge:
+    the plane's foot point lies in the trimmed-away disc), |d| = 2 - rho at distance rho
+    from the axis (to 1e-12 at the largest, whose point the header holds in double); the
+    rest of the sheet 0."""
+    a, b = sheets
+    out = tmp_path / "d.exr"
+    assert main(["deviation", str(a), str(b), "-o", str(out), "--tolerance", "1e-6"]) == 2
+    channels, header = read_exr(out)
+    on = channels["patch"] >= 0
+    P = np.stack([channels[f"P.{c}"][on] for c in "XYZ"], -1).astype(np.float64)
+    rho = np.hypot(P[:, 0] - 2, P[:, 1])
+    over = rho < 1.9
+    assert over.sum() > 100
+    f = np.abs(channels["f"][on].astype(np.float64))
+    np.testing.assert_allclose(f[over], 2 - rho[over], atol=2e-6)  # P in float32
+    foot = np.stack([channels[f"B.{c}"][on] for c in "XYZ"], -1)[over]
+    np.testing.assert_allclose(np.hypot(foot[:, 0] - 2, foot[:, 1]), 2.0, atol=1e-5)
+    np.testing.assert_allclose(foot[:, 2], 4.0, atol=1e-5)
+    assert f[rho > 2.1].max() < 1e-9
+    summary = json.loads(header["deviation"])
+    x, y, _ = summary["point"]
+    assert summary["max_abs"] == pytest.approx(2 - np.hypot(x - 2, y), abs=1e-12)

@@ -20,7 +20,7 @@ The nearest of the candidates' foot points is the answer.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +41,8 @@ __all__ = [
 
 #: Samples a side of each patch's grid for the coarse search.
 GRID = 17
+#: The most samples along a side of a patch.
+MOST_SAMPLES = 129
 #: Nearest samples each query starts Newton's method from (on their patches).
 CANDIDATES = 4
 #: Shortenings (each by 4) of a Newton step that would take a point farther from its
@@ -265,8 +267,38 @@ def _lattice(patch: Patch, grid: int) -> tuple[int, int]:
     return nu, max(3, (grid * grid) // nu)
 
 
+def _axis_samples(patch: Patch, axis: int, n: int, spacing: float) -> NDArray[np.float64]:
+    """A patch's sample parameters along ``axis``: the middles of n cells of equal length
+    (arc length, the longest of three lines across; a B-spline's speed measured in each
+    knot span, so that a parametrisation that crowds its shape into a few spans has its
+    samples there), more where the length needs them ``spacing`` apart (> 0), at most
+    :data:`MOST_SAMPLES`."""
+    lo, hi = patch.domain[axis]
+    breaks = np.array([lo, hi])
+    knots = getattr(patch, "knots", None)
+    if knots is not None:
+        breaks = np.unique(np.clip(np.asarray(knots[axis], dtype=np.float64), lo, hi))
+    if breaks.size > 129:
+        breaks = breaks[:: -(-breaks.size // 129)]
+    eighths = np.linspace(0.0, 1.0, 9)
+    fine = np.unique(breaks[:-1, None] + np.diff(breaks)[:, None] * eighths)
+    (u0, u1), (v0, v1) = patch.domain
+    across = np.array([1 / 6, 1 / 2, 5 / 6])
+    other = (v0 + (v1 - v0) * across) if axis == 0 else (u0 + (u1 - u0) * across)
+    t, o = np.meshgrid(fine, other, indexing="ij")
+    u, v = (t, o) if axis == 0 else (o, t)
+    at = np.asarray(patch(u.ravel(), v.ravel()), dtype=np.float64).reshape(len(fine), 3, 3)
+    step = np.linalg.norm(np.diff(at, axis=0), axis=-1).max(axis=1)
+    length = np.concatenate([[0.0], np.cumsum(step)])
+    if spacing > 0:
+        n = max(n, min(MOST_SAMPLES, int(np.ceil(length[-1] / spacing))))
+    if not length[-1] > 0:
+        return lo + (hi - lo) * (np.arange(n) + 0.5) / n
+    return np.interp((np.arange(n) + 0.5) / n * length[-1], length, fine)
+
+
 def _samples(
-    patches: Sequence[Patch], grid: int
+    patches: Sequence[Patch], grid: int, spacing: float = 0.0
 ) -> tuple[NDArray, NDArray, NDArray, float, NDArray]:
     """Every patch's samples, ``grid`` x ``grid`` of them spread in the ratio of its
     lengths (:func:`_lattice`), at the middles of its cells (none on a side: the samples
@@ -277,13 +309,13 @@ def _samples(
     reach = 0.0
     for k, patch in enumerate(patches):
         nu, nv = _lattice(patch, grid)
-        (u0, u1), (v0, v1) = patch.domain
-        cells.append(((u1 - u0) / nu, (v1 - v0) / nv))
-        s, r = np.meshgrid((np.arange(nu) + 0.5) / nu, (np.arange(nv) + 0.5) / nv, indexing="ij")
-        u, v = u0 + (u1 - u0) * s.ravel(), v0 + (v1 - v0) * r.ravel()
-        at = np.asarray(patch(u, v), dtype=np.float64).reshape(nu, nv, 3)
-        one = np.linalg.norm(at[1:, 1:] - at[:-1, :-1], axis=-1).max()
-        other = np.linalg.norm(at[1:, :-1] - at[:-1, 1:], axis=-1).max()
+        su, sv = _axis_samples(patch, 0, nu, spacing), _axis_samples(patch, 1, nv, spacing)
+        cells.append((np.diff(su).min(initial=np.inf), np.diff(sv).min(initial=np.inf)))
+        uu, vv = np.meshgrid(su, sv, indexing="ij")
+        u, v = uu.ravel(), vv.ravel()
+        at = np.asarray(patch(u, v), dtype=np.float64).reshape(len(su), len(sv), 3)
+        one = np.linalg.norm(at[1:, 1:] - at[:-1, :-1], axis=-1).max(initial=0.0)
+        other = np.linalg.norm(at[1:, :-1] - at[:-1, 1:], axis=-1).max(initial=0.0)
         reach = max(reach, float(one), float(other))
         points.append(at.reshape(-1, 3))
         owner.append(np.full(u.size, k))
@@ -307,10 +339,12 @@ class Samples:
     cell: NDArray[np.float64]
 
 
-def grid_samples(patches: Sequence[Patch], grid: int = GRID) -> Samples:
+def grid_samples(patches: Sequence[Patch], grid: int = GRID, spacing: float = 0.0) -> Samples:
     """Every patch's ``grid`` x ``grid`` samples at the middles of its cells, spread in
-    the ratio of its lengths across."""
-    return Samples(*_samples(patches, grid))
+    the ratio of its lengths across, and more along a length that needs them ``spacing``
+    apart (> 0: a big face's samples near every point of it, as a start in the basin of
+    its foot point)."""
+    return Samples(*_samples(patches, grid, spacing))
 
 
 def closest_points(
@@ -319,10 +353,18 @@ def closest_points(
     *,
     samples: Samples | None = None,
     candidates: int = CANDIDATES,
+    inside: Callable[[NDArray[np.int64], NDArray[np.float64]], NDArray[np.bool_]] | None = None,
+    boundary: Callable[[NDArray[np.float64]], ClosestPoints] | None = None,
 ) -> ClosestPoints:
     """The points of ``patches`` nearest to each of ``queries`` (n, 3): from the
     ``candidates`` nearest of the ``samples`` (default :func:`grid_samples`), Newton's
     method on the exact patches (:func:`foot_points`), the nearest foot point kept.
+
+    Trimmed patches: ``inside(index, uv)`` says which (u, v) of patches ``index`` are
+    part of the surface (a foot point elsewhere is none), and ``boundary(queries)`` gives
+    the closest points on the trims' curves
+    (:func:`gshade.analysis.trimmed_faces.boundary_search`), asked for the queries a foot
+    point outside the trims was found for.
 
     Examples
     --------
@@ -343,30 +385,43 @@ def closest_points(
         np.zeros_like(q), np.zeros(len(q), np.int64), np.zeros((len(q), 2)), np.full(len(q), np.inf)
     )
     asked = np.arange(len(q))  # the queries to look further for
-    done = np.zeros((len(q), 0), dtype=np.int64)  # the patches each of them has asked
+    m = len(patches)
+    pairs = np.zeros(0, dtype=np.int64)  # query * m + patch: the patches each query asked
+    searched = np.zeros(len(q), dtype=bool)  # the trims' curves asked
     k = min(candidates, len(points))
     while asked.size:
         distance, nearest = tree.query(q[asked], k=k)
         nearest = np.asarray(nearest).reshape(len(asked), k)
         spacing = np.asarray(distance).reshape(len(asked), k)
-        _improve(surfaces, q, samples, best, asked, nearest, spacing, done)
-        tried = np.concatenate([done, owner[nearest]], axis=1)
+        outside = _improve(surfaces, q, samples, best, asked, nearest, spacing, pairs, inside)
+        if boundary is not None:  # their closest points on the trims' curves, once
+            fresh = asked[outside & ~searched[asked]]
+            searched[fresh] = True
+            if fresh.size:
+                _merge(best, fresh, boundary(q[fresh]))
+        keys = (asked[:, None] * m + owner[nearest]).ravel()
+        pairs = np.union1d(pairs, keys)
         if k >= len(points):
             break
         # samples beyond the k nearest are farther than the k-th: a patch among them can
         # hold a nearer point only if the k-th lies within the best distance + a cell's
-        # reach; a query on the surface (to rounding) has its answer
+        # reach; a query on the surface (to rounding) has its answer; nothing is left to
+        # ask where every patch was
         farthest = spacing[:, -1]
         found = best.distance[asked]
         unsure = (farthest - reach < found) & (found > ON_SURFACE * size)
-        if len(patches) <= tried.shape[1]:  # nothing left to ask where every patch was
-            every = np.ones(len(asked), dtype=bool)
-            for p in range(len(patches)):
-                every &= np.any(tried == p, axis=1)
-            unsure &= ~every
-        asked, done = asked[unsure], tried[unsure]
+        unsure &= np.bincount(pairs // m, minlength=len(q))[asked] < m
+        asked = asked[unsure]
         k = min(4 * k, len(points))
     return best
+
+
+def _merge(best: ClosestPoints, ask: NDArray, found: ClosestPoints) -> None:
+    """``found`` for queries ``ask`` kept in ``best`` where nearer."""
+    nearer = found.distance < best.distance[ask]
+    take = ask[nearer]
+    best.point[take], best.patch[take] = found.point[nearer], found.patch[nearer]
+    best.uv[take], best.distance[take] = found.uv[nearer], found.distance[nearer]
 
 
 def _improve(
@@ -377,37 +432,48 @@ def _improve(
     asked: NDArray,
     nearest: NDArray,
     spacing: NDArray,
-    done: NDArray,
-) -> None:
+    pairs: NDArray,
+    inside: Callable[[NDArray[np.int64], NDArray[np.float64]], NDArray[np.bool_]] | None,
+) -> NDArray[np.bool_]:
     """Newton's method from each of ``asked``'s ``nearest`` samples (at ``spacing`` from
     it): in the first round from each of them but those within a grid cell of a nearer
     one on its patch (one start per sheet: a patch folding back, a tube, has its nearest
     samples on several), later from the nearest of each patch among them where the query
-    has not asked that patch yet (``done``: the patches asked before) or the sample is
-    nearer than the best foot point found, all patches at once; the nearer foot points
-    kept in ``best``."""
+    has not asked that patch yet (``pairs``: query * patches + patch, sorted, those asked
+    before) or the sample is nearer than the best foot point found, all patches at once;
+    the nearer foot points inside the trims (``inside``) kept in ``best``.  Whether each
+    of ``asked`` found one outside them."""
     owner, uv = samples.patch, samples.uv
     patch = owner[nearest]
-    first = np.ones(patch.shape, dtype=bool)
-    if done.shape[1]:
-        for j in range(1, patch.shape[1]):
-            first[:, j] = ~np.any(patch[:, :j] == patch[:, j : j + 1], axis=1)
-    else:
+    if pairs.size:  # the nearest sample of each patch among them
+        order = np.argsort(patch, axis=1, kind="stable")
+        ranked = np.take_along_axis(patch, order, axis=1)
+        lead = np.ones(patch.shape, dtype=bool)
+        lead[:, 1:] = ranked[:, 1:] != ranked[:, :-1]
+        first = np.zeros(patch.shape, dtype=bool)
+        np.put_along_axis(first, order, lead, axis=1)
+    else:  # every one but those within a cell of a nearer one on its patch
+        first = np.ones(patch.shape, dtype=bool)
         cell = samples.cell[patch]
         for j in range(1, patch.shape[1]):
             for i in range(j):
                 near = np.all(np.abs(uv[nearest[:, i]] - uv[nearest[:, j]]) <= cell[:, j], -1)
                 first[:, j] &= ~(first[:, i] & (patch[:, i] == patch[:, j]) & near)
-    before = np.zeros(patch.shape, dtype=bool)
-    for j in range(done.shape[1]):
-        before |= done[:, j : j + 1] == patch
+    keys = asked[:, None] * len(surfaces.lo) + patch
+    at = np.clip(np.searchsorted(pairs, keys), 0, max(pairs.size - 1, 0))
+    before = (pairs[at] == keys) if pairs.size else np.zeros(patch.shape, dtype=bool)
     first &= ~before | (spacing < best.distance[asked][:, None])
     rows, js = np.nonzero(first)  # every (query, sample) pair on a patch new to the query
+    outside = np.zeros(len(asked), dtype=bool)
     if not rows.size:
-        return
+        return outside
     who, sample = asked[rows], nearest[rows, js]
     on = owner[sample]
     feet, distance = _feet(surfaces, on, q[who], uv[sample])
+    if inside is not None:
+        out = ~inside(on, feet)
+        outside[rows[out]] = True
+        distance[out] = np.inf
     order = np.lexsort((distance, who))  # each query's nearest foot point first
     lead = order[np.r_[True, who[order][1:] != who[order][:-1]]]
     better = lead[distance[lead] < best.distance[who[lead]]]
@@ -415,3 +481,4 @@ def _improve(
     at = surfaces.derivatives(on[better], feet[better], 0)[0, 0]
     best.point[take], best.uv[take] = at, feet[better]
     best.patch[take], best.distance[take] = on[better], distance[better]
+    return outside

@@ -47,11 +47,14 @@ def signed_deviation(
     normals: ArrayLike,
     patches: Sequence[Patch],
     samples: Samples | None = None,
+    **trims: Any,
 ) -> Deviation:
     """The signed deviation of ``points`` (n, 3), whose surface's unit normals are
     ``normals`` (n, 3), from the surface of ``patches`` (see the module; ``samples``: its
-    points for the coarse search, :class:`~gshade.analysis.closest_points.Samples`).  A
-    point on B (distance 0) counts as positive.
+    points for the coarse search, :class:`~gshade.analysis.closest_points.Samples`;
+    ``trims``: ``inside`` and ``boundary`` of trimmed patches, as
+    :func:`~gshade.analysis.closest_points.closest_points` takes them).  A point on B
+    (distance 0) counts as positive.
 
     Examples
     --------
@@ -67,7 +70,7 @@ def signed_deviation(
     """
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    found = closest_points(patches, p, samples=samples)
+    found = closest_points(patches, p, samples=samples, **trims)
     side = np.sum((found.point - p) * n, axis=-1)
     return Deviation(np.where(side < 0, -found.distance, found.distance), found)
 

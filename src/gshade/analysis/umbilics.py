@@ -180,25 +180,14 @@ def scene_umbilics(scene: Any) -> tuple[list[Umbilic], list[int]]:
     """The umbilics of a scene's patches (numbered as the scene numbers them), those of a
     CAD face inside its trimming loops only; points within :data:`SAME_POINT` of the
     scene's diagonal are one."""
-    from ..scene.bodies import CadFaces
-    from .knot_lines import inside_loops
+    from .trimmed_faces import trim_test
 
-    faces: dict[int, tuple[CadFaces, int]] = {}
-    start = 0
-    for surface in scene.surfaces:
-        if isinstance(surface.body, CadFaces):
-            for k in range(len(surface.patches)):
-                faces[start + k] = (surface.body, k)
-        start += len(surface.patches)
+    trims = trim_test(scene)
 
     def inside(k: int, uv: NDArray) -> NDArray:
-        if k not in faces:
+        if trims is None:
             return np.ones(len(uv), bool)
-        cad, place = faces[k]
-        face = cad.model.face(cad.faces[place])
-        if not face.trimmed or not face.loops:
-            return np.ones(len(uv), bool)
-        return inside_loops(face.loops, cad.patch_uv(place, uv))
+        return trims(np.full(len(uv), k, dtype=np.int64), uv)
 
     from .scene_junctions import scene_diagonal
 

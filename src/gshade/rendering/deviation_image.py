@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from ..analysis.closest_points import Samples, grid_samples
 from ..analysis.deviation import deviation_summary, signed_deviation
+from ..analysis.trimmed_faces import TrimTest, boundary_search, trim_test
 from ..display import Legend, colour_map
 from ..display.bands import band_shares, band_text, settled_on_levels
 from ..display.colour import srgb_to_linear
@@ -51,6 +52,8 @@ DEVIATION_CHANNELS = ("B.X", "B.Y", "B.Z", "B.patch")
 #: The chord tolerance of the mesh whose vertices start the closest-point search, relative
 #: to the scene's diagonal, and the most grid points a patch side (patches on a grid).
 SAMPLE_CHORD, MAX_SAMPLE_GRID = 2e-3, 65
+#: The spacing of every patch's grid samples at most, relative to the scene's diagonal.
+SAMPLE_SPACING = 5e-3
 #: The colour within tolerance (sRGB).
 NEUTRAL = (0.78, 0.78, 0.76)
 
@@ -121,13 +124,17 @@ def sample_mesh(scene: Scene) -> TriangleMesh:
     return join_meshes([(part.mesh, part.index) for part in parts], resolution)
 
 
-def mesh_samples(scene: Scene) -> Samples:
+def mesh_samples(scene: Scene, inside: TrimTest | None = None) -> Samples:
     """The coarse search's points of a scene: every patch's grid samples
     (:func:`~gshade.analysis.closest_points.grid_samples`: a periodic face's seam and a
     long tube's far side have samples near them) and the vertices of its
     :func:`sample_mesh` (where a trimmed face's grid may miss its trimmed region), each
     with its patch and (u, v); their reach the longer of the grids' cell diagonals and the
-    mesh's edges."""
+    mesh's edges; with ``inside`` (:func:`gshade.analysis.trimmed_faces.trim_test`), the
+    grid samples outside a face's trims left out.  The grids' samples are at most
+    :data:`SAMPLE_SPACING` of the diagonal apart (a big face's mesh may have long
+    triangles, its vertices far from the foot points of a flat region)."""
+    from ..analysis.scene_junctions import scene_diagonal
     from ..geometry.core.patch import unit_to_domain
 
     mesh = sample_mesh(scene)
@@ -136,7 +143,10 @@ def mesh_samples(scene: Scene) -> Samples:
     u, v = unit_to_domain(domains, mesh.params[:, 0], mesh.params[:, 1], patch)
     corners = mesh.positions[mesh.faces]
     edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=-1)
-    grid = grid_samples(scene.patches)
+    grid = grid_samples(scene.patches, spacing=SAMPLE_SPACING * scene_diagonal(scene))
+    if inside is not None:
+        kept = inside(grid.patch, grid.uv)
+        grid = replace(grid, points=grid.points[kept], patch=grid.patch[kept], uv=grid.uv[kept])
     return Samples(
         np.concatenate([grid.points, mesh.positions]),
         np.concatenate([grid.patch, patch]),
@@ -148,10 +158,11 @@ def mesh_samples(scene: Scene) -> Samples:
 
 def _exact_hits(
     scene: Scene, channels: dict[str, NDArray], view: View
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
     """P and the unit normal N (n, 3) in double precision where the pixel centres' rays meet
     the surface (the channels hold them in single precision): the rays' Newton solve on the
-    exact patches, started from the channels' (u, v)."""
+    exact patches, started from the channels' (u, v); and each hit's patch (n,) and (u, v)
+    (n, 2)."""
     from ..geometry.core.differential import derivative_scales, irregular_mask
     from ..geometry.evaluation.regularity import patch_normals
     from .surface_hits import surface_hits
@@ -172,7 +183,7 @@ def _exact_hits(
     for k in np.unique(index[irregular]).tolist():
         at = np.flatnonzero(irregular & (index == k))
         normal[at] = patch_normals(scene.patches[k], u[at], v[at]).n
-    return d[0, 0], normal
+    return d[0, 0], normal, index, np.stack([u, v], -1)
 
 
 def _patch_numbers(scene: Scene) -> NDArray[np.int64]:
@@ -210,8 +221,18 @@ def deviation_image(
     on = channels["patch"] >= 0
     H, W = on.shape
     view = header_view(image.metadata, W, H)  # the view the picture was rendered with
-    P, N = _exact_hits(a, channels, view)
-    found = signed_deviation(P, N, b.patches, mesh_samples(b))
+    P, N, index, uv = _exact_hits(a, channels, view)
+    # a pixel whose exact point lies off A's trimmed face (the render's mesh overhangs
+    # the trims by its chord) is no point of A
+    trims = trim_test(a)
+    if trims is not None:
+        kept = trims(index, uv)
+        on[on] = kept
+        P, N = P[kept], N[kept]
+    inside = trim_test(b)
+    found = signed_deviation(
+        P, N, b.patches, mesh_samples(b, inside), inside=inside, boundary=boundary_search(b)
+    )
     f = np.zeros(on.shape)
     f[on] = found.distance
     foot = np.zeros((*on.shape, 3))
@@ -227,6 +248,8 @@ def deviation_image(
         summary["patch_a"] = int(channels["patch"][row, col])
         summary["patch_b"] = int(patch[row, col])
     rgb = _colours(f, on, tolerance, summary.get("max_abs") or 0.0)
+    unmeasured = (channels["patch"] >= 0) & ~on  # off A's trims: no deviation, neutral
+    rgb[unmeasured] = srgb_to_linear(np.asarray(NEUTRAL))
     rgb *= _shading(channels, view)[..., None]
     alpha = channels["A"].astype(np.float64)
     for i, c in enumerate("RGB"):
