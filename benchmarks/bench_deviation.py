@@ -8,7 +8,7 @@ method's error against the exact distances.
 
 The sphere pair (radii 2 and 2.003) is built in; each ``--cad`` file is measured against
 itself (exact distance 0: the mesh's error is its own deflection).  B's mesh is the one
-gshade renders B with (``gshade.rendering.deviation_image.sample_mesh``: the
+gshade renders B with (``gshade.rendering.deviation_measure.sample_mesh``: the
 kernel's within 2e-3 of the diagonal for a CAD model).
 """
 
@@ -40,7 +40,7 @@ def _mesh_of(scene):
     """B's mesh as a PyVista PolyData: the one the closest-point search starts from."""
     import pyvista as pv
 
-    from gshade.rendering.deviation_image import sample_mesh
+    from gshade.rendering.deviation_measure import sample_mesh
 
     mesh = sample_mesh(scene)
     faces = np.hstack([np.full((len(mesh.faces), 1), 3), mesh.faces]).ravel()

@@ -155,14 +155,14 @@ def sheets(tmp_path_factory):
     return folder / "sheet.toml", folder / "holed.toml"
 
 
-def test_a_hole_in_b_is_measured_to_its_edge(sheets, tmp_path):
+def test_a_hole_in_b_is_measured_to_its_edge_and_b_does_not_cover_a_there(sheets, tmp_path):
     """A's points over B's hole: B's closest point is on the hole's circle (a B-rep edge:
     the plane's foot point lies in the trimmed-away disc), |d| = 2 - rho at distance rho
-    from the axis (to 1e-12 at the largest, whose point the header holds in double); the
-    rest of the sheet 0."""
+    from the axis; the circle is a free edge (no wall), so those points lie beyond B:
+    B does not cover A (exit 3), and the numbers are over the rest (0)."""
     a, b = sheets
     out = tmp_path / "d.exr"
-    assert main(["deviation", str(a), str(b), "-o", str(out), "--tolerance", "1e-6"]) == 2
+    assert main(["deviation", str(a), str(b), "-o", str(out), "--tolerance", "1e-6"]) == 3
     channels, header = read_exr(out)
     on = channels["patch"] >= 0
     P = np.stack([channels[f"P.{c}"][on] for c in "XYZ"], -1).astype(np.float64)
@@ -176,5 +176,121 @@ def test_a_hole_in_b_is_measured_to_its_edge(sheets, tmp_path):
     np.testing.assert_allclose(foot[:, 2], 4.0, atol=1e-5)
     assert f[rho > 2.1].max() < 1e-9
     summary = json.loads(header["deviation"])
-    x, y, _ = summary["point"]
-    assert summary["max_abs"] == pytest.approx(2 - np.hypot(x - 2, y), abs=1e-12)
+    assert over.sum() <= summary["beyond"] <= (rho < 2).sum()
+    assert summary["max_abs"] < 1e-9 and summary["count"] == on.sum() - summary["beyond"]
+
+
+@pytest.fixture(scope="module")
+def oblique(tmp_path_factory):
+    """A 10 x 8 x 4 block (A) and the same block drilled through by a cylinder of radius 1.5
+    about the axis through (1, 0, 4) tilted 30 degrees toward +x (B: its top face and the
+    hole's wall both trimmed by the rim, an ellipse of semi-axes 1.5 / cos 30 and 1.5),
+    seen from above."""
+    pytest.importorskip("OCP")
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+    from OCP.BRepTools import BRepTools
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+
+    block = BRepPrimAPI_MakeBox(gp_Pnt(-5, -4, 0), 10, 8, 4).Shape()
+    axis = np.array([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))])
+    start = np.array([1.0, 0.0, 4.0]) - 8 * axis
+    drill = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(*start), gp_Dir(*axis)), 1.5, 16).Shape()
+    folder = tmp_path_factory.mktemp("oblique")
+    BRepTools.Write_s(block, str(folder / "block.brep"))
+    BRepTools.Write_s(BRepAlgoAPI_Cut(block, drill).Shape(), str(folder / "drilled.brep"))
+    view = (
+        '[camera]\ntype = "orthographic"\norigin = [0, 0, 20]\ntarget = [0, 0, 0]\n'
+        "up = [0, 1, 0]\nwidth = 12\n[render]\nwidth = 96\nheight = 80\nspp = 1\n"
+    )
+    for name in ("block", "drilled"):
+        (folder / f"{name}.toml").write_text(
+            f'name = "{name}"\n[[surface]]\ntype = "cad"\nfile = "{name}.brep"\n' + view
+        )
+    return folder / "block.toml", folder / "drilled.toml"
+
+
+def _to_ellipse(x: np.ndarray, y: np.ndarray, a: float, b: float) -> np.ndarray:
+    """The distance of points (x, y) to the ellipse x^2/a^2 + y^2/b^2 = 1: the least over
+    20,000 parameters, then Newton on t (an oracle independent of gshade's)."""
+    t = np.linspace(0, 2 * np.pi, 20_000, endpoint=False)
+    d2 = (x[:, None] - a * np.cos(t)) ** 2 + (y[:, None] - b * np.sin(t)) ** 2
+    s = t[np.argmin(d2, axis=1)]
+    for _ in range(8):
+        ex, ey = a * np.cos(s) - x, b * np.sin(s) - y
+        g = -ex * a * np.sin(s) + ey * b * np.cos(s)
+        h = (a * np.sin(s)) ** 2 + (b * np.cos(s)) ** 2 - ex * a * np.cos(s) - ey * b * np.sin(s)
+        s = s - g / h
+    return np.hypot(a * np.cos(s) - x, b * np.sin(s) - y)
+
+
+def _to_oblique_hole(P: np.ndarray) -> np.ndarray:
+    """The distance of points P (n, 3) of the plane z = 4 inside the oblique hole to B:
+    the nearer of the rim (:func:`_to_ellipse`) and the wall's foot point (the radial
+    projection from the axis) where that lies below the top, on the wall."""
+    axis = np.array([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))])
+    w = P - [1.0, 0.0, 4.0]
+    across = w - np.outer(w @ axis, axis)
+    away = np.linalg.norm(across, axis=-1)
+    foot = P - across + 1.5 * across / away[:, None]
+    wall = np.where(foot[:, 2] <= 4.0, 1.5 - away, np.inf)
+    rim = _to_ellipse(P[:, 0] - 1, P[:, 1], 1.5 / np.cos(np.radians(30)), 1.5)
+    return np.minimum(rim, wall)
+
+
+def test_an_oblique_holes_rim_is_a_trimmed_edge_of_both_faces(oblique, tmp_path):
+    """A's top over B's oblique hole: on the side the wall leans away the closest point is
+    on the rim, an edge both faces are trimmed by (the plane's foot lies in the hole, the
+    wall's off its trims), so found only along the edge; where the wall leans under the
+    opening, on the wall.  |d| = the nearer (an independent oracle) to 1e-9 at the largest
+    (the header's point, in double), 2e-6 at the pixels (P in float32); B covers A there
+    (the rim is no free edge): exit 2."""
+    a, b = oblique
+    out = tmp_path / "d.exr"
+    assert main(["deviation", str(a), str(b), "-o", str(out), "--tolerance", "1e-6"]) == 2
+    channels, header = read_exr(out)
+    on = channels["patch"] >= 0
+    P = np.stack([channels[f"P.{c}"][on] for c in "XYZ"], -1).astype(np.float64)
+    semi = 1.5 / np.cos(np.radians(30))
+    inner = ((P[:, 0] - 1) / semi) ** 2 + (P[:, 1] / 1.5) ** 2 < 0.8
+    top = np.abs(P[:, 2] - 4) < 1e-4
+    over = inner & top
+    assert over.sum() > 80
+    f = np.abs(channels["f"][on].astype(np.float64))
+    expected = _to_oblique_hole(P[over])
+    np.testing.assert_allclose(f[over], expected, atol=2e-6)
+    rim = _to_ellipse(P[over, 0] - 1, P[over, 1], semi, 1.5)
+    assert (np.abs(f[over] - rim) < 2e-6).sum() > 40  # on the rim: the edge search
+    summary = json.loads(header["deviation"])
+    assert summary["beyond"] == 0
+    x, y, z = summary["point"]
+    largest = _to_oblique_hole(np.array([[x, y, z]]))[0]
+    assert z == pytest.approx(4.0, abs=1e-12)
+    assert summary["max_abs"] == pytest.approx(largest, abs=1e-9)
+
+
+def test_whole_surface_and_hausdorff_distance_both_ways(spheres, tmp_path, capsys):
+    """--whole: every sampled point of A's whole sphere (not only the half in view) at
+    |d| = 0.003; --symmetric: the Hausdorff distance 0.003 both ways, to 1e-12; --html:
+    the page holds the numbers, A's name escaped."""
+    a, b = spheres
+    a.write_text(a.read_text().replace('name = "a"', 'name = "a<b>&"'))
+    page = tmp_path / "d.html"
+    out = tmp_path / "d.exr"
+    args = [str(a), str(b), "-o", str(out), "--samples", "20000", "--tolerance", "0.01", "--json"]
+    assert main(["deviation", *args, "--whole", "--symmetric", "--html", str(page)]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    whole = listed["whole"]
+    assert whole["samples"] > 15_000 and whole["count"] == whole["samples"]
+    assert whole["max_abs"] == pytest.approx(0.003, rel=1e-12)
+    assert whole["min"] == pytest.approx(whole["max"], rel=1e-9)  # one side everywhere
+    P = np.asarray(whole["point"])
+    assert np.linalg.norm(P) == pytest.approx(2.0, rel=1e-12)
+    h = listed["hausdorff"]
+    assert h["a_to_b"] == pytest.approx(0.003, rel=1e-12)
+    assert h["b_to_a"] == pytest.approx(0.003, rel=1e-12)
+    text = page.read_text()
+    assert "a&lt;b&gt;&amp;" in text and "a<b>&" not in text
+    assert "Hausdorff" in text and "0.003" in text and "data:image/png;base64," in text
+    # the Hausdorff distance beyond the tolerance fails the run even where the view passes
+    assert main(["deviation", *args[:-3], "--tolerance", "0.002", "--symmetric"]) == 2

@@ -80,7 +80,7 @@ def test_beyond_the_deviation_fails_with_its_numbers_in_the_line_junit_and_repor
     assert len(numbers["deviation.point"].split()) == 3
 
     page = Path("rep/report.html").read_text(encoding="utf-8")
-    found = re.search(rf"<th>max \|d\|</th><td>{NUMBER}</td>", page)
+    found = re.search(rf"<th>max \|d\|</th><td>{NUMBER} at \(", page)
     assert found and abs(float(found[1]) - 0.003) < 1e-9
     assert re.search(r'<img src="data:image/png;base64,[^"]+" alt="deviation from b ', page)
     summary = json.loads(Path("rep/summary.json").read_text())

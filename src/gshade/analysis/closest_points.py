@@ -53,6 +53,8 @@ SHORTENINGS = 15
 ON_SURFACE = 1e-13
 #: Points at which a batch is evaluated by Dr.Jit (where it works) rather than numpy.
 BIG_BATCH = 4096
+#: Starts around a pole a foot stopped at is searched again from (the nearest of them).
+POLE_RING = 32
 #: Newton steps at most (quadratic convergence: a grid cell's start is exact in ~5; near a
 #: pole, where it is linear, more).
 NEWTON_STEPS = 24
@@ -84,14 +86,16 @@ class _Surfaces:
         self.big = ManyPatches(patches, drjit=True) if backend() == "drjit" else self.small
         domains = np.array([p.domain for p in patches], dtype=np.float64).reshape(-1, 2, 2)
         self.lo, self.hi = domains[:, :, 0], domains[:, :, 1]
-        self.closed = self._closed(len(patches))
+        self.closed, self.collapsed = self._sides(len(patches))
 
-    def _closed(self, n: int) -> NDArray[np.bool_]:
+    def _sides(self, n: int) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """(m, 2): whether each patch closes on itself across u (its sides u0 and u1 one
-        curve, a periodic face's seam) and across v, judged at 9 points of the sides."""
+        curve, a periodic face's seam) and across v; and (m, 2, 2): whether its side
+        (axis, low or high) is one point (a pole); judged at 9 points of the sides."""
         t = np.linspace(0.0, 1.0, 9)
         index = np.repeat(np.arange(n), t.size)
         out = np.zeros((n, 2), dtype=bool)
+        pole = np.zeros((n, 2, 2), dtype=bool)
         for axis in range(2):
             across = np.tile(t, n)
             other = 1 - axis
@@ -104,7 +108,13 @@ class _Surfaces:
             size = np.linalg.norm(np.ptp(pa.reshape(n, -1, 3), axis=1), axis=-1)
             apart = np.linalg.norm(pa - pb, axis=-1).reshape(n, -1).max(axis=1)
             out[:, axis] = apart <= 1e-9 * np.maximum(size, 1e-300)
-        return out
+            for side, at in enumerate((pa, pb)):
+                spread = np.linalg.norm(np.ptp(at.reshape(n, -1, 3), axis=1), axis=-1)
+                whole = np.linalg.norm(
+                    np.ptp(np.concatenate([pa, pb]).reshape(2, n, -1, 3), axis=(0, 2)), axis=-1
+                )
+                pole[:, axis, side] = spread <= 1e-9 * np.maximum(whole, 1e-300)
+        return out, pole
 
     def derivatives(self, index: NDArray, uv: NDArray, order: int) -> NDArray[np.float64]:
         many = self.big if len(index) >= BIG_BATCH else self.small
@@ -198,6 +208,7 @@ def _feet(
         active, d = active[going], d[:, :, going]
     if wrap:
         _wrapped(surfaces, index, q, uv, gap, steps)
+        _off_poles(surfaces, index, q, uv, gap, steps)
     return uv, gap
 
 
@@ -218,6 +229,41 @@ def _wrapped(
     other, distance = _feet(surfaces, index[again], q[again], start, steps, wrap=False)
     nearer = distance < gap[again]
     uv[again[nearer]], gap[again[nearer]] = other[nearer], distance[nearer]
+
+
+def _off_poles(
+    surfaces: _Surfaces, index: NDArray, q: NDArray, uv: NDArray, gap: NDArray, steps: int
+) -> None:
+    """Feet that stopped at a pole (a side that is one point: there the other parameter
+    cannot move, whatever side of the pole the query is on) searched again from the
+    nearest of :data:`POLE_RING` points just off the pole, the nearer kept (in place)."""
+    lo, hi = surfaces.lo[index], surfaces.hi[index]
+    pole = surfaces.collapsed[index]  # (n, 2, 2)
+    at = np.stack([uv <= lo, uv >= hi], -1) & pole
+    again = np.flatnonzero(at.any(axis=(1, 2)))
+    if not again.size:
+        return
+    axis = np.argmax(at[again].any(axis=2), axis=1)  # the parameter at the pole
+    high = at[again, axis, 1]
+    other = 1 - axis
+    ring = np.linspace(0.0, 1.0, POLE_RING, endpoint=False)
+    start = np.repeat(uv[again], POLE_RING, axis=0)
+    row = np.arange(again.size).repeat(POLE_RING)
+    a, o = axis[row], other[row]
+    span = (hi - lo)[again][row]
+    base = lo[again][row]
+    start[np.arange(len(row)), o] = (
+        base[np.arange(len(row)), o] + np.tile(ring, again.size) * span[np.arange(len(row)), o]
+    )
+    inward = np.where(high[row], -1e-3, 1e-3) * span[np.arange(len(row)), a]
+    start[np.arange(len(row)), a] += inward
+    which = index[again][row]
+    near = np.linalg.norm(surfaces.derivatives(which, start, 0)[0, 0] - q[again][row], axis=-1)
+    best = np.argmin(near.reshape(again.size, POLE_RING), axis=1)
+    chosen = start.reshape(again.size, POLE_RING, 2)[np.arange(again.size), best]
+    found, distance = _feet(surfaces, index[again], q[again], chosen, steps, wrap=False)
+    nearer = distance < gap[again]
+    uv[again[nearer]], gap[again[nearer]] = found[nearer], distance[nearer]
 
 
 def _newton_step(

@@ -25,7 +25,13 @@ from numpy.typing import ArrayLike, NDArray
 from ..geometry import Patch
 from .closest_points import ClosestPoints, Samples, closest_points
 
-__all__ = ["RELATIVE_TOLERANCE", "Deviation", "deviation_summary", "signed_deviation"]
+__all__ = [
+    "RELATIVE_TOLERANCE",
+    "Deviation",
+    "deviation_rows",
+    "deviation_summary",
+    "signed_deviation",
+]
 
 #: The default tolerance of a deviation (``gshade deviation``, ``[check] deviation``),
 #: relative to A's size (its bounding box's diagonal): far above the exact distances'
@@ -110,3 +116,37 @@ def deviation_summary(
     if points is not None:
         out["point"] = np.asarray(points, dtype=np.float64).reshape(-1, 3)[k].tolist()
     return out
+
+
+def deviation_rows(summary: dict[str, Any], a: str) -> list[tuple[str, str]]:
+    """The numbers of a :func:`deviation_summary` (with ``b``, and where measured in a
+    picture ``pixel``, ``patch_a``, ``patch_b``; ``beyond``: points beyond B's free
+    boundary) of surface ``a`` as (label, text) rows, for tables.
+
+    Examples
+    --------
+    >>> s = deviation_summary([0.1, -0.3], 0.25, [[0, 0, 0], [1, 2, 3]])
+    >>> dict(deviation_rows({**s, "b": "b"}, "a"))["max |d|"]
+    '0.3 at (1, 2, 3)'
+    """
+    d = summary
+    rows = [("tolerance", f"{d['tolerance']:.6g}"), ("points", str(d["count"]))]
+    if d.get("beyond"):
+        share = 100 * d.get("beyond_fraction", 0.0)
+        rows.append(("beyond B's free boundary", f"{d['beyond']} ({share:.3g} %), not counted"))
+    if d["count"]:
+        x, y, z = d["point"]
+        where = f" at ({x:.9g}, {y:.9g}, {z:.9g})"
+        if "pixel" in d:
+            where += f", pixel ({d['pixel'][0]}, {d['pixel'][1]})"
+        rows.append(("max |d|", f"{d['max_abs']:.9g}{where}"))
+        if "patch_a" in d:
+            rows.append(("faces", f"{d['patch_a']} of {a}, {d['patch_b']} of {d.get('b', 'B')}"))
+        rows += [
+            ("min, max d", f"{d['min']:.6g}, {d['max']:.6g}"),
+            ("mean", f"{d['mean']:.6g}"),
+            ("RMS", f"{d['rms']:.6g}"),
+            ("95 % of |d|", f"{d['p95']:.6g}"),
+            ("within ±tolerance", f"{100 * d['within']:.4g} %"),
+        ]
+    return rows

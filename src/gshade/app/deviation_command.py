@@ -19,6 +19,7 @@ from .terminal import say
 __all__ = [
     "BEYOND",
     "INCOMPARABLE",
+    "UNCOVERED",
     "UNREADABLE",
     "USAGE",
     "WARNING",
@@ -28,6 +29,11 @@ __all__ = [
 
 #: The exit statuses (0: within the warning level).
 WARNING, BEYOND, INCOMPARABLE, UNREADABLE, USAGE = 1, 2, 3, 4, 5
+#: The fraction of A's points in view beyond B's free boundary above which B does not
+#: cover A: the comparison is :data:`INCOMPARABLE`.
+UNCOVERED = 0.01
+#: The most points of a whole surface (``--samples``).
+MOST_SAMPLES = 10_000_000
 
 
 def add_deviation(sub: argparse._SubParsersAction) -> None:
@@ -39,7 +45,8 @@ def add_deviation(sub: argparse._SubParsersAction) -> None:
         description="Render A from its view and give every covered pixel's exact point on A "
         "its signed distance to B's exact surfaces (positive on the side A's normal points "
         "to). Exit status: 0 max |d| within --warn, 1 within --tolerance, 2 beyond it, "
-        "3 incomparable (no point of A in view), 4 a file that cannot be read, 5 usage.",
+        "3 incomparable (no point of A in view, or more than 1 %% of them beyond B's free "
+        "boundary: B does not cover A), 4 a file that cannot be read, 5 usage.",
         usage_status=USAGE,
     )
     dev.add_argument("a", help="surface A: a scene file (TOML) or a CAD file")
@@ -47,6 +54,19 @@ def add_deviation(sub: argparse._SubParsersAction) -> None:
     dev.add_argument("-o", "--output", help="EXR file (default: <A's name>-deviation.exr here)")
     dev.add_argument("--png", help="also write this PNG (sRGB)")
     dev.add_argument("--legend", action="store_true", help="draw the legend under the PNG")
+    dev.add_argument("--html", help="also write this HTML page: the picture and the numbers")
+    dev.add_argument(
+        "--whole",
+        action="store_true",
+        help="also measure A's whole surface, sampled by area independently of the view "
+        "(the exit status heeds both)",
+    )
+    dev.add_argument(
+        "--symmetric",
+        action="store_true",
+        help="also the Hausdorff distance both ways, A to B and B to A, sampled by area "
+        "(exit 2 when it exceeds the tolerance)",
+    )
     dev.add_argument(
         "--tolerance",
         type=float,
@@ -54,6 +74,12 @@ def add_deviation(sub: argparse._SubParsersAction) -> None:
     )
     dev.add_argument(
         "--warn", type=float, help="the warning level (default: the tolerance): exit 1 above it"
+    )
+    dev.add_argument(
+        "--samples",
+        type=int,
+        default=100_000,
+        help="points of a whole surface for --whole and --symmetric (default 100000)",
     )
     dev.add_argument("--width", type=int, help="image width in pixels")
     dev.add_argument("--height", type=int, help="image height in pixels")
@@ -89,7 +115,9 @@ def deviation(args: argparse.Namespace) -> int:
     numbers on stdout, the exit status by the largest |d|."""
     from ..analysis.scene_junctions import scene_diagonal
     from ..io.outputs import distinct_files, output_file, staged, write_all
+    from ..regression.report import deviation_page
     from ..rendering.deviation_image import deviation_image
+    from ..rendering.deviation_measure import hausdorff, whole_deviation
     from ..scene import load_scene, parse_overrides
 
     if args.legend and not args.png:
@@ -103,20 +131,35 @@ def deviation(args: argparse.Namespace) -> int:
     b = load_scene(args.b)
     args.error_status = USAGE
     tolerance, warn = _levels(args, scene_diagonal(a))
+    if not 1 <= args.samples <= MOST_SAMPLES:
+        raise GshadeError(
+            f"--samples: expected an integer from 1 to {MOST_SAMPLES}, got {args.samples}"
+        )
     output = Path(args.output) if args.output else output_file(".", f"{a.name}-deviation", ".exr")
     inputs = [("A", args.a), ("B", args.b)]
     inputs += [("A's data file", f) for f in a.data_files] + [
         ("B's data file", f) for f in b.data_files
     ]
-    distinct_files(inputs, [("-o" if args.output else "the EXR", output), ("--png", args.png)])
-    targets = [output] + ([Path(args.png)] if args.png else [])
+    distinct_files(
+        inputs,
+        [("-o" if args.output else "the EXR", output), ("--png", args.png), ("--html", args.html)],
+    )
+    targets = [output] + [Path(x) for x in (args.png, args.html) if x]
     with staged(targets) as names:
         args.error_status = UNREADABLE
         image, summary = deviation_image(a, b, tolerance)
+        summary["a"] = a.name
+        if args.whole:
+            summary["whole"] = whole_deviation(a, b, tolerance, args.samples)
+        if args.symmetric:
+            summary["hausdorff"] = hausdorff(a, b, args.samples)
         args.error_status = USAGE
         writers = [partial(image.exr_writer, output)]
         if args.png:
             writers.append(partial(image.png_writer, args.png, legend=args.legend))
+        if args.html:
+            page = deviation_page(image, summary, f"{a.name} against {b.name}")
+            writers.append(partial(partial, _write_text, page))
         write_all(list(zip(names, writers, targets, strict=True)))
     status = _status(summary, tolerance, warn)
     if args.json:
@@ -124,25 +167,53 @@ def deviation(args: argparse.Namespace) -> int:
         listed["warn"] = warn
         print(json.dumps(listed, indent=2, allow_nan=False))
         return status
-    if summary["count"] == 0:
-        say(f"{output}: incomparable: no point of {a.name} in view")
-        return status
-    x, y, z = summary["point"]
-    say(
-        f"{output}: {summary['count']} points of {a.name} against {b.name}: max |d| "
-        f"{summary['max_abs']:.6g} at ({x:.6g}, {y:.6g}, {z:.6g}) (pixel {summary['pixel']}), "
-        f"mean {summary['mean']:.6g}, RMS {summary['rms']:.6g}, 95 % {summary['p95']:.6g}, "
-        f"{100 * summary['within']:.4g} % within ±{tolerance:.6g}: "
-        f"{('PASS', 'WARNING', 'BEYOND TOLERANCE', 'INCOMPARABLE')[status]}"
-    )
+    verdict = ("PASS", "WARNING", "BEYOND TOLERANCE", "INCOMPARABLE")[status]
+    say(f"{output}: {_line(summary, a.name, b.name, tolerance)}: {verdict}")
+    if "whole" in summary:
+        say(f"  whole surface: {_line(summary['whole'], a.name, b.name, tolerance)}")
+    if "hausdorff" in summary:
+        h = summary["hausdorff"]
+        say(
+            f"  Hausdorff distance: {h['a_to_b']:.6g} ({a.name} to {b.name}), "
+            f"{h['b_to_a']:.6g} ({b.name} to {a.name}), {h['samples']} points each by area"
+        )
     return status
+
+
+def _line(summary: dict[str, Any], a: str, b: str, tolerance: float) -> str:
+    """The numbers of one summary in a line."""
+    beyond = ""
+    if summary.get("beyond"):
+        share = 100 * summary["beyond_fraction"]
+        beyond = f"; {summary['beyond']} points ({share:.3g} %) beyond {b}'s free boundary"
+    if not summary["count"]:
+        return f"no point of {a} measured{beyond}"
+    x, y, z = summary["point"]
+    pixel = f" (pixel {summary['pixel']})" if "pixel" in summary else ""
+    return (
+        f"{summary['count']} points of {a} against {b}: max |d| {summary['max_abs']:.6g} at "
+        f"({x:.6g}, {y:.6g}, {z:.6g}){pixel}, mean {summary['mean']:.6g}, RMS "
+        f"{summary['rms']:.6g}, 95 % {summary['p95']:.6g}, {100 * summary['within']:.4g} % "
+        f"within ±{tolerance:.6g}{beyond}"
+    )
+
+
+def _write_text(text: str, name: str | Path) -> None:
+    """``text`` into the file ``name`` (UTF-8)."""
+    Path(name).write_text(text, encoding="utf-8")
 
 
 def _status(summary: dict[str, Any], tolerance: float, warn: float) -> int:
     """0 within ``warn``, :data:`WARNING` within ``tolerance``, :data:`BEYOND` beyond it,
-    :data:`INCOMPARABLE` without a point."""
-    if not summary["count"]:
+    :data:`INCOMPARABLE` without a point or where B does not cover A (more than
+    :data:`UNCOVERED` of A's points beyond B's free boundary): in view, and over the whole
+    surface and both ways where measured."""
+    parts = [summary] + ([summary["whole"]] if "whole" in summary else [])
+    if any(not s["count"] or s.get("beyond_fraction", 0.0) > UNCOVERED for s in parts):
         return INCOMPARABLE
-    if summary["max_abs"] > tolerance:
+    largest = max(s["max_abs"] for s in parts)
+    if "hausdorff" in summary:
+        largest = max(largest, summary["hausdorff"]["both"])
+    if largest > tolerance:
         return BEYOND
-    return WARNING if summary["max_abs"] > warn else 0
+    return WARNING if largest > warn else 0

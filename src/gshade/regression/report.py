@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..analysis.deviation import deviation_rows
 from ..errors import GshadeError
 from ..io.printable import printable
 from .check import CheckResult
@@ -26,7 +27,7 @@ from .comparison import Comparison, heat_map
 if TYPE_CHECKING:
     from ..rendering.rendered_image import RenderedImage
 
-__all__ = ["write_report"]
+__all__ = ["deviation_page", "deviation_table", "write_report"]
 
 _ORDER = {"ERROR": 0, "FAILURE": 1, "WARNING": 2, "NEW": 3, "PASS": 4}
 
@@ -102,32 +103,51 @@ def _deviation_picture(image: RenderedImage) -> str:
 
 def _deviation(r: CheckResult) -> str:
     """The deviation numbers of a scene with a reference model, as a table."""
-    d = r.deviation
-    if r.reference_model is None or d is None:
+    if r.reference_model is None or r.deviation is None:
         return ""
-    rows = [
-        ("geometry", r.geometry),
-        ("reference model", printable(r.reference_model)),
-        ("tolerance", f"{d['tolerance']:.6g}"),
-        ("points", str(d["count"])),
-    ]
-    if d["count"]:
-        x, y, z = d["point"]
-        rows += [
-            ("max |d|", f"{d['max_abs']:.9g}"),
-            ("at", f"({x:.9g}, {y:.9g}, {z:.9g}), pixel ({d['pixel'][0]}, {d['pixel'][1]})"),
-            ("faces", f"{d['patch_a']} of {r.name}, {d['patch_b']} of {printable(d['b'])}"),
-            ("min, max d", f"{d['min']:.6g}, {d['max']:.6g}"),
-            ("mean", f"{d['mean']:.6g}"),
-            ("RMS", f"{d['rms']:.6g}"),
-            ("95 % of |d|", f"{d['p95']:.6g}"),
-            ("within ±tolerance", f"{100 * d['within']:.4g} %"),
-        ]
+    rows = [("geometry", r.geometry), ("reference model", printable(r.reference_model))]
+    return deviation_table(rows + deviation_rows(r.deviation, r.name))
+
+
+def deviation_table(rows: list[tuple[str, str]]) -> str:
+    """(label, text) rows as an HTML table, the text escaped."""
     return (
         '<table class="deviation">'
         + "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows)
         + "</table>"
     )
+
+
+def deviation_page(image: RenderedImage, summary: dict[str, Any], title: str) -> str:
+    """A page of its own for ``gshade deviation --html``: the picture with its legend and
+    the numbers (:func:`gshade.analysis.deviation.deviation_rows`; those over A's whole
+    surface and the Hausdorff distances where measured), every text escaped."""
+    parts = [
+        '<!doctype html><html><head><meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1>",
+        f'<img alt="deviation" src="{_deviation_picture(image)}">',
+        "<h2>in view</h2>",
+        deviation_table(deviation_rows(summary, summary.get("a", "A"))),
+    ]
+    if "whole" in summary:
+        parts += ["<h2>over the whole surface</h2>"]
+        parts.append(deviation_table(deviation_rows(summary["whole"], summary.get("a", "A"))))
+    if "hausdorff" in summary:
+        h = summary["hausdorff"]
+        parts.append("<h2>Hausdorff distance</h2>")
+        parts.append(
+            deviation_table(
+                [
+                    ("A to B", f"{h['a_to_b']:.9g}"),
+                    ("B to A", f"{h['b_to_a']:.9g}"),
+                    ("both ways", f"{h['both']:.9g}"),
+                    ("sampled", f"{h['samples']} points of each, by area"),
+                ]
+            )
+        )
+    parts.append("</body></html>")
+    return "".join(parts)
 
 
 def _metrics(comparison: Comparison | None) -> str:
