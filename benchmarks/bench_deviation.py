@@ -66,6 +66,7 @@ def main() -> None:
 
     import gshade
     from gshade.rendering.deviation_image import deviation_image
+    from gshade.rendering.deviation_references import SurfaceReference
     from gshade.runtime import setup
     from gshade.scene import load_scene
 
@@ -89,7 +90,7 @@ def main() -> None:
             gshade.render(a)
             rendered = time.perf_counter() - start
             start = time.perf_counter()
-            image, summary = deviation_image(a, b, max(exact, 1e-9))
+            image, summary = deviation_image(a, SurfaceReference(b), max(exact, 1e-9))
             deviated = time.perf_counter() - start
             on = image["patch"] >= 0
             P = np.stack([image[f"P.{c}"][on] for c in "XYZ"], -1).astype(np.float64)

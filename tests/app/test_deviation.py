@@ -294,3 +294,61 @@ def test_whole_surface_and_hausdorff_distance_both_ways(spheres, tmp_path, capsy
     assert "Hausdorff" in text and "0.003" in text and "data:image/png;base64," in text
     # the Hausdorff distance beyond the tolerance fails the run even where the view passes
     assert main(["deviation", *args[:-3], "--tolerance", "0.002", "--symmetric"]) == 2
+
+
+@pytest.fixture(scope="module")
+def kernel_sphere(tmp_path_factory):
+    """A solid sphere of radius 2 (A, exact) and the kernel's mesh of it within a linear
+    deflection of 0.01 (B, an STL file)."""
+    pytest.importorskip("OCP")
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeSphere
+    from OCP.BRepTools import BRepTools
+    from OCP.StlAPI import StlAPI_Writer
+
+    folder = tmp_path_factory.mktemp("kernel_sphere")
+    ball = BRepPrimAPI_MakeSphere(2.0).Shape()
+    BRepTools.Write_s(ball, str(folder / "ball.brep"))
+    BRepMesh_IncrementalMesh(ball, 0.01, False, 0.5, True)
+    writer = StlAPI_Writer()
+    writer.ASCIIMode = False
+    assert writer.Write(ball, str(folder / "ball.stl"))
+    return folder / "ball.brep", folder / "ball.stl"
+
+
+def test_a_sphere_against_its_own_kernel_mesh(kernel_sphere, tmp_path, capsys):
+    """The exact sphere against its kernel mesh at a deflection of 0.01: every point of
+    the whole sphere within the deflection of the mesh, the largest close to it (the
+    chords' sagitta), the mesh inside (d <= 0 on the outward normal), and B's parts its
+    triangles."""
+    a, b = kernel_sphere
+    out = tmp_path / "d.exr"
+    args = ["deviation", str(a), str(b), "-o", str(out), "--tolerance", "0.011", "--json"]
+    assert main([*args, "--whole", "--samples", "20000"]) == 0  # within 0.011
+    listed = json.loads(capsys.readouterr().out)
+    for s in (listed, listed["whole"]):
+        assert 0.5 * 0.01 < s["max_abs"] <= 0.01 * (1 + 1e-6)
+        assert s["max"] <= 1e-12 and s["beyond"] == 0
+    channels, _ = read_exr(out)
+    on = channels["patch"] >= 0
+    assert channels["B.patch"][on].min() >= 0 and len(np.unique(channels["B.patch"][on])) > 50
+
+
+def test_a_point_cloud_as_b(spheres, tmp_path, capsys):
+    """B a cloud of 200,000 points of the sphere of radius 2.003 (an XYZ file): every
+    pixel's nearest point at least 0.003 away, within the cloud's spacing of it."""
+    a, _ = spheres
+    rng = np.random.default_rng(5)
+    points = rng.normal(size=(200_000, 3))
+    points *= 2.003 / np.linalg.norm(points, axis=1, keepdims=True)
+    cloud = tmp_path / "cloud.xyz"
+    np.savetxt(cloud, points, fmt="%.17g")
+    out = tmp_path / "d.exr"
+    assert main(["deviation", str(a), str(cloud), "-o", str(out), "--json"]) == 2
+    listed = json.loads(capsys.readouterr().out)
+    channels, _ = read_exr(out)
+    on = channels["patch"] >= 0
+    f = np.abs(channels["f"][on].astype(np.float64))
+    assert (f >= 0.003 * (1 - 1e-6)).all() and f.max() < 0.03
+    assert min(abs(listed["min"]), abs(listed["max"])) >= 0.003 - 1e-12
+    assert listed["count"] == on.sum()

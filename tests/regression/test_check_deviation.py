@@ -154,3 +154,17 @@ def test_the_keys_are_checked_at_load(spheres, keys, error):
     sphere(spheres / "sub", "a", 2.0, keys)
     with pytest.raises(GshadeError, match=error):
         load_scene("sub/a.toml")
+
+
+def test_a_point_cloud_as_the_reference_model(spheres):
+    """``reference_model`` may be a point cloud (or a mesh): 100,000 points of the sphere
+    of radius 2.003 in an XYZ file; each pixel's nearest point at least 0.003 away."""
+    import numpy as np
+
+    points = np.random.default_rng(2).normal(size=(100_000, 3))
+    points *= 2.003 / np.linalg.norm(points, axis=1, keepdims=True)
+    np.savetxt(spheres / "cloud.xyz", points, fmt="%.17g")
+    a = sphere(spheres, "a", 2.0, 'reference_model = "cloud.xyz"\ndeviation = 0.05\n')
+    (result,) = check([a], spheres / "refs", update=True)
+    assert result.geometry == "PASS" and result.deviation["b"] == "cloud"
+    assert 0.003 - 1e-12 <= result.deviation["max_abs"] < 0.05

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -117,7 +118,7 @@ def deviation(args: argparse.Namespace) -> int:
     from ..io.outputs import distinct_files, output_file, staged, write_all
     from ..regression.report import deviation_page
     from ..rendering.deviation_image import deviation_image
-    from ..rendering.deviation_measure import hausdorff, whole_deviation
+    from ..rendering.deviation_references import hausdorff, read_reference, whole_deviation
     from ..scene import load_scene, parse_overrides
 
     if args.legend and not args.png:
@@ -128,7 +129,7 @@ def deviation(args: argparse.Namespace) -> int:
             overrides[f"render.{key}"] = getattr(args, key)
     args.error_status = UNREADABLE  # a file that cannot be read, a scene that is not one
     a = load_scene(args.a, overrides)
-    b = load_scene(args.b)
+    b = read_reference(args.b)
     args.error_status = USAGE
     tolerance, warn = _levels(args, scene_diagonal(a))
     if not 1 <= args.samples <= MOST_SAMPLES:
@@ -154,7 +155,7 @@ def deviation(args: argparse.Namespace) -> int:
         if args.symmetric:
             summary["hausdorff"] = hausdorff(a, b, args.samples)
         args.error_status = USAGE
-        writers = [partial(image.exr_writer, output)]
+        writers: list[Callable[[], Callable[[str], object]]] = [partial(image.exr_writer, output)]
         if args.png:
             writers.append(partial(image.png_writer, args.png, legend=args.legend))
         if args.html:

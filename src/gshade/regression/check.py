@@ -297,12 +297,12 @@ def _check_geometry(result: CheckResult, scene: Scene, settings: dict[str, Any])
     from ..analysis.deviation import RELATIVE_TOLERANCE
     from ..analysis.scene_junctions import scene_diagonal
     from ..rendering.deviation_image import deviation_image
-    from ..scene import load_scene
+    from ..rendering.deviation_references import read_reference
 
     model = Path(settings["reference_model"])
     result.reference_model = model
     try:
-        reference = load_scene(model)
+        reference = read_reference(model)
         tolerance = settings.get("deviation")
         if tolerance is None:
             tolerance = RELATIVE_TOLERANCE * scene_diagonal(scene)

@@ -29,11 +29,12 @@ from ..display.bands import band_shares, band_text, settled_on_levels
 from ..display.colour import srgb_to_linear
 from ..shape.registry import Bands
 from .camera import View, header_view
-from .deviation_measure import measured_deviation, patch_numbers, pixel_hits
+from .deviation_measure import pixel_hits
 from .rendered_image import RenderedImage
 
 if TYPE_CHECKING:
     from ..scene.model import Scene
+    from .deviation_references import Reference
 
 __all__ = [
     "BEYOND_B",
@@ -115,11 +116,12 @@ def _shading(channels: dict[str, NDArray], view: View) -> NDArray:
 
 
 def deviation_image(
-    a: Scene, b: Scene, tolerance: float, **overrides: Any
+    a: Scene, b: Reference, tolerance: float, **overrides: Any
 ) -> tuple[RenderedImage, dict[str, Any]]:
     """Scene ``a`` rendered (with ``overrides``, as :func:`gshade.rendering.render`) and
-    coloured by its signed deviation from scene ``b`` within ``tolerance`` (see the
-    module), and the numbers."""
+    coloured by its signed deviation from ``b`` (a scene's surfaces, a mesh or a cloud:
+    :mod:`gshade.rendering.deviation_references`) within ``tolerance`` (see the module),
+    and the numbers."""
     from .pipeline import render
 
     image = render(a, **overrides)
@@ -135,13 +137,13 @@ def deviation_image(
         kept = trims(index, uv)
         on[on] = kept
         P, N = P[kept], N[kept]
-    found, beyond = measured_deviation(P, N, b, tolerance)
+    found, beyond = b.measure(P, N, tolerance)
     f = np.zeros(on.shape)
     f[on] = found.distance
     foot = np.zeros((*on.shape, 3))
     foot[on] = found.closest.point
     patch = np.full(on.shape, -1.0)
-    patch[on] = patch_numbers(b)[found.closest.patch]
+    patch[on] = b.numbers(found.closest.patch)
     covered = ~beyond
     summary = deviation_summary(found.distance[covered], tolerance, P[covered])
     summary["b"] = b.name

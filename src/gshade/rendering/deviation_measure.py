@@ -12,13 +12,13 @@ boundary, off B's normal, is beyond B (:mod:`gshade.analysis.coverage`).
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..analysis.closest_points import Samples, grid_samples
-from ..analysis.deviation import Deviation, deviation_summary, signed_deviation
+from ..analysis.deviation import Deviation, signed_deviation
 from ..analysis.trimmed_faces import TrimTest, boundary_search, trim_test
 from .camera import View
 from .tessellate import TriangleMesh
@@ -33,7 +33,6 @@ __all__ = [
     "SAMPLE_SPACING",
     "SURFACE_SAMPLES",
     "WELD",
-    "hausdorff",
     "measured_deviation",
     "mesh_samples",
     "patch_numbers",
@@ -41,7 +40,6 @@ __all__ = [
     "sample_mesh",
     "surface_samples",
     "unit_normals",
-    "whole_deviation",
 ]
 
 #: The chord tolerance of the mesh whose vertices start the closest-point search, relative
@@ -239,33 +237,3 @@ def surface_samples(
     many = ManyPatches(scene.patches, drjit=backend() == "drjit")
     d = many.derivatives(index, uv[:, 0], uv[:, 1], 1)
     return d[0, 0], unit_normals(scene.patches, index, uv, d)
-
-
-def whole_deviation(
-    a: Scene, b: Scene, tolerance: float, count: int = SURFACE_SAMPLES
-) -> dict[str, Any]:
-    """The numbers (:func:`gshade.analysis.deviation.deviation_summary`, with ``beyond``
-    and ``samples``) of A's whole surface against B: :func:`surface_samples` of A measured
-    by :func:`measured_deviation`."""
-    P, N = surface_samples(a, count)
-    found, beyond = measured_deviation(P, N, b, tolerance)
-    covered = ~beyond
-    summary = deviation_summary(found.distance[covered], tolerance, P[covered])
-    summary["beyond"] = int(beyond.sum())
-    summary["beyond_fraction"] = float(beyond.mean()) if beyond.size else 0.0
-    summary["samples"] = len(P)
-    summary["b"] = b.name
-    return summary
-
-
-def hausdorff(a: Scene, b: Scene, count: int = SURFACE_SAMPLES) -> dict[str, Any]:
-    """The Hausdorff distance between A and B, sampled: the largest distance of
-    :func:`surface_samples` of A to B's exact surfaces (``a_to_b``), of B's to A's
-    (``b_to_a``), and the larger (``both``)."""
-    out: dict[str, Any] = {"samples": count}
-    for key, one, other in (("a_to_b", a, b), ("b_to_a", b, a)):
-        P, N = surface_samples(one, count)
-        found, _ = measured_deviation(P, N, other, 0.0)
-        out[key] = float(np.abs(found.distance).max(initial=0.0))
-    out["both"] = max(out["a_to_b"], out["b_to_a"])
-    return out
