@@ -56,11 +56,44 @@ def _vtk_distances(mesh, points: np.ndarray) -> np.ndarray:
     return np.asarray(cloud.point_data["implicit_distance"], dtype=np.float64)
 
 
+def _scaled_copy(path: Path, folder: Path) -> Path:
+    """The CAD file's shape scaled by 1.001 about its bounding box's centre, as a BREP file
+    in ``folder`` (Open CASCADE: read, BRepBuilderAPI_Transform, written)."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.BRepTools import BRepTools
+    from OCP.gp import gp_Pnt, gp_Trsf
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)) == IFSelect_RetDone, path
+    reader.TransferRoots()
+    shape = reader.OneShape()
+    box = Bnd_Box()
+    BRepBndLib.Add_s(shape, box)
+    lo, hi = box.CornerMin(), box.CornerMax()
+    scale = gp_Trsf()
+    centre = gp_Pnt((lo.X() + hi.X()) / 2, (lo.Y() + hi.Y()) / 2, (lo.Z() + hi.Z()) / 2)
+    scale.SetScale(centre, 1.001)
+    out = folder / (path.stem + "-scaled.brep")
+    BRepTools.Write_s(BRepBuilderAPI_Transform(shape, scale, True).Shape(), str(out))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", default="1024x768", help="picture size (default 1024x768)")
     parser.add_argument("--rounds", type=int, default=3, help="timed rounds (default 3)")
     parser.add_argument("--cad", action="append", default=[], help="a CAD file, against itself")
+    parser.add_argument(
+        "--scaled",
+        action="append",
+        default=[],
+        help="a CAD file, against its copy scaled by 1.001 about its box's centre (every "
+        "face moved: a real deviation; the copy made by the kernel in a temporary folder)",
+    )
     args = parser.parse_args()
     width, height = (int(x) for x in args.size.split("x"))
 
@@ -76,6 +109,10 @@ def main() -> None:
     (folder / "b.toml").write_text(SPHERE.format(name="b", radius=2.003))
     pairs = [("sphere 2 vs 2.003", folder / "a.toml", folder / "b.toml", 0.003)]
     pairs += [(Path(f).name + " vs itself", Path(f), Path(f), 0.0) for f in args.cad]
+    pairs += [
+        (Path(f).name + " vs scaled 1.001", Path(f), _scaled_copy(Path(f), folder), 1e-6)
+        for f in args.scaled
+    ]
     size = {"render.width": width, "render.height": height, "render.spp": 4}
     print(
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "

@@ -434,19 +434,19 @@ def closest_points(
     m = len(patches)
     pairs = np.zeros(0, dtype=np.int64)  # query * m + patch: the patches each query asked
     searched = np.zeros(len(q), dtype=bool)  # the trims' curves asked
-    k = min(candidates, len(points))
+    k, seen = min(candidates, len(points)), 0
     while asked.size:
         distance, nearest = tree.query(q[asked], k=k)
-        nearest = np.asarray(nearest).reshape(len(asked), k)
-        spacing = np.asarray(distance).reshape(len(asked), k)
+        # the samples beyond those of the rounds before (each round's are the nearer)
+        nearest = np.asarray(nearest).reshape(len(asked), k)[:, seen:]
+        spacing = np.asarray(distance).reshape(len(asked), k)[:, seen:]
         outside = _improve(surfaces, q, samples, best, asked, nearest, spacing, pairs, inside)
         if boundary is not None:  # their closest points on the trims' curves, once
             fresh = asked[outside & ~searched[asked]]
             searched[fresh] = True
             if fresh.size:
                 _merge(best, fresh, boundary(q[fresh]))
-        keys = (asked[:, None] * m + owner[nearest]).ravel()
-        pairs = np.union1d(pairs, keys)
+        pairs = np.union1d(pairs, (asked[:, None] * m + owner[nearest]).ravel())
         if k >= len(points):
             break
         # samples beyond the k nearest are farther than the k-th: a patch among them can
@@ -458,7 +458,7 @@ def closest_points(
         unsure = (farthest - reach < found) & (found > ON_SURFACE * size)
         unsure &= np.bincount(pairs // m, minlength=len(q))[asked] < m
         asked = asked[unsure]
-        k = min(4 * k, len(points))
+        k, seen = min(4 * k, len(points)), k
     return best
 
 
