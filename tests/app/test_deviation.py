@@ -127,6 +127,26 @@ def test_exit_statuses_for_files_and_usage(spheres, tmp_path, capsys):
     assert err.count("\n") == 5 and "Traceback" not in err
 
 
+def _from_above(folder, **shapes):
+    """Each shape written as a BREP file with a scene seeing it from above, orthographic;
+    the scenes' paths."""
+    from OCP.BRepTools import BRepTools
+
+    view = (
+        '[camera]\ntype = "orthographic"\norigin = [0, 0, 20]\ntarget = [0, 0, 0]\n'
+        "up = [0, 1, 0]\nwidth = 12\n[render]\nwidth = 96\nheight = 80\nspp = 1\n"
+    )
+    scenes = []
+    for name, shape in shapes.items():
+        BRepTools.Write_s(shape, str(folder / f"{name}.brep"))
+        scene = folder / f"{name}.toml"
+        scene.write_text(
+            f'name = "{name}"\n[[surface]]\ntype = "cad"\nfile = "{name}.brep"\n' + view
+        )
+        scenes.append(scene)
+    return tuple(scenes)
+
+
 @pytest.fixture(scope="module")
 def sheets(tmp_path_factory):
     """A 10 x 8 plane sheet at z = 4 (A) and the same sheet with a hole of radius 2 cut
@@ -136,23 +156,12 @@ def sheets(tmp_path_factory):
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeCylinder
-    from OCP.BRepTools import BRepTools
     from OCP.gp import gp_Ax2, gp_Dir, gp_Pln, gp_Pnt
 
     sheet = BRepBuilderAPI_MakeFace(gp_Pln(gp_Pnt(0, 0, 4), gp_Dir(0, 0, 1)), -5, 5, -4, 4).Face()
     drill = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(2, 0, -1), gp_Dir(0, 0, 1)), 2.0, 6).Shape()
     folder = tmp_path_factory.mktemp("sheets")
-    BRepTools.Write_s(sheet, str(folder / "sheet.brep"))
-    BRepTools.Write_s(BRepAlgoAPI_Cut(sheet, drill).Shape(), str(folder / "holed.brep"))
-    view = (
-        '[camera]\ntype = "orthographic"\norigin = [0, 0, 20]\ntarget = [0, 0, 0]\n'
-        "up = [0, 1, 0]\nwidth = 12\n[render]\nwidth = 96\nheight = 80\nspp = 1\n"
-    )
-    for name in ("sheet", "holed"):
-        (folder / f"{name}.toml").write_text(
-            f'name = "{name}"\n[[surface]]\ntype = "cad"\nfile = "{name}.brep"\n' + view
-        )
-    return folder / "sheet.toml", folder / "holed.toml"
+    return _from_above(folder, sheet=sheet, holed=BRepAlgoAPI_Cut(sheet, drill).Shape())
 
 
 def test_a_hole_in_b_is_measured_to_its_edge_and_b_does_not_cover_a_there(sheets, tmp_path):
@@ -189,7 +198,6 @@ def oblique(tmp_path_factory):
     pytest.importorskip("OCP")
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
-    from OCP.BRepTools import BRepTools
     from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 
     block = BRepPrimAPI_MakeBox(gp_Pnt(-5, -4, 0), 10, 8, 4).Shape()
@@ -197,17 +205,7 @@ def oblique(tmp_path_factory):
     start = np.array([1.0, 0.0, 4.0]) - 8 * axis
     drill = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(*start), gp_Dir(*axis)), 1.5, 16).Shape()
     folder = tmp_path_factory.mktemp("oblique")
-    BRepTools.Write_s(block, str(folder / "block.brep"))
-    BRepTools.Write_s(BRepAlgoAPI_Cut(block, drill).Shape(), str(folder / "drilled.brep"))
-    view = (
-        '[camera]\ntype = "orthographic"\norigin = [0, 0, 20]\ntarget = [0, 0, 0]\n'
-        "up = [0, 1, 0]\nwidth = 12\n[render]\nwidth = 96\nheight = 80\nspp = 1\n"
-    )
-    for name in ("block", "drilled"):
-        (folder / f"{name}.toml").write_text(
-            f'name = "{name}"\n[[surface]]\ntype = "cad"\nfile = "{name}.brep"\n' + view
-        )
-    return folder / "block.toml", folder / "drilled.toml"
+    return _from_above(folder, block=block, drilled=BRepAlgoAPI_Cut(block, drill).Shape())
 
 
 def _to_ellipse(x: np.ndarray, y: np.ndarray, a: float, b: float) -> np.ndarray:

@@ -39,6 +39,7 @@ __all__ = [
     "pixel_hits",
     "sample_mesh",
     "surface_samples",
+    "triangle_points",
     "unit_normals",
 ]
 
@@ -195,6 +196,33 @@ def unit_normals(
     return normal
 
 
+def triangle_points(
+    corners: NDArray[np.float64], count: int, seed: int = 0
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """``count`` random points of triangles ``corners`` (m, 3, 3), uniform by area
+    (a triangle chosen in proportion to its area, a point uniform in it; seeded): their
+    triangles (n,) and barycentric weights (n, 3); none where the area is 0.
+
+    Examples
+    --------
+    >>> corners = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 1], [3, 0, 1], [0, 3, 1]]])
+    >>> face, weights = triangle_points(corners.astype(float), 10_000)
+    >>> round(float(np.mean(face == 1)), 1), bool(np.allclose(weights.sum(axis=1), 1))
+    (0.9, True)
+    """
+    edges = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    area = 0.5 * np.linalg.norm(edges, axis=-1)
+    total = area.sum()
+    if not total > 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    rng = np.random.default_rng(seed)
+    face = rng.choice(len(area), size=count, p=area / total)
+    r1, r2 = rng.random(count), rng.random(count)
+    flip = r1 + r2 > 1
+    r1, r2 = np.where(flip, 1 - r1, r1), np.where(flip, 1 - r2, r2)
+    return face.astype(np.int64), np.stack([1 - r1 - r2, r1, r2], -1)
+
+
 def surface_samples(
     scene: Scene, count: int = SURFACE_SAMPLES, seed: int = 0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -207,25 +235,12 @@ def surface_samples(
     from ..shape.kernels import backend
 
     mesh = sample_mesh(scene)
-    corners = mesh.positions[mesh.faces]
-    area = 0.5 * np.linalg.norm(
-        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=-1
-    )
-    rng = np.random.default_rng(seed)
-    total = area.sum()
-    if not total > 0:
+    face, weights = triangle_points(mesh.positions[mesh.faces], count, seed)
+    if not len(face):
         return np.zeros((0, 3)), np.zeros((0, 3))
-    face = rng.choice(len(area), size=count, p=area / total)
-    r1, r2 = rng.random(count), rng.random(count)
-    flip = r1 + r2 > 1
-    r1, r2 = np.where(flip, 1 - r1, r1), np.where(flip, 1 - r2, r2)
     vertices = mesh.faces[face]
     params = mesh.params[vertices]  # (n, 3, 2) in each patch's unit square
-    st = (
-        (1 - r1 - r2)[:, None] * params[:, 0]
-        + r1[:, None] * params[:, 1]
-        + r2[:, None] * params[:, 2]
-    )
+    st = np.einsum("nk,nkc->nc", weights, params)
     index = mesh.patch[vertices[:, 0]].astype(np.int64)
     domains = np.array([p.domain for p in scene.patches], dtype=np.float64)
     u, v = unit_to_domain(domains, st[:, 0], st[:, 1], index)

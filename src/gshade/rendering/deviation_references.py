@@ -21,7 +21,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..analysis.deviation import Deviation, deviation_summary
-from .deviation_measure import SURFACE_SAMPLES, measured_deviation, patch_numbers, surface_samples
+from .deviation_measure import (
+    SURFACE_SAMPLES,
+    measured_deviation,
+    patch_numbers,
+    surface_samples,
+    triangle_points,
+)
 
 if TYPE_CHECKING:
     from ..io.meshes import MeshData
@@ -95,8 +101,9 @@ def _signed(P: NDArray, N: NDArray, closest: Any) -> Deviation:
 
 
 @dataclass(frozen=True)
-class MeshReference:
-    """A triangle mesh: exact distances to its triangles; its parts are its triangles."""
+class _MeshFile:
+    """A mesh or cloud file: named as its file, its parts (triangles, points) numbered as
+    it holds them."""
 
     mesh: MeshData
     data_files: tuple[Any, ...] = ()
@@ -104,6 +111,14 @@ class MeshReference:
     @property
     def name(self) -> str:
         return self.mesh.name
+
+    def numbers(self, part: NDArray[np.int64]) -> NDArray[np.int64]:
+        return np.asarray(part, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class MeshReference(_MeshFile):
+    """A triangle mesh: exact distances to its triangles; its parts are its triangles."""
 
     def measure(
         self, P: NDArray, N: NDArray, tolerance: float
@@ -128,37 +143,19 @@ class MeshReference:
             beyond[far] = uncovered(P[far], point, normal, reach, 10 * weld, tolerance)
         return found, beyond
 
-    def numbers(self, part: NDArray[np.int64]) -> NDArray[np.int64]:
-        return np.asarray(part, dtype=np.int64)
-
     def samples(self, count: int, seed: int = 0) -> tuple[NDArray, NDArray]:
-        v, f = self.mesh.vertices, self.mesh.faces
-        corners = v[f]
-        normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        area = 0.5 * np.linalg.norm(normal, axis=-1)
-        if not area.sum() > 0:
-            return np.zeros((0, 3)), np.zeros((0, 3))
-        rng = np.random.default_rng(seed)
-        face = rng.choice(len(area), size=count, p=area / area.sum())
-        r1, r2 = rng.random(count), rng.random(count)
-        flip = r1 + r2 > 1
-        r1, r2 = np.where(flip, 1 - r1, r1), np.where(flip, 1 - r2, r2)
+        corners = self.mesh.vertices[self.mesh.faces]
+        face, weights = triangle_points(corners, count, seed)
         c = corners[face]
-        points = c[:, 0] + r1[:, None] * (c[:, 1] - c[:, 0]) + r2[:, None] * (c[:, 2] - c[:, 0])
-        return points, normal[face] / (2 * area[face, None])
+        normal = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+        unit = normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+        return np.einsum("nk,nkc->nc", weights, c), unit
 
 
 @dataclass(frozen=True)
-class CloudReference:
+class CloudReference(_MeshFile):
     """A point cloud: distances to its nearest points; its parts are its points; it covers
     everything (no boundary to lie beyond)."""
-
-    mesh: MeshData
-    data_files: tuple[Any, ...] = ()
-
-    @property
-    def name(self) -> str:
-        return self.mesh.name
 
     def measure(
         self, P: NDArray, N: NDArray, tolerance: float
@@ -167,9 +164,6 @@ class CloudReference:
 
         found = _signed(P, N, cloud_closest_points(self.mesh.vertices, P))
         return found, np.zeros(len(P), dtype=bool)
-
-    def numbers(self, part: NDArray[np.int64]) -> NDArray[np.int64]:
-        return np.asarray(part, dtype=np.int64)
 
     def samples(self, count: int, seed: int = 0) -> tuple[NDArray, NDArray]:
         points = self.mesh.vertices
