@@ -27,9 +27,11 @@ from .closest_points import ClosestPoints, Samples, closest_points
 
 __all__ = [
     "RELATIVE_TOLERANCE",
+    "TANGENT",
     "Deviation",
     "deviation_rows",
     "deviation_summary",
+    "signed",
     "signed_deviation",
 ]
 
@@ -37,6 +39,8 @@ __all__ = [
 #: relative to A's size (its bounding box's diagonal): far above the exact distances'
 #: rounding, far below a modelling change.
 RELATIVE_TOLERANCE = 1e-6
+#: |cos| of the angle between c - p and the normal below which c - p is tangent: d > 0.
+TANGENT = 1e-9
 
 
 @dataclass(frozen=True)
@@ -76,9 +80,25 @@ def signed_deviation(
     """
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    found = closest_points(patches, p, samples=samples, **trims)
-    side = np.sum((found.point - p) * n, axis=-1)
-    return Deviation(np.where(side < 0, -found.distance, found.distance), found)
+    return signed(p, n, closest_points(patches, p, samples=samples, **trims))
+
+
+def signed(points: NDArray, normals: NDArray, closest: ClosestPoints) -> Deviation:
+    """The distances to the ``closest`` points signed by the unit ``normals`` at ``points``
+    (n, 3): negative where <c - p, n> < 0, positive elsewhere, also where c - p is
+    tangent (|<c - p, n>| <= :data:`TANGENT` |c - p|: a closest point on an edge beside
+    p, whose side is rounding's; one sign, no speckle).
+
+    Examples
+    --------
+    >>> found = ClosestPoints(np.array([[0, 0, -1.0], [1, 0, 1e-17]]), np.zeros(2, int),
+    ...                       np.zeros((2, 2)), np.array([1.0, 1.0]))
+    >>> signed(np.zeros((2, 3)), np.array([[0, 0, 1.0]] * 2), found).distance.tolist()
+    [-1.0, 1.0]
+    """
+    side = np.sum((closest.point - points) * normals, axis=-1)
+    below = side < -TANGENT * closest.distance
+    return Deviation(np.where(below, -closest.distance, closest.distance), closest)
 
 
 def deviation_summary(

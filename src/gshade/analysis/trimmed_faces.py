@@ -198,7 +198,8 @@ def boundary_search(scene: Scene) -> BoundarySearch | None:
     curves += [_Edges(body, first, places) for body, first, places in bodies.values()]
     if loose:
         curves.append(_LoopSides(list(scene.patches), loose))
-    curves = [c for c in curves if len(c.range)]
+    # each family's samples and their k-d tree, made once for every call
+    families = [(c, _CurveSamples(c)) for c in curves if len(c.range)]
 
     def search(queries: NDArray[np.float64]) -> ClosestPoints:
         q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
@@ -208,26 +209,37 @@ def boundary_search(scene: Scene) -> BoundarySearch | None:
             np.zeros((len(q), 2)),
             np.full(len(q), np.inf),
         )
-        for family in curves:
-            _nearest_on_curves(family, q, best)
+        for family, sampled in families:
+            _nearest_on_curves(family, sampled, q, best)
         return best
 
     return search
 
 
-def _nearest_on_curves(curves: _Curves, q: NDArray, best: ClosestPoints) -> None:
-    """The closest points of ``curves`` to ``q``, by Newton's method along each curve from
-    the two nearest of its samples (see the module); nearer ones kept in ``best``."""
-    from scipy.spatial import cKDTree
+class _CurveSamples:
+    """:data:`EDGE_SAMPLES` points of each of ``curves``, evenly in its parameter: each
+    one's curve and parameter, and their k-d tree."""
 
-    m = len(curves.range)
-    curve = np.repeat(np.arange(m), EDGE_SAMPLES)
-    fraction = np.tile(np.linspace(0.0, 1.0, EDGE_SAMPLES), m)
-    lo, hi = curves.range[curve, 0], curves.range[curve, 1]
-    t_samples = lo + fraction * (hi - lo)
-    d, _, _ = curves.evaluate(curve, t_samples)
+    def __init__(self, curves: _Curves) -> None:
+        from scipy.spatial import cKDTree
+
+        m = len(curves.range)
+        self.curve = np.repeat(np.arange(m), EDGE_SAMPLES)
+        fraction = np.tile(np.linspace(0.0, 1.0, EDGE_SAMPLES), m)
+        lo, hi = curves.range[self.curve, 0], curves.range[self.curve, 1]
+        self.t = lo + fraction * (hi - lo)
+        self.tree = cKDTree(curves.evaluate(self.curve, self.t)[0][0])
+
+
+def _nearest_on_curves(
+    curves: _Curves, sampled: _CurveSamples, q: NDArray, best: ClosestPoints
+) -> None:
+    """The closest points of ``curves`` to ``q``, by Newton's method along each curve from
+    the two nearest of its samples (``sampled``; see the module); nearer ones kept in
+    ``best``."""
+    curve, t_samples = sampled.curve, sampled.t
     k = min(2, len(curve))
-    _, nearest = cKDTree(d[0]).query(q, k=k)
+    _, nearest = sampled.tree.query(q, k=k)
     nearest = np.asarray(nearest).reshape(len(q), k)
     who = np.repeat(np.arange(len(q)), k)
     start = nearest.ravel()

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ..analysis.deviation import Deviation, deviation_summary
+from ..analysis.deviation import Deviation, deviation_summary, signed
 from .deviation_measure import (
     SURFACE_SAMPLES,
     measured_deviation,
@@ -93,13 +93,6 @@ class SurfaceReference:
         return surface_samples(self.scene, count)
 
 
-def _signed(P: NDArray, N: NDArray, closest: Any) -> Deviation:
-    """The closest points' distances signed by A's normals (positive where B lies on the
-    side N points to), as :func:`gshade.analysis.deviation.signed_deviation` signs them."""
-    side = np.sum((closest.point - P) * N, axis=-1)
-    return Deviation(np.where(side < 0, -closest.distance, closest.distance), closest)
-
-
 @dataclass(frozen=True)
 class _MeshFile:
     """A mesh or cloud file: named as its file, its parts (triangles, points) numbered as
@@ -128,7 +121,7 @@ class MeshReference(_MeshFile):
         from .deviation_measure import WELD
 
         v, f = self.mesh.vertices, self.mesh.faces
-        found = _signed(P, N, mesh_closest_points(v, f, P))
+        found = signed(P, N, mesh_closest_points(v, f, P))
         beyond = np.zeros(len(P), dtype=bool)
         far = np.flatnonzero(found.closest.distance > tolerance)
         if far.size:
@@ -162,7 +155,7 @@ class CloudReference(_MeshFile):
     ) -> tuple[Deviation, NDArray[np.bool_]]:
         from ..analysis.mesh_distance import cloud_closest_points
 
-        found = _signed(P, N, cloud_closest_points(self.mesh.vertices, P))
+        found = signed(P, N, cloud_closest_points(self.mesh.vertices, P))
         return found, np.zeros(len(P), dtype=bool)
 
     def samples(self, count: int, seed: int = 0) -> tuple[NDArray, NDArray]:
