@@ -32,6 +32,7 @@ __all__ = [
     "CANDIDATES",
     "GRID",
     "ON_SURFACE",
+    "Blocks",
     "ClosestPoints",
     "Samples",
     "closest_points",
@@ -53,6 +54,8 @@ SHORTENINGS = 15
 ON_SURFACE = 1e-13
 #: Points at which a batch is evaluated by Dr.Jit (where it works) rather than numpy.
 BIG_BATCH = 4096
+#: Cells a side of a block of samples boxed for the search's last round (:class:`Blocks`).
+BLOCK = 8
 #: Starts around a pole a foot stopped at is searched again from (the nearest of them).
 POLE_RING = 32
 #: Newton steps at most (quadratic convergence: a grid cell's start is exact in ~5; near a
@@ -343,15 +346,31 @@ def _axis_samples(patch: Patch, axis: int, n: int, spacing: float) -> NDArray[np
     return np.interp((np.arange(n) + 0.5) / n * length[-1], length, fine)
 
 
+def _blocks(at: NDArray, su: NDArray, sv: NDArray, reach: float) -> list[tuple]:
+    """The :class:`Blocks` of one patch's lattice of samples ``at`` (nu, nv, 3) at
+    parameters ``su`` x ``sv`` whose cells' diagonals are at most ``reach``: (lo, hi,
+    (u, v)) each, a block's samples and those of the next row and column (the cells
+    between blocks) boxed."""
+    out = []
+    for i in range(0, max(len(su) - 1, 1), BLOCK):
+        for j in range(0, max(len(sv) - 1, 1), BLOCK):
+            part = at[i : i + BLOCK + 1, j : j + BLOCK + 1].reshape(-1, 3)
+            middle = (su[min(i + BLOCK // 2, len(su) - 1)], sv[min(j + BLOCK // 2, len(sv) - 1)])
+            out.append((part.min(axis=0) - 2 * reach, part.max(axis=0) + 2 * reach, middle))
+    return out
+
+
 def _samples(
     patches: Sequence[Patch], grid: int, spacing: float = 0.0
-) -> tuple[NDArray, NDArray, NDArray, float, NDArray]:
+) -> tuple[NDArray, NDArray, NDArray, float, NDArray, Blocks]:
     """Every patch's samples, ``grid`` x ``grid`` of them spread in the ratio of its
     lengths (:func:`_lattice`), at the middles of its cells (none on a side: the samples
     of a pole or a seam would be many at one point, each a poor start): points (m, 3),
     their patch (m,) and (u, v), the longest diagonal of a cell (how far a point of a
     patch may lie from its nearest sample) and each patch's cell in its domain (k, 2)."""
     points, owner, uv, cells = [], [], [], []
+    boxes: list[tuple] = []
+    box_patch: list[int] = []
     reach = 0.0
     for k, patch in enumerate(patches):
         nu, nv = _lattice(patch, grid)
@@ -363,11 +382,33 @@ def _samples(
         one = np.linalg.norm(at[1:, 1:] - at[:-1, :-1], axis=-1).max(initial=0.0)
         other = np.linalg.norm(at[1:, :-1] - at[:-1, 1:], axis=-1).max(initial=0.0)
         reach = max(reach, float(one), float(other))
+        mine = _blocks(at, su, sv, max(float(one), float(other)))
+        boxes += mine
+        box_patch += [k] * len(mine)
         points.append(at.reshape(-1, 3))
         owner.append(np.full(u.size, k))
         uv.append(np.stack([u, v], -1))
     cell = np.array(cells, dtype=np.float64).reshape(-1, 2)
-    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), reach, cell
+    blocks = Blocks(
+        np.array([b[0] for b in boxes]).reshape(-1, 3),
+        np.array([b[1] for b in boxes]).reshape(-1, 3),
+        np.array(box_patch, dtype=np.int64),
+        np.array([b[2] for b in boxes], dtype=np.float64).reshape(-1, 2),
+    )
+    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), reach, cell, blocks
+
+
+@dataclass(frozen=True)
+class Blocks:
+    """Boxes holding the patches piece by piece: each block of a patch's sample lattice
+    (:data:`BLOCK` x :data:`BLOCK` cells) boxed by its samples, widened by two of the
+    patch's cell diagonals (how far its surface may bulge between samples): corners ``lo``
+    and ``hi`` (b, 3), its ``patch`` (b,) and a start ``uv`` (b, 2) in its middle."""
+
+    lo: NDArray[np.float64]
+    hi: NDArray[np.float64]
+    patch: NDArray[np.int64]
+    uv: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -383,6 +424,7 @@ class Samples:
     uv: NDArray[np.float64]
     reach: float
     cell: NDArray[np.float64]
+    blocks: Blocks
 
 
 def grid_samples(patches: Sequence[Patch], grid: int = GRID, spacing: float = 0.0) -> Samples:
@@ -423,7 +465,7 @@ def closest_points(
 
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 3)
     samples = samples if samples is not None else grid_samples(patches)
-    points, owner, reach = samples.points, samples.patch, samples.reach
+    points, owner = samples.points, samples.patch
     tree = cKDTree(points)
     surfaces = _Surfaces(patches)
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
@@ -433,33 +475,101 @@ def closest_points(
     asked = np.arange(len(q))  # the queries to look further for
     m = len(patches)
     pairs = np.zeros(0, dtype=np.int64)  # query * m + patch: the patches each query asked
-    searched = np.zeros(len(q), dtype=bool)  # the trims' curves asked
-    k, seen = min(candidates, len(points)), 0
-    while asked.size:
-        distance, nearest = tree.query(q[asked], k=k)
-        # the samples beyond those of the rounds before (each round's are the nearer)
-        nearest = np.asarray(nearest).reshape(len(asked), k)[:, seen:]
-        spacing = np.asarray(distance).reshape(len(asked), k)[:, seen:]
-        outside = _improve(surfaces, q, samples, best, asked, nearest, spacing, pairs, inside)
-        if boundary is not None:  # their closest points on the trims' curves, once
-            fresh = asked[outside & ~searched[asked]]
-            searched[fresh] = True
-            if fresh.size:
-                _merge(best, fresh, boundary(q[fresh]))
-        pairs = np.union1d(pairs, (asked[:, None] * m + owner[nearest]).ravel())
-        if k >= len(points):
-            break
-        # samples beyond the k nearest are farther than the k-th: a patch among them can
-        # hold a nearer point only if the k-th lies within the best distance + a cell's
-        # reach; a query on the surface (to rounding) has its answer; nothing is left to
-        # ask where every patch was
-        farthest = spacing[:, -1]
-        found = best.distance[asked]
-        unsure = (farthest - reach < found) & (found > ON_SURFACE * size)
-        unsure &= np.bincount(pairs // m, minlength=len(q))[asked] < m
-        asked = asked[unsure]
-        k, seen = min(4 * k, len(points)), k
+    k = min(candidates, len(points))
+    distance, nearest = tree.query(q, k=k)
+    nearest = np.asarray(nearest).reshape(len(q), k)
+    spacing = np.asarray(distance).reshape(len(q), k)
+    outside = _improve(surfaces, q, samples, best, asked, nearest, spacing, pairs, inside)
+    if boundary is not None and outside.any():  # the closest points on the trims' curves
+        _merge(best, np.flatnonzero(outside), boundary(q[outside]))
+    # the last round: every block of a patch the query has not asked whose box comes
+    # nearer than the best point found (or than its nearest sample, a point of the
+    # surface), Newton's method from the block's middle; a query on the surface (to
+    # rounding) has its answer
+    pairs = np.unique(asked[:, None] * m + owner[nearest])
+    unsure = np.flatnonzero(best.distance > ON_SURFACE * size)
+    reach = np.minimum(best.distance[unsure], spacing[unsure, 0])
+    who, block = _near_blocks(samples.blocks, q[unsure], reach)
+    who, patch = unsure[who], samples.blocks.patch[block]
+    keys = who * m + patch
+    at = np.clip(np.searchsorted(pairs, keys), 0, max(pairs.size - 1, 0))
+    new = pairs[at] != keys if pairs.size else np.ones(len(keys), dtype=bool)
+    who, block, patch = who[new], block[new], patch[new]
+    if who.size:
+        out = _tried(surfaces, q, who, patch, samples.blocks.uv[block], best, inside)
+        fresh = np.setdiff1d(who[out], np.flatnonzero(outside))
+        if boundary is not None and fresh.size:
+            _merge(best, fresh, boundary(q[fresh]))
     return best
+
+
+def _tried(
+    surfaces: _Surfaces,
+    q: NDArray,
+    who: NDArray,
+    on: NDArray,
+    start: NDArray,
+    best: ClosestPoints,
+    inside: Callable[[NDArray[np.int64], NDArray[np.float64]], NDArray[np.bool_]] | None,
+) -> NDArray[np.bool_]:
+    """Newton's method for queries ``who`` on patches ``on`` from ``start`` (u, v), all at
+    once; each query's nearest foot point inside the trims kept in ``best`` where nearer.
+    Which of the feet lie outside the trims and nearer than the best point found (there,
+    the face's own closest point may be on its trims' curves; a foot outside and farther
+    bounds the face's distance from below: nothing nearer there)."""
+    feet, distance = _feet(surfaces, on, q[who], start)
+    out = np.zeros(len(who), dtype=bool)
+    unbounded = distance.copy()
+    if inside is not None:
+        out = ~inside(on, feet)
+        distance[out] = np.inf
+    order = np.lexsort((distance, who))  # each query's nearest foot point first
+    lead = order[np.r_[True, who[order][1:] != who[order][:-1]]]
+    better = lead[distance[lead] < best.distance[who[lead]]]
+    take = who[better]
+    at = surfaces.derivatives(on[better], feet[better], 0)[0, 0]
+    best.point[take], best.uv[take] = at, feet[better]
+    best.patch[take], best.distance[take] = on[better], distance[better]
+    return out & (unbounded < best.distance[who])
+
+
+def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, NDArray]:
+    """The (query, block) pairs whose box comes within ``reach`` (n,) of the query ``q``
+    (n, 3), the nearest box of each patch: blocks grouped by size (their boxes' half
+    diagonals, in powers of 2), each group's centres in a k-d tree asked for those within
+    reach + the group's largest half diagonal, then each box's own distance."""
+    from scipy.spatial import cKDTree
+
+    centre = 0.5 * (blocks.lo + blocks.hi)
+    radius = 0.5 * np.linalg.norm(blocks.hi - blocks.lo, axis=-1)
+    group = np.floor(np.log2(np.maximum(radius, 1e-300) / max(radius.min(), 1e-300)))
+    rows, found = [], []
+    for g in np.unique(group):
+        members = np.flatnonzero(group == g)
+        tree = cKDTree(centre[members])
+        within = reach + radius[members].max()
+        counts = tree.query_ball_point(q, within, return_length=True)
+        most = int(counts.max(initial=0))
+        if not most:
+            continue
+        ask = np.flatnonzero(counts)  # arrays, not lists: the counts' largest nearest
+        apart, index = tree.query(q[ask], k=most, distance_upper_bound=float(within.max()))
+        apart, index = apart.reshape(len(ask), most), index.reshape(len(ask), most)
+        hit = apart <= within[ask, None]
+        rows.append(np.repeat(ask, hit.sum(axis=1)))
+        found.append(members[index[hit]])
+    if not rows:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    who, block = np.concatenate(rows), np.concatenate(found)
+    gap = np.maximum(np.maximum(blocks.lo[block] - q[who], q[who] - blocks.hi[block]), 0.0)
+    apart = np.linalg.norm(gap, axis=-1)
+    near = apart < reach[who]
+    who, block, apart = who[near], block[near], apart[near]
+    # one block a patch for each query: the nearest box
+    order = np.lexsort((apart, blocks.patch[block], who))
+    key = who[order] * (blocks.patch.max(initial=0) + 1) + blocks.patch[block[order]]
+    lead = order[np.r_[True, key[1:] != key[:-1]]]
+    return who[lead], block[lead]
 
 
 def _merge(best: ClosestPoints, ask: NDArray, found: ClosestPoints) -> None:
@@ -514,17 +624,6 @@ def _improve(
     if not rows.size:
         return outside
     who, sample = asked[rows], nearest[rows, js]
-    on = owner[sample]
-    feet, distance = _feet(surfaces, on, q[who], uv[sample])
-    if inside is not None:
-        out = ~inside(on, feet)
-        outside[rows[out]] = True
-        distance[out] = np.inf
-    order = np.lexsort((distance, who))  # each query's nearest foot point first
-    lead = order[np.r_[True, who[order][1:] != who[order][:-1]]]
-    better = lead[distance[lead] < best.distance[who[lead]]]
-    take = who[better]
-    at = surfaces.derivatives(on[better], feet[better], 0)[0, 0]
-    best.point[take], best.uv[take] = at, feet[better]
-    best.patch[take], best.distance[take] = on[better], distance[better]
+    out = _tried(surfaces, q, who, owner[sample], uv[sample], best, inside)
+    outside[rows[out]] = True
     return outside

@@ -102,6 +102,7 @@ def mesh_samples(
         np.concatenate([grid.uv, np.stack([u, v], -1)]),
         2 * grid.reach,
         grid.cell,
+        grid.blocks,
     )
 
 
