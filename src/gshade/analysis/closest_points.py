@@ -554,7 +554,8 @@ def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, N
             continue
         ask = np.flatnonzero(counts)  # arrays, not lists: the counts' largest nearest
         apart, index = tree.query(q[ask], k=most, distance_upper_bound=float(within.max()))
-        apart, index = apart.reshape(len(ask), most), index.reshape(len(ask), most)
+        apart = np.asarray(apart).reshape(len(ask), most)
+        index = np.asarray(index).reshape(len(ask), most)
         hit = apart <= within[ask, None]
         rows.append(np.repeat(ask, hit.sum(axis=1)))
         found.append(members[index[hit]])
