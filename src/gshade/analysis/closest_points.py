@@ -375,7 +375,8 @@ def _samples(
     for k, patch in enumerate(patches):
         nu, nv = _lattice(patch, grid)
         su, sv = _axis_samples(patch, 0, nu, spacing), _axis_samples(patch, 1, nv, spacing)
-        cells.append((np.diff(su).min(initial=np.inf), np.diff(sv).min(initial=np.inf)))
+        # two mean spacings: the starts within that of each other on the patch are one
+        cells.append(tuple(2 * np.ptp(t) / max(len(t) - 1, 1) for t in (su, sv)))
         uu, vv = np.meshgrid(su, sv, indexing="ij")
         u, v = uu.ravel(), vv.ravel()
         at = np.asarray(patch(u, v), dtype=np.float64).reshape(len(su), len(sv), 3)
