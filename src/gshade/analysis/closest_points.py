@@ -550,16 +550,17 @@ def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, N
         tree = cKDTree(centre[members])
         within = reach + radius[members].max()
         counts = tree.query_ball_point(q, within, return_length=True)
-        most = int(counts.max(initial=0))
-        if not most:
-            continue
-        ask = np.flatnonzero(counts)  # arrays, not lists: the counts' largest nearest
-        apart, index = tree.query(q[ask], k=most, distance_upper_bound=float(within.max()))
-        apart = np.asarray(apart).reshape(len(ask), most)
-        index = np.asarray(index).reshape(len(ask), most)
-        hit = apart <= within[ask, None]
-        rows.append(np.repeat(ask, hit.sum(axis=1)))
-        found.append(members[index[hit]])
+        # arrays, not lists: the queries with up to 2^j blocks near asked for 2^j nearest
+        size = np.ceil(np.log2(np.maximum(counts, 1))).astype(np.int64)
+        for j in np.unique(size[counts > 0]).tolist():
+            ask = np.flatnonzero((size == j) & (counts > 0))
+            most = min(2**j, len(members))
+            apart, index = tree.query(q[ask], k=most, distance_upper_bound=float(within[ask].max()))
+            apart = np.asarray(apart).reshape(len(ask), most)
+            index = np.asarray(index).reshape(len(ask), most)
+            hit = apart <= within[ask, None]
+            rows.append(np.repeat(ask, hit.sum(axis=1)))
+            found.append(members[index[hit]])
     if not rows:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     who, block = np.concatenate(rows), np.concatenate(found)
