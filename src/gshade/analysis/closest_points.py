@@ -15,7 +15,10 @@ with Gauss–Newton's matrix (the first fundamental form) where H is not positiv
 The domain's sides are an active set: a parameter that reached a side and would leave it
 is held there while the other is solved for, so that a foot point on a patch's boundary
 (the closest point of a patch is often on its edge) is found as exactly as one inside.
-The nearest of the candidates' foot points is the answer.
+Last, every patch the nearest samples did not lead to is asked where it can come nearer:
+its samples are grouped in blocks (:class:`Blocks`), each boxed and widened by two of its
+cell diagonals, and every block whose box lies nearer to q than the best point found is a
+start of its own.  The nearest of the foot points is the answer.
 """
 
 from __future__ import annotations
@@ -362,16 +365,15 @@ def _blocks(at: NDArray, su: NDArray, sv: NDArray, reach: float) -> list[tuple]:
 
 def _samples(
     patches: Sequence[Patch], grid: int, spacing: float = 0.0
-) -> tuple[NDArray, NDArray, NDArray, float, NDArray, Blocks]:
+) -> tuple[NDArray, NDArray, NDArray, NDArray, Blocks]:
     """Every patch's samples, ``grid`` x ``grid`` of them spread in the ratio of its
     lengths (:func:`_lattice`), at the middles of its cells (none on a side: the samples
     of a pole or a seam would be many at one point, each a poor start): points (m, 3),
-    their patch (m,) and (u, v), the longest diagonal of a cell (how far a point of a
-    patch may lie from its nearest sample) and each patch's cell in its domain (k, 2)."""
+    their patch (m,) and (u, v), each patch's spacing in its domain (k, 2) and the blocks
+    (:class:`Blocks`)."""
     points, owner, uv, cells = [], [], [], []
     boxes: list[tuple] = []
     box_patch: list[int] = []
-    reach = 0.0
     for k, patch in enumerate(patches):
         nu, nv = _lattice(patch, grid)
         su, sv = _axis_samples(patch, 0, nu, spacing), _axis_samples(patch, 1, nv, spacing)
@@ -382,7 +384,6 @@ def _samples(
         at = np.asarray(patch(u, v), dtype=np.float64).reshape(len(su), len(sv), 3)
         one = np.linalg.norm(at[1:, 1:] - at[:-1, :-1], axis=-1).max(initial=0.0)
         other = np.linalg.norm(at[1:, :-1] - at[:-1, 1:], axis=-1).max(initial=0.0)
-        reach = max(reach, float(one), float(other))
         mine = _blocks(at, su, sv, max(float(one), float(other)))
         boxes += mine
         box_patch += [k] * len(mine)
@@ -396,7 +397,7 @@ def _samples(
         np.array(box_patch, dtype=np.int64),
         np.array([b[2] for b in boxes], dtype=np.float64).reshape(-1, 2),
     )
-    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), reach, cell, blocks
+    return np.concatenate(points), np.concatenate(owner), np.concatenate(uv), cell, blocks
 
 
 @dataclass(frozen=True)
@@ -415,15 +416,13 @@ class Blocks:
 @dataclass(frozen=True)
 class Samples:
     """Points of the surface for the coarse search: ``points`` (m, 3) on patches
-    ``patch`` (m,) at parameters ``uv`` (m, 2), and their ``reach``: how far any point of
-    the surface may lie from its nearest sample (a grid's cell diagonal, a mesh's longest
-    edge); ``cell`` (k, 2): each patch's grid cell in its domain, within which two
-    samples of the patch are one start of Newton's method."""
+    ``patch`` (m,) at parameters ``uv`` (m, 2); ``cell`` (k, 2): each patch's spacing of
+    samples in its domain, within which two samples of the patch are one start of
+    Newton's method; ``blocks``: the patches' blocks of samples, boxed."""
 
     points: NDArray[np.float64]
     patch: NDArray[np.int64]
     uv: NDArray[np.float64]
-    reach: float
     cell: NDArray[np.float64]
     blocks: Blocks
 
@@ -447,7 +446,8 @@ def closest_points(
 ) -> ClosestPoints:
     """The points of ``patches`` nearest to each of ``queries`` (n, 3): from the
     ``candidates`` nearest of the ``samples`` (default :func:`grid_samples`), Newton's
-    method on the exact patches (:func:`foot_points`), the nearest foot point kept.
+    method on the exact patches (:func:`foot_points`), then from the middle of every block
+    of another patch whose box comes nearer (see the module), the nearest foot point kept.
 
     Trimmed patches: ``inside(index, uv)`` says which (u, v) of patches ``index`` are
     part of the surface (a foot point elsewhere is none), and ``boundary(queries)`` gives

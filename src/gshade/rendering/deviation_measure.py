@@ -78,13 +78,11 @@ def mesh_samples(
     (:func:`~gshade.analysis.closest_points.grid_samples`: a periodic face's seam and a
     long tube's far side have samples near them) and the vertices of its
     :func:`sample_mesh` (where a trimmed face's grid may miss its trimmed region), each
-    with its patch and (u, v); with ``inside`` (:func:`gshade.analysis.trimmed_faces.trim_test`),
-    the grid samples outside a face's trims left out.  Their reach is two of the grids'
-    cell diagonals: a point of a face is within one of a grid sample, and where that
-    sample lies outside the trims, the next one inward is within another (the mesh's
-    triangles, long on a flat face, would make it needlessly wide).  The grids' samples are at most
-    :data:`SAMPLE_SPACING` of the diagonal apart (a big face's mesh may have long
-    triangles, its vertices far from the foot points of a flat region)."""
+    with its patch and (u, v), and the grids' blocks; with ``inside``
+    (:func:`gshade.analysis.trimmed_faces.trim_test`), the grid samples outside a face's
+    trims left out.  The grids' samples are at most :data:`SAMPLE_SPACING` of the
+    diagonal apart (a big face's mesh may have long triangles, its vertices far from the
+    foot points of a flat region)."""
     from ..analysis.scene_junctions import scene_diagonal
     from ..geometry.core.patch import unit_to_domain
 
@@ -100,7 +98,6 @@ def mesh_samples(
         np.concatenate([grid.points, mesh.positions]),
         np.concatenate([grid.patch, patch]),
         np.concatenate([grid.uv, np.stack([u, v], -1)]),
-        2 * grid.reach,
         grid.cell,
         grid.blocks,
     )
