@@ -114,21 +114,15 @@ class _Surfaces:
             size = np.linalg.norm(np.ptp(pa.reshape(n, -1, 3), axis=1), axis=-1)
             apart = np.linalg.norm(pa - pb, axis=-1).reshape(n, -1).max(axis=1)
             out[:, axis] = apart <= 1e-9 * np.maximum(size, 1e-300)
-            for side, at in enumerate((pa, pb)):
-                spread = np.linalg.norm(np.ptp(at.reshape(n, -1, 3), axis=1), axis=-1)
-                whole = np.linalg.norm(
-                    np.ptp(np.concatenate([pa, pb]).reshape(2, n, -1, 3), axis=(0, 2)), axis=-1
-                )
-                pole[:, axis, side] = spread <= 1e-9 * np.maximum(whole, 1e-300)
+            both = np.concatenate([pa, pb]).reshape(2, n, -1, 3)
+            whole = np.linalg.norm(np.ptp(both, axis=(0, 2)), axis=-1)
+            spread = np.linalg.norm(np.ptp(both, axis=2), axis=-1)  # (2, n): each side's
+            pole[:, axis] = (spread <= 1e-9 * np.maximum(whole, 1e-300)).T
         return out, pole
 
     def derivatives(self, index: NDArray, uv: NDArray, order: int) -> NDArray[np.float64]:
         many = self.big if len(index) >= BIG_BATCH else self.small
         return many.derivatives(index, uv[:, 0], uv[:, 1], order)
-
-    def gap(self, index: NDArray, q: NDArray, uv: NDArray) -> NDArray[np.float64]:
-        """|S(u, v) - q| (n,)."""
-        return np.linalg.norm(self.derivatives(index, uv, 0)[0, 0] - q, axis=-1)
 
 
 def foot_points(
@@ -330,8 +324,8 @@ def _axis_samples(patch: Patch, axis: int, n: int, spacing: float) -> NDArray[np
     knots = getattr(patch, "knots", None)
     if knots is not None:
         breaks = np.unique(np.clip(np.asarray(knots[axis], dtype=np.float64), lo, hi))
-    if breaks.size > 129:
-        breaks = breaks[:: -(-breaks.size // 129)]
+    if breaks.size > MOST_SAMPLES:
+        breaks = breaks[:: -(-breaks.size // MOST_SAMPLES)]
     eighths = np.linspace(0.0, 1.0, 9)
     fine = np.unique(breaks[:-1, None] + np.diff(breaks)[:, None] * eighths)
     (u0, u1), (v0, v1) = patch.domain
@@ -473,28 +467,26 @@ def closest_points(
     best = ClosestPoints(
         np.zeros_like(q), np.zeros(len(q), np.int64), np.zeros((len(q), 2)), np.full(len(q), np.inf)
     )
-    asked = np.arange(len(q))  # the queries to look further for
-    m = len(patches)
-    pairs = np.zeros(0, dtype=np.int64)  # query * m + patch: the patches each query asked
+    if not len(q):
+        return best
     k = min(candidates, len(points))
     distance, nearest = tree.query(q, k=k)
     nearest = np.asarray(nearest).reshape(len(q), k)
     spacing = np.asarray(distance).reshape(len(q), k)
-    outside = _improve(surfaces, q, samples, best, asked, nearest, spacing, pairs, inside)
+    outside = _first_round(surfaces, q, samples, best, nearest, inside)
     if boundary is not None and outside.any():  # the closest points on the trims' curves
         _merge(best, np.flatnonzero(outside), boundary(q[outside]))
     # the last round: every block of a patch the query has not asked whose box comes
     # nearer than the best point found (or than its nearest sample, a point of the
     # surface), Newton's method from the block's middle; a query on the surface (to
     # rounding) has its answer
-    pairs = np.unique(asked[:, None] * m + owner[nearest])
+    m = len(patches)
+    pairs = np.unique(np.arange(len(q))[:, None] * m + owner[nearest])  # the patches asked
     unsure = np.flatnonzero(best.distance > ON_SURFACE * size)
     reach = np.minimum(best.distance[unsure], spacing[unsure, 0])
     who, block = _near_blocks(samples.blocks, q[unsure], reach)
     who, patch = unsure[who], samples.blocks.patch[block]
-    keys = who * m + patch
-    at = np.clip(np.searchsorted(pairs, keys), 0, max(pairs.size - 1, 0))
-    new = pairs[at] != keys if pairs.size else np.ones(len(keys), dtype=bool)
+    new = ~np.isin(who * m + patch, pairs)
     who, block, patch = who[new], block[new], patch[new]
     if who.size:
         out = _tried(surfaces, q, who, patch, samples.blocks.uv[block], best, inside)
@@ -526,11 +518,9 @@ def _tried(
         distance[out] = np.inf
     order = np.lexsort((distance, who))  # each query's nearest foot point first
     lead = order[np.r_[True, who[order][1:] != who[order][:-1]]]
-    better = lead[distance[lead] < best.distance[who[lead]]]
-    take = who[better]
-    at = surfaces.derivatives(on[better], feet[better], 0)[0, 0]
-    best.point[take], best.uv[take] = at, feet[better]
-    best.patch[take], best.distance[take] = on[better], distance[better]
+    lead = lead[distance[lead] < best.distance[who[lead]]]
+    point = surfaces.derivatives(on[lead], feet[lead], 0)[0, 0]
+    _merge(best, who[lead], ClosestPoints(point, on[lead], feet[lead], distance[lead]))
     return out & (unbounded < best.distance[who])
 
 
@@ -583,50 +573,30 @@ def _merge(best: ClosestPoints, ask: NDArray, found: ClosestPoints) -> None:
     best.uv[take], best.distance[take] = found.uv[nearer], found.distance[nearer]
 
 
-def _improve(
+def _first_round(
     surfaces: _Surfaces,
     q: NDArray,
     samples: Samples,
     best: ClosestPoints,
-    asked: NDArray,
     nearest: NDArray,
-    spacing: NDArray,
-    pairs: NDArray,
     inside: Callable[[NDArray[np.int64], NDArray[np.float64]], NDArray[np.bool_]] | None,
 ) -> NDArray[np.bool_]:
-    """Newton's method from each of ``asked``'s ``nearest`` samples (at ``spacing`` from
-    it): in the first round from each of them but those within a grid cell of a nearer
-    one on its patch (one start per sheet: a patch folding back, a tube, has its nearest
-    samples on several), later from the nearest of each patch among them where the query
-    has not asked that patch yet (``pairs``: query * patches + patch, sorted, those asked
-    before) or the sample is nearer than the best foot point found, all patches at once;
-    the nearer foot points inside the trims (``inside``) kept in ``best``.  Whether each
-    of ``asked`` found one outside them."""
+    """Newton's method from each query's ``nearest`` samples but those within a cell of a
+    nearer one on its patch (one start per sheet: a patch folding back, a tube, has its
+    nearest samples on several), all patches at once; the nearer foot points inside the
+    trims (``inside``) kept in ``best``.  Whether each query found one outside them
+    (:func:`_tried`)."""
     owner, uv = samples.patch, samples.uv
     patch = owner[nearest]
-    if pairs.size:  # the nearest sample of each patch among them
-        order = np.argsort(patch, axis=1, kind="stable")
-        ranked = np.take_along_axis(patch, order, axis=1)
-        lead = np.ones(patch.shape, dtype=bool)
-        lead[:, 1:] = ranked[:, 1:] != ranked[:, :-1]
-        first = np.zeros(patch.shape, dtype=bool)
-        np.put_along_axis(first, order, lead, axis=1)
-    else:  # every one but those within a cell of a nearer one on its patch
-        first = np.ones(patch.shape, dtype=bool)
-        cell = samples.cell[patch]
-        for j in range(1, patch.shape[1]):
-            for i in range(j):
-                near = np.all(np.abs(uv[nearest[:, i]] - uv[nearest[:, j]]) <= cell[:, j], -1)
-                first[:, j] &= ~(first[:, i] & (patch[:, i] == patch[:, j]) & near)
-    keys = asked[:, None] * len(surfaces.lo) + patch
-    at = np.clip(np.searchsorted(pairs, keys), 0, max(pairs.size - 1, 0))
-    before = (pairs[at] == keys) if pairs.size else np.zeros(patch.shape, dtype=bool)
-    first &= ~before | (spacing < best.distance[asked][:, None])
-    rows, js = np.nonzero(first)  # every (query, sample) pair on a patch new to the query
-    outside = np.zeros(len(asked), dtype=bool)
-    if not rows.size:
-        return outside
-    who, sample = asked[rows], nearest[rows, js]
+    first = np.ones(patch.shape, dtype=bool)
+    cell = samples.cell[patch]
+    for j in range(1, patch.shape[1]):
+        for i in range(j):
+            near = np.all(np.abs(uv[nearest[:, i]] - uv[nearest[:, j]]) <= cell[:, j], -1)
+            first[:, j] &= ~(first[:, i] & (patch[:, i] == patch[:, j]) & near)
+    rows, js = np.nonzero(first)
+    who, sample = rows, nearest[rows, js]
     out = _tried(surfaces, q, who, owner[sample], uv[sample], best, inside)
-    outside[rows[out]] = True
+    outside = np.zeros(len(q), dtype=bool)
+    outside[who[out]] = True
     return outside

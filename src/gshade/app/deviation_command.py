@@ -118,7 +118,7 @@ def deviation(args: argparse.Namespace) -> int:
     from ..io.outputs import distinct_files, output_file, staged, write_all
     from ..regression.report import deviation_page
     from ..rendering.deviation_image import deviation_image
-    from ..rendering.deviation_references import hausdorff, read_reference, whole_deviation
+    from ..rendering.deviation_references import read_reference, surface_numbers
     from ..scene import load_scene, parse_overrides
 
     if args.legend and not args.png:
@@ -150,10 +150,9 @@ def deviation(args: argparse.Namespace) -> int:
         args.error_status = UNREADABLE
         image, summary = deviation_image(a, b, tolerance)
         summary["a"] = a.name
-        if args.whole:
-            summary["whole"] = whole_deviation(a, b, tolerance, args.samples)
-        if args.symmetric:
-            summary["hausdorff"] = hausdorff(a, b, args.samples)
+        summary |= surface_numbers(
+            a, b, tolerance, args.samples, whole=args.whole, symmetric=args.symmetric
+        )
         args.error_status = USAGE
         writers: list[Callable[[], Callable[[str], object]]] = [partial(image.exr_writer, output)]
         if args.png:

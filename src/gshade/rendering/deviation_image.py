@@ -22,14 +22,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..analysis.deviation import deviation_summary
 from ..analysis.trimmed_faces import trim_test
 from ..display import Legend, colour_map
 from ..display.bands import band_shares, band_text, settled_on_levels
 from ..display.colour import srgb_to_linear
 from ..shape.registry import Bands
 from .camera import View, header_view
-from .deviation_measure import pixel_hits
+from .deviation_measure import covered_summary, pixel_hits
 from .rendered_image import RenderedImage
 
 if TYPE_CHECKING:
@@ -144,11 +143,7 @@ def deviation_image(
     foot[on] = found.closest.point
     patch = np.full(on.shape, -1.0)
     patch[on] = b.numbers(found.closest.patch)
-    covered = ~beyond
-    summary = deviation_summary(found.distance[covered], tolerance, P[covered])
-    summary["b"] = b.name
-    summary["beyond"] = int(beyond.sum())
-    summary["beyond_fraction"] = float(beyond.mean()) if beyond.size else 0.0
+    summary, covered = covered_summary(found, beyond, tolerance, P, b.name)
     if summary["count"]:
         k = int(np.flatnonzero(on.ravel())[np.flatnonzero(covered)[summary["index"]]])
         row, col = divmod(k, on.shape[1])

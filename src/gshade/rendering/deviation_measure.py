@@ -12,19 +12,21 @@ boundary, off B's normal, is beyond B (:mod:`gshade.analysis.coverage`).
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..analysis.closest_points import Samples, grid_samples
-from ..analysis.deviation import Deviation, signed_deviation
+from ..analysis.deviation import Deviation, deviation_summary, signed_deviation
 from ..analysis.trimmed_faces import TrimTest, boundary_search, trim_test
 from .camera import View
 from .tessellate import TriangleMesh
 
 if TYPE_CHECKING:
     from ..geometry import Patch
+    from ..geometry.evaluation.patch_cells import ManyPatches
     from ..scene.model import Scene
 
 __all__ = [
@@ -33,6 +35,8 @@ __all__ = [
     "SAMPLE_SPACING",
     "SURFACE_SAMPLES",
     "WELD",
+    "PreparedSurfaces",
+    "covered_summary",
     "measured_deviation",
     "mesh_samples",
     "patch_numbers",
@@ -126,43 +130,76 @@ def pixel_hits(
     return d[0, 0], normal, index, uv
 
 
-def measured_deviation(
-    P: NDArray, N: NDArray, b: Scene, tolerance: float
-) -> tuple[Deviation, NDArray[np.bool_]]:
-    """The signed deviation of points ``P`` (normals ``N``) of A from scene ``b`` (its
-    trims and their edges heeded), and which points lie beyond B's free boundary
-    (:func:`gshade.analysis.coverage.uncovered`, on :func:`sample_mesh`'s free edges)."""
-    from ..analysis.coverage import NORMAL_COSINE, free_edges, segment_distances, uncovered
-    from ..analysis.scene_junctions import scene_diagonal
-    from ..geometry.evaluation.patch_cells import ManyPatches
-    from ..shape.kernels import backend
+class PreparedSurfaces:
+    """A scene's exact surfaces made ready to measure against, once for every call: its
+    :func:`sample_mesh` (``mesh``, given or made), trim test, coarse-search samples
+    (:func:`mesh_samples`), trims' edge search, and lazily its free boundary's segments and
+    an evaluator of its patches."""
 
-    mesh = sample_mesh(b)
-    inside = trim_test(b)
-    found = signed_deviation(
-        P, N, b.patches, mesh_samples(b, inside, mesh), inside=inside, boundary=boundary_search(b)
-    )
+    def __init__(self, scene: Scene, mesh: TriangleMesh | None = None) -> None:
+        from ..analysis.scene_junctions import scene_diagonal
+
+        self.scene = scene
+        self.mesh = sample_mesh(scene) if mesh is None else mesh
+        self.inside = trim_test(scene)
+        self.samples = mesh_samples(scene, self.inside, self.mesh)
+        self.boundary = boundary_search(scene)
+        self.diagonal = scene_diagonal(scene)
+
+    @cached_property
+    def free_edges(self) -> NDArray[np.float64]:
+        """The segments (m, 2, 3) of the mesh's free boundary (vertices welded within
+        :data:`WELD` of the diagonal)."""
+        from ..analysis.coverage import free_edges
+
+        return free_edges(self.mesh.positions, self.mesh.faces, WELD * self.diagonal)
+
+    @cached_property
+    def evaluator(self) -> ManyPatches:
+        """The patches' derivatives at scattered points (:func:`patch_evaluator`)."""
+        from .surface_hits import patch_evaluator
+
+        return patch_evaluator(self.scene.patches)
+
+
+def measured_deviation(
+    P: NDArray, N: NDArray, b: PreparedSurfaces, tolerance: float
+) -> tuple[Deviation, NDArray[np.bool_]]:
+    """The signed deviation of points ``P`` (normals ``N``) of A from the surfaces ``b``
+    (their trims and the trims' edges heeded), and which points lie beyond B's free
+    boundary (:func:`gshade.analysis.coverage.uncovered`)."""
+    from ..analysis.coverage import NORMAL_COSINE, segment_distances, uncovered
+
+    found = signed_deviation(P, N, b.scene.patches, b.samples, inside=b.inside, boundary=b.boundary)
     beyond = np.zeros(len(P), dtype=bool)
     foot = found.closest
     far = np.flatnonzero(foot.distance > tolerance)
     if not far.size:
         return found, beyond
-    many = ManyPatches(b.patches, drjit=backend() == "drjit")
-    d = many.derivatives(foot.patch[far], foot.uv[far, 0], foot.uv[far, 1], 1)
-    normal = np.cross(d[1, 0], d[0, 1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        normal = np.nan_to_num(normal / np.linalg.norm(normal, axis=-1, keepdims=True))
+    d = b.evaluator.derivatives(foot.patch[far], foot.uv[far, 0], foot.uv[far, 1], 1)
+    normal = unit_normals(b.scene.patches, foot.patch[far], foot.uv[far], d)
     gap = foot.point[far] - P[far]
     off = np.abs(np.sum(gap * normal, -1)) < NORMAL_COSINE * foot.distance[far]
     ask = far[off]
     if ask.size:
-        diagonal = scene_diagonal(b)
-        edges = free_edges(mesh.positions, mesh.faces, WELD * diagonal)
-        reach = segment_distances(foot.point[ask], edges)
-        beyond[ask] = uncovered(
-            P[ask], foot.point[ask], normal[off], reach, 2 * SAMPLE_CHORD * diagonal, tolerance
-        )
+        reach = segment_distances(foot.point[ask], b.free_edges)
+        near = 2 * SAMPLE_CHORD * b.diagonal
+        beyond[ask] = uncovered(P[ask], foot.point[ask], normal[off], reach, near, tolerance)
     return found, beyond
+
+
+def covered_summary(
+    found: Deviation, beyond: NDArray[np.bool_], tolerance: float, points: NDArray, b: str
+) -> tuple[dict[str, Any], NDArray[np.bool_]]:
+    """The numbers (:func:`gshade.analysis.deviation.deviation_summary`) of the points
+    (n, 3) not ``beyond`` B's free boundary, with ``beyond``, ``beyond_fraction`` and B's
+    name ``b``; and which points they are over."""
+    covered = ~beyond
+    summary = deviation_summary(found.distance[covered], tolerance, points[covered])
+    summary["b"] = b
+    summary["beyond"] = int(beyond.sum())
+    summary["beyond_fraction"] = float(beyond.mean()) if beyond.size else 0.0
+    return summary, covered
 
 
 def patch_numbers(scene: Scene) -> NDArray[np.int64]:
@@ -222,17 +259,17 @@ def triangle_points(
 
 
 def surface_samples(
-    scene: Scene, count: int = SURFACE_SAMPLES, seed: int = 0
+    scene: Scene, count: int = SURFACE_SAMPLES, seed: int = 0, mesh: TriangleMesh | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """About ``count`` points (n, 3) of a scene's surfaces, spread by area independently of
     any view, and their unit normals (n, 3): random points of :func:`sample_mesh`'s
     triangles (each chosen in proportion to its area, uniform in it; seeded) moved onto
-    the exact patches at their interpolated (u, v), those off a CAD face's trims left out."""
+    the exact patches at their interpolated (u, v), those off a CAD face's trims left out
+    (``mesh``: the scene's sample mesh where made already)."""
     from ..geometry.core.patch import unit_to_domain
-    from ..geometry.evaluation.patch_cells import ManyPatches
-    from ..shape.kernels import backend
+    from .surface_hits import patch_evaluator
 
-    mesh = sample_mesh(scene)
+    mesh = sample_mesh(scene) if mesh is None else mesh
     face, weights = triangle_points(mesh.positions[mesh.faces], count, seed)
     if not len(face):
         return np.zeros((0, 3)), np.zeros((0, 3))
@@ -247,6 +284,5 @@ def surface_samples(
     if trims is not None:
         kept = trims(index, uv)
         index, uv = index[kept], uv[kept]
-    many = ManyPatches(scene.patches, drjit=backend() == "drjit")
-    d = many.derivatives(index, uv[:, 0], uv[:, 1], 1)
+    d = patch_evaluator(scene.patches).derivatives(index, uv[:, 0], uv[:, 1], 1)
     return d[0, 0], unit_normals(scene.patches, index, uv, d)

@@ -15,16 +15,19 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..analysis.deviation import Deviation, deviation_summary, signed
+from ..analysis.deviation import Deviation, signed
 from .deviation_measure import (
-    SURFACE_SAMPLES,
+    PreparedSurfaces,
+    covered_summary,
     measured_deviation,
     patch_numbers,
+    sample_mesh,
     surface_samples,
     triangle_points,
 )
@@ -32,15 +35,15 @@ from .deviation_measure import (
 if TYPE_CHECKING:
     from ..io.meshes import MeshData
     from ..scene.model import Scene
+    from .tessellate import TriangleMesh
 
 __all__ = [
     "CloudReference",
     "MeshReference",
     "Reference",
     "SurfaceReference",
-    "hausdorff",
     "read_reference",
-    "whole_deviation",
+    "surface_numbers",
 ]
 
 
@@ -69,7 +72,8 @@ class Reference(Protocol):
 @dataclass(frozen=True)
 class SurfaceReference:
     """A scene's exact surfaces (trims, their edges and its free boundary heeded:
-    :func:`gshade.rendering.deviation_measure.measured_deviation`)."""
+    :func:`gshade.rendering.deviation_measure.measured_deviation`), its sample mesh and
+    search made once for every measure."""
 
     scene: Scene
 
@@ -81,16 +85,24 @@ class SurfaceReference:
     def data_files(self) -> tuple[Any, ...]:
         return tuple(self.scene.data_files)
 
+    @cached_property
+    def mesh(self) -> TriangleMesh:
+        return sample_mesh(self.scene)
+
+    @cached_property
+    def prepared(self) -> PreparedSurfaces:
+        return PreparedSurfaces(self.scene, self.mesh)
+
     def measure(
         self, P: NDArray, N: NDArray, tolerance: float
     ) -> tuple[Deviation, NDArray[np.bool_]]:
-        return measured_deviation(P, N, self.scene, tolerance)
+        return measured_deviation(P, N, self.prepared, tolerance)
 
     def numbers(self, part: NDArray[np.int64]) -> NDArray[np.int64]:
         return patch_numbers(self.scene)[part]
 
     def samples(self, count: int) -> tuple[NDArray, NDArray]:
-        return surface_samples(self.scene, count)
+        return surface_samples(self.scene, count, mesh=self.mesh)
 
 
 @dataclass(frozen=True)
@@ -178,31 +190,34 @@ def read_reference(path: str | os.PathLike, overrides: dict[str, Any] | None = N
     return SurfaceReference(load_scene(path, overrides))
 
 
-def whole_deviation(
-    a: Scene, b: Reference, tolerance: float, count: int = SURFACE_SAMPLES
+def surface_numbers(
+    a: Scene, b: Reference, tolerance: float, count: int, *, whole: bool, symmetric: bool
 ) -> dict[str, Any]:
-    """The numbers (:func:`gshade.analysis.deviation.deviation_summary`, with ``beyond``
-    and ``samples``) of A's whole surface against B:
-    :func:`~gshade.rendering.deviation_measure.surface_samples` of A measured by B."""
-    P, N = surface_samples(a, count)
+    """Over A's whole surface, independently of any view: with ``whole`` its numbers
+    against B (``"whole"``: :func:`~gshade.rendering.deviation_measure.covered_summary` of
+    ``count`` :func:`~gshade.rendering.deviation_measure.surface_samples` of A, with
+    ``samples``), with ``symmetric`` the Hausdorff distance, sampled (``"hausdorff"``: the
+    largest distance of those samples of A to B, ``a_to_b``, of B's samples to A's exact
+    surfaces, ``b_to_a``, the larger, ``both``, and ``samples``); A's samples measured
+    once for both."""
+    out: dict[str, Any] = {}
+    if not (whole or symmetric):
+        return out
+    surfaces = SurfaceReference(a)
+    P, N = surfaces.samples(count)
     found, beyond = b.measure(P, N, tolerance)
-    covered = ~beyond
-    summary = deviation_summary(found.distance[covered], tolerance, P[covered])
-    summary["beyond"] = int(beyond.sum())
-    summary["beyond_fraction"] = float(beyond.mean()) if beyond.size else 0.0
-    summary["samples"] = len(P)
-    summary["b"] = b.name
-    return summary
-
-
-def hausdorff(a: Scene, b: Reference, count: int = SURFACE_SAMPLES) -> dict[str, Any]:
-    """The Hausdorff distance between A and B, sampled: the largest distance of
-    :func:`~gshade.rendering.deviation_measure.surface_samples` of A to B (``a_to_b``),
-    of B's samples to A's exact surfaces (``b_to_a``), and the larger (``both``)."""
-    out: dict[str, Any] = {"samples": count}
-    for key, one, other in (("a_to_b", SurfaceReference(a), b), ("b_to_a", b, SurfaceReference(a))):
-        P, N = one.samples(count)
-        found, _ = other.measure(P, N, 0.0)
-        out[key] = float(np.abs(found.distance).max(initial=0.0))
-    out["both"] = max(out["a_to_b"], out["b_to_a"])
+    if whole:
+        out["whole"], _ = covered_summary(found, beyond, tolerance, P, b.name)
+        out["whole"]["samples"] = len(P)
+    if symmetric:
+        Q, M = b.samples(count)
+        back, _ = surfaces.measure(Q, M, 0.0)
+        h = {"samples": count, "a_to_b": _largest(found), "b_to_a": _largest(back)}
+        h["both"] = max(h["a_to_b"], h["b_to_a"])
+        out["hausdorff"] = h
     return out
+
+
+def _largest(found: Deviation) -> float:
+    """The largest |d| of a deviation (0 without a point)."""
+    return float(np.abs(found.distance).max(initial=0.0))
