@@ -84,3 +84,22 @@ def test_the_nearest_of_several_patches():
     found = closest_points([near, far], queries)
     assert found.patch.tolist() == [0, 1, 0]
     np.testing.assert_allclose(found.distance, [0.5, 0.4, 0.9], rtol=1e-12)
+
+
+def _square(size, z):
+    """The square [-size, size]^2 at height z."""
+    return BezierPatch([[[-size, -size, z], [-size, size, z]], [[size, -size, z], [size, size, z]]])
+
+
+def test_a_patch_whose_samples_are_all_farther_is_asked_by_its_blocks():
+    """A small square at z = 0, its samples the nearest to every query over it, and a wide
+    square at z = 0.5 whose samples are all farther but whose surface is nearer: found by
+    the last round (the blocks), for a tile of queries near each other and for queries
+    alone, at distance 1 - 0.5 = 0.5."""
+    small, wide = _square(1.0, 0.0), _square(100.0, 0.5)
+    x, y = np.meshgrid(np.linspace(-0.5, 0.5, 24), np.linspace(-0.5, 0.5, 24))
+    tile = np.stack([x.ravel(), y.ravel(), np.ones(x.size)], -1)
+    alone = np.array([[0.9, -0.9, 1.0], [-0.7, 0.2, 0.8]])
+    found = closest_points([small, wide], np.vstack([tile, alone]))
+    assert (found.patch == 1).all()
+    np.testing.assert_allclose(found.distance, np.r_[np.full(len(tile), 0.5), 0.5, 0.3], rtol=1e-12)

@@ -57,8 +57,10 @@ def free_edges(positions: ArrayLike, faces: ArrayLike, weld: float) -> NDArray[n
 
 def segment_distances(points: ArrayLike, segments: NDArray, candidates: int = 8) -> NDArray:
     """The distance (n,) of each point (n, 3) to the nearest of ``segments`` (m, 2, 3),
-    among the ``candidates`` whose middles are nearest (a k-d tree), exactly to those;
-    inf without a segment.
+    exactly; inf without a segment.  The ``candidates`` segments whose middles are nearest
+    first (a k-d tree); a segment farther than the k-th middle less the longest half
+    segment cannot be nearer, and where that does not settle it, every segment whose
+    middle lies within the distance found plus the longest half segment.
 
     Examples
     --------
@@ -71,15 +73,28 @@ def segment_distances(points: ArrayLike, segments: NDArray, candidates: int = 8)
     if not len(segments) or not len(q):
         return np.full(len(q), np.inf)
     a, b = segments[:, 0], segments[:, 1]
+    half = 0.5 * float(np.linalg.norm(b - a, axis=-1).max())
+    tree = cKDTree(0.5 * (a + b))
     k = min(candidates, len(segments))
-    _, near = cKDTree(0.5 * (a + b)).query(q, k=k)
+    apart, near = tree.query(q, k=k)
     near = np.asarray(near).reshape(len(q), k)
-    ab = (b - a)[near]
-    ap = q[:, None] - a[near]
+    found = _to_segments(q[:, None], a[near], b[near]).min(axis=1)
+    unsure = np.flatnonzero(found > np.asarray(apart).reshape(len(q), k)[:, -1] - half)
+    if unsure.size and k < len(segments):
+        lists = tree.query_ball_point(q[unsure], found[unsure] + half)
+        who = np.repeat(unsure, [len(x) for x in lists])
+        which = np.concatenate([np.asarray(x, dtype=np.int64) for x in lists])
+        np.minimum.at(found, who, _to_segments(q[who], a[which], b[which]))
+    return found
+
+
+def _to_segments(q: NDArray, a: NDArray, b: NDArray) -> NDArray:
+    """The distances of points ``q`` to the segments from ``a`` to ``b`` (broadcast)."""
+    ab, ap = b - a, q - a
     length2 = np.sum(ab * ab, -1)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.clip(np.nan_to_num(np.sum(ap * ab, -1) / length2), 0.0, 1.0)
-    return np.linalg.norm(ap - t[..., None] * ab, axis=-1).min(axis=1)
+    return np.linalg.norm(ap - t[..., None] * ab, axis=-1)
 
 
 def uncovered(

@@ -23,7 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..geometry import Patch
-from .closest_points import ClosestPoints, Samples, closest_points
+from .closest_points import ClosestPoints, closest_points
+from .surface_samples import Samples
 
 __all__ = [
     "RELATIVE_TOLERANCE",
@@ -61,7 +62,7 @@ def signed_deviation(
 ) -> Deviation:
     """The signed deviation of ``points`` (n, 3), whose surface's unit normals are
     ``normals`` (n, 3), from the surface of ``patches`` (see the module; ``samples``: its
-    points for the coarse search, :class:`~gshade.analysis.closest_points.Samples`;
+    points for the coarse search, :class:`~gshade.analysis.surface_samples.Samples`;
     ``trims``: ``inside`` and ``boundary`` of trimmed patches, as
     :func:`~gshade.analysis.closest_points.closest_points` takes them).  A point on B
     (distance 0) counts as positive.

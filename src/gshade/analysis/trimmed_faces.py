@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .closest_points import ClosestPoints
+from .coverage import segment_distances
 from .knot_lines import inside_loops
 
 if TYPE_CHECKING:
@@ -43,8 +44,6 @@ EDGE_SAMPLES, CURVE_STEPS = 33, 12
 
 #: How far from a face's loops, in their tolerances, a point counts as on the face.
 BAND = 2.0
-#: The directions to a point's neighbours for that test.
-_AROUND = [(np.cos(a), np.sin(a)) for a in np.linspace(0.0, 2 * np.pi, 8, endpoint=False)]
 
 #: (index, uv) -> whether each point lies inside its face's trims
 TrimTest = Callable[[NDArray[np.int64], NDArray[np.float64]], NDArray[np.bool_]]
@@ -85,6 +84,8 @@ def trim_test(scene: Scene) -> TrimTest | None:
     if not trimmed:
         return None
 
+    sides: dict[int, _TrimBand] = {}  # each face's loops' sides, when asked
+
     def inside(index: NDArray[np.int64], uv: NDArray[np.float64]) -> NDArray[np.bool_]:
         out = np.ones(len(index), dtype=bool)
         for k in np.unique(index).tolist():
@@ -94,18 +95,44 @@ def trim_test(scene: Scene) -> TrimTest | None:
                 on_face = body.patch_uv(place, uv[at])
                 inner = inside_loops(face.loops, on_face)
                 # the loops are polylines within their tolerance of the trims: a point
-                # that near them (one of 8 neighbours inside) is on the face too
-                reach = BAND * face.loop_tolerance
-                for du, dv in _AROUND:
-                    near = np.flatnonzero(~inner)
-                    if not near.size:
-                        break
-                    moved = on_face[near] + reach * np.array([du, dv])
-                    inner[near] = inside_loops(face.loops, moved)
+                # that near them is on the face too
+                near = np.flatnonzero(~inner)
+                if near.size:
+                    if k not in sides:
+                        sides[k] = _TrimBand(face.loops)
+                    inner[near] = sides[k].near(on_face[near], BAND * face.loop_tolerance)
                 out[at] = inner
         return out
 
     return inside
+
+
+class _TrimBand:
+    """A face's loops' sides (closed polylines in (u, v)), for which points lie near them."""
+
+    def __init__(self, loops: list[NDArray]) -> None:
+        from scipy.spatial import cKDTree
+
+        sides = []
+        for loop in loops:
+            ring = np.asarray(loop, dtype=np.float64).reshape(-1, 2)
+            flat = np.c_[np.r_[ring, ring[:1]], np.zeros(len(ring) + 1)]
+            sides.append(np.stack([flat[:-1], flat[1:]], axis=1))
+        self.sides = np.concatenate(sides) if sides else np.zeros((0, 2, 3))
+        self.half = 0.5 * float(np.ptp(self.sides, axis=1).max(initial=0.0) * np.sqrt(2))
+        self.tree = cKDTree(self.sides.mean(axis=1)) if len(self.sides) else None
+
+    def near(self, uv: NDArray, reach: float) -> NDArray[np.bool_]:
+        """Whether each point (n, 2) lies within ``reach`` of a side: those with a side's
+        middle within reach and half the longest side, measured to the sides."""
+        out = np.zeros(len(uv), dtype=bool)
+        if self.tree is None:
+            return out
+        flat = np.c_[uv, np.zeros(len(uv))]
+        apart, _ = self.tree.query(flat, k=1, distance_upper_bound=reach + self.half)
+        ask = np.flatnonzero(np.isfinite(apart))
+        out[ask] = segment_distances(flat[ask], self.sides) <= reach
+        return out
 
 
 class _Curves(Protocol):

@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..analysis.closest_points import Samples, grid_samples
 from ..analysis.deviation import Deviation, deviation_summary, signed_deviation
+from ..analysis.surface_samples import Samples, grid_samples
 from ..analysis.trimmed_faces import TrimTest, boundary_search, trim_test
 from .camera import View
 from .tessellate import TriangleMesh
@@ -79,7 +79,7 @@ def mesh_samples(
     scene: Scene, inside: TrimTest | None = None, mesh: TriangleMesh | None = None
 ) -> Samples:
     """The coarse search's points of a scene: every patch's grid samples
-    (:func:`~gshade.analysis.closest_points.grid_samples`: a periodic face's seam and a
+    (:func:`~gshade.analysis.surface_samples.grid_samples`: a periodic face's seam and a
     long tube's far side have samples near them) and the vertices of its
     :func:`sample_mesh` (where a trimmed face's grid may miss its trimmed region), each
     with its patch and (u, v), and the grids' blocks; with ``inside``
