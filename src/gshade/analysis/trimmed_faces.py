@@ -44,6 +44,8 @@ EDGE_SAMPLES, CURVE_STEPS = 33, 12
 
 #: How far from a face's loops, in their tolerances, a point counts as on the face.
 BAND = 2.0
+#: The most pieces a face's loops are cut in for that test.
+BAND_PIECES = 20_000
 
 #: (index, uv) -> whether each point lies inside its face's trims
 TrimTest = Callable[[NDArray[np.int64], NDArray[np.float64]], NDArray[np.bool_]]
@@ -99,8 +101,8 @@ def trim_test(scene: Scene) -> TrimTest | None:
                 near = np.flatnonzero(~inner)
                 if near.size:
                     if k not in sides:
-                        sides[k] = _TrimBand(face.loops)
-                    inner[near] = sides[k].near(on_face[near], BAND * face.loop_tolerance)
+                        sides[k] = _TrimBand(face.loops, BAND * face.loop_tolerance)
+                    inner[near] = sides[k].near(on_face[near])
                 out[at] = inner
         return out
 
@@ -108,30 +110,42 @@ def trim_test(scene: Scene) -> TrimTest | None:
 
 
 class _TrimBand:
-    """A face's loops' sides (closed polylines in (u, v)), for which points lie near them."""
+    """The points within ``reach`` of a face's loops (closed polylines in (u, v)): their
+    sides cut in pieces at most 4 ``reach`` long (at most :data:`BAND_PIECES` of them), the
+    pieces' middles in a k-d tree; a point with a middle within ``reach`` is near, one
+    with none within ``reach`` plus half a piece is not, the others measured."""
 
-    def __init__(self, loops: list[NDArray]) -> None:
+    def __init__(self, loops: list[NDArray], reach: float) -> None:
         from scipy.spatial import cKDTree
 
-        sides = []
+        ends = []
         for loop in loops:
             ring = np.asarray(loop, dtype=np.float64).reshape(-1, 2)
-            flat = np.c_[np.r_[ring, ring[:1]], np.zeros(len(ring) + 1)]
-            sides.append(np.stack([flat[:-1], flat[1:]], axis=1))
-        self.sides = np.concatenate(sides) if sides else np.zeros((0, 2, 3))
-        self.half = 0.5 * float(np.ptp(self.sides, axis=1).max(initial=0.0) * np.sqrt(2))
-        self.tree = cKDTree(self.sides.mean(axis=1)) if len(self.sides) else None
+            ring = np.r_[ring, ring[:1]]
+            ends.append(np.stack([ring[:-1], ring[1:]], axis=1))
+        sides = np.concatenate(ends) if ends else np.zeros((0, 2, 2))
+        length = np.linalg.norm(sides[:, 1] - sides[:, 0], axis=-1)
+        self.piece = max(4 * reach, float(length.sum()) / BAND_PIECES, 1e-300)
+        cuts = np.maximum(np.ceil(length / self.piece), 1).astype(np.int64)
+        side = np.repeat(np.arange(len(sides)), cuts)
+        t = np.arange(side.size) - np.repeat(np.cumsum(cuts) - cuts, cuts)
+        a, b = sides[side, 0], sides[side, 1] - sides[side, 0]
+        lo, hi = (t / cuts[side])[:, None], ((t + 1) / cuts[side])[:, None]
+        pieces = np.stack([a + lo * b, a + hi * b], axis=1)
+        self.pieces = np.concatenate([pieces, np.zeros((len(pieces), 2, 1))], axis=-1)
+        self.reach = reach
+        self.tree = cKDTree(self.pieces.mean(axis=1)) if len(self.pieces) else None
 
-    def near(self, uv: NDArray, reach: float) -> NDArray[np.bool_]:
-        """Whether each point (n, 2) lies within ``reach`` of a side: those with a side's
-        middle within reach and half the longest side, measured to the sides."""
+    def near(self, uv: NDArray) -> NDArray[np.bool_]:
+        """Whether each point (n, 2) lies within the band's reach of the loops."""
         out = np.zeros(len(uv), dtype=bool)
         if self.tree is None:
             return out
         flat = np.c_[uv, np.zeros(len(uv))]
-        apart, _ = self.tree.query(flat, k=1, distance_upper_bound=reach + self.half)
-        ask = np.flatnonzero(np.isfinite(apart))
-        out[ask] = segment_distances(flat[ask], self.sides) <= reach
+        apart, _ = self.tree.query(flat, k=1, distance_upper_bound=self.reach + self.piece / 2)
+        out[apart <= self.reach] = True
+        ask = np.flatnonzero(np.isfinite(apart) & (apart > self.reach))
+        out[ask] = segment_distances(flat[ask], self.pieces) <= self.reach
         return out
 
 

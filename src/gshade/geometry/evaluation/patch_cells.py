@@ -126,12 +126,17 @@ class PatchCells:
         bv = _bernstein(n, drjit_array(Float64, t), order)
         wanted = [(a, b) for a in range(order + 1) for b in range(order + 1 - a)]
         h: dict[tuple[int, int], list[Any]] = {ab: [0.0] * c for ab in wanted}
+        # the sum over j first (each row's v-derivatives), then over i: fewer products
         for i in range(m + 1):
+            row: list[list[Any]] = [[0.0] * c for _ in range(order + 1)]
             for j in range(n + 1):
                 for k in range(c):
                     x = dr.gather(Float64, nets, base + ((i * (n + 1) + j) * c + k))
-                    for a, b in wanted:
-                        h[a, b][k] = h[a, b][k] + (bu[a][i] * bv[b][j]) * x
+                    for b in range(order + 1):
+                        row[b][k] = row[b][k] + bv[b][j] * x
+            for a, b in wanted:
+                for k in range(c):
+                    h[a, b][k] = h[a, b][k] + bu[a][i] * row[b][k]
         arrays = [h[ab][k] for ab in wanted for k in range(c)]
         dr.eval(*arrays)
         buf = np.zeros((order + 1, order + 1, c, u.size))
