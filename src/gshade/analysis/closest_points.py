@@ -38,6 +38,9 @@ TILE = 16
 #: samples (wider, Newton's method from one start may end at other minima for the centre
 #: and for a query: the tile split in 4, then in single queries).
 TILE_SPREAD = 3.0
+#: The sizes of the groups of queries (each a multiple of the next) the blocks near them
+#: are found for, largest first (:func:`_near_blocks`).
+GROUPS = (1024, 256, 64, 16, 4, 1)
 
 
 @dataclass(frozen=True)
@@ -224,43 +227,44 @@ def _morton(points: NDArray) -> NDArray[np.uint64]:
 
 def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, NDArray]:
     """The (query, block) pairs whose box comes within ``reach`` (n,) of the query ``q``
-    (n, 3), the nearest box of each patch: blocks grouped by size (their boxes' half
-    diagonals, in powers of 2), each group's centres in a k-d tree asked for those within
-    reach + the group's largest half diagonal, then each box's own distance."""
-    from scipy.spatial import cKDTree
-
-    centre = 0.5 * (blocks.lo + blocks.hi)
-    radius = 0.5 * np.linalg.norm(blocks.hi - blocks.lo, axis=-1)
-    group = np.floor(np.log2(np.maximum(radius, 1e-300) / max(radius.min(), 1e-300)))
-    rows, found = [], []
-    for g in np.unique(group):
-        members = np.flatnonzero(group == g)
-        tree = cKDTree(centre[members])
-        within = reach + radius[members].max()
-        counts = tree.query_ball_point(q, within, return_length=True)
-        # arrays, not lists: the queries with up to 2^j blocks near asked for 2^j nearest
-        size = np.ceil(np.log2(np.maximum(counts, 1))).astype(np.int64)
-        for j in np.unique(size[counts > 0]).tolist():
-            ask = np.flatnonzero((size == j) & (counts > 0))
-            most = min(2**j, len(members))
-            apart, index = tree.query(q[ask], k=most, distance_upper_bound=float(within[ask].max()))
-            apart = np.asarray(apart).reshape(len(ask), most)
-            index = np.asarray(index).reshape(len(ask), most)
-            hit = apart <= within[ask, None]
-            rows.append(np.repeat(ask, hit.sum(axis=1)))
-            found.append(members[index[hit]])
-    if not rows:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    who, block = np.concatenate(rows), np.concatenate(found)
-    gap = np.maximum(np.maximum(blocks.lo[block] - q[who], q[who] - blocks.hi[block]), 0.0)
-    apart = np.linalg.norm(gap, axis=-1)
-    near = apart < reach[who]
-    who, block, apart = who[near], block[near], apart[near]
+    (n, 3), the nearest box of each patch.  The queries (in Morton order: consecutive
+    ones near each other) in groups of :data:`GROUPS` sizes, each group a ball; the boxes
+    within a group's largest reach of its ball, then those of them within each of its
+    smaller groups' reach, down to the queries'."""
+    pairs = None
+    for size, larger in zip(GROUPS, (0, *GROUPS[:-1]), strict=True):
+        first = np.arange(0, len(q), size)
+        count = np.diff(np.r_[first, len(q)])
+        member = np.repeat(np.arange(first.size), count)
+        centre = np.add.reduceat(q, first) / count[:, None]
+        radius = np.maximum.reduceat(np.linalg.norm(q - centre[member], axis=-1), first)
+        within = np.maximum.reduceat(reach, first) + radius
+        if pairs is None:  # every box for the largest groups
+            group = np.repeat(np.arange(first.size), len(blocks.lo))
+            block = np.tile(np.arange(len(blocks.lo)), first.size)
+        else:  # the boxes of a group's parent for each of its groups
+            parent, block = pairs
+            per = larger // size
+            group = np.repeat(parent * per, per) + np.tile(np.arange(per), parent.size)
+            block = np.repeat(block, per)
+            kept = group < first.size
+            group, block = group[kept], block[kept]
+        near = _box_distances(blocks, block, centre[group]) < within[group]
+        pairs = (group[near], block[near])
+    assert pairs is not None
+    who, block = pairs
+    apart = _box_distances(blocks, block, q[who])
     # one block a patch for each query: the nearest box
     order = np.lexsort((apart, blocks.patch[block], who))
     key = who[order] * (blocks.patch.max(initial=0) + 1) + blocks.patch[block[order]]
     lead = order[np.r_[True, key[1:] != key[:-1]]]
     return who[lead], block[lead]
+
+
+def _box_distances(blocks: Blocks, block: NDArray, points: NDArray) -> NDArray[np.float64]:
+    """The distances (n,) of points (n, 3) to the boxes ``block`` (n,)."""
+    gap = np.maximum(np.maximum(blocks.lo[block] - points, points - blocks.hi[block]), 0.0)
+    return np.linalg.norm(gap, axis=-1)
 
 
 def _merge(best: ClosestPoints, ask: NDArray, found: ClosestPoints) -> None:
