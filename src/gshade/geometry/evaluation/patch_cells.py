@@ -141,9 +141,10 @@ class PatchCells:
         dr.eval(*arrays)
         buf = np.zeros((order + 1, order + 1, c, u.size))
         for at, (a, b) in enumerate(wanted):
+            # d/du = d/ds / side_u: the cell's parameters normalised
+            scale = 1.0 / (side_u**a * side_v**b) if a or b else 1.0
             for k in range(c):
-                # d/du = d/ds / side_u: the cell's parameters normalised
-                buf[a, b, k] = np.asarray(arrays[at * c + k]) / (side_u**a * side_v**b)
+                np.multiply(np.asarray(arrays[at * c + k]), scale, out=buf[a, b, k])
         if self.rational:
             buf = project_patch_derivatives(buf[:, :, :3], buf[:, :, 3], order)
         return np.moveaxis(buf, 2, -1)
