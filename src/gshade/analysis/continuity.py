@@ -420,6 +420,26 @@ def continuity_report(
     Bounded: ``samples`` from 1 to ``MAX_SAMPLES`` (4096), at most ``MAX_PAIRS`` (10,000)
     pairs, and :func:`find_junctions` refuses a boundary shared by more than
     ``MAX_PARTNERS`` (8) others (so at most 4 x 8 junctions per patch are measured).
+
+    Examples
+    --------
+    A bicubic Bézier patch and the patch that continues it across its v = 1 edge with
+    p*_v = 0.2 p_u + 1.5 p_v (:func:`gshade.geometry.splines.junctions.junction_patch`,
+    Kiciak, ch. 3): the normals agree along the edge, the curvatures do not.
+
+    >>> import numpy as np
+    >>> from gshade.geometry import BezierPatch
+    >>> from gshade.geometry.splines.junctions import junction_patch
+    >>> x, y = np.meshgrid(np.arange(4.0), np.arange(4.0), indexing="ij")
+    >>> p = BezierPatch(np.stack([x, y, np.sin(x + y)], axis=-1))
+    >>> q = junction_patch(p, "G1", alpha=0.2, beta=1.5)
+    >>> (junction,) = continuity_report([p, q])
+    >>> junction.patches, junction.sides, junction.cls
+    ((0, 1), ('v1', 'v0'), 'G1')
+    >>> round(junction.gap, 12), round(junction.normal_angle_deg, 9)
+    (0.0, 0.0)
+    >>> round(junction.curvature_jump, 4)  # above the G2 tolerance
+    0.1144
     """
     samples = validate_samples(samples)
     if pairs is not None and len(pairs) > MAX_PAIRS:

@@ -93,6 +93,26 @@ def read_cad(
         One line naming the file: an unknown extension, the CAD libraries missing (with the
         install command), a file the kernel cannot read, that holds no surfaces, or (when
         isolated) that crashes the kernel, or makes it overrun its time or memory.
+
+    Examples
+    --------
+    A 10 x 20 x 30 box made with the kernel (OCP), written to STEP in a temporary folder
+    and read here (``isolated=False``: no child process, nothing cached):
+
+    >>> import shutil, tempfile
+    >>> from pathlib import Path
+    >>> from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    >>> from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> writer = STEPControl_Writer()
+    >>> _ = writer.Transfer(BRepPrimAPI_MakeBox(10.0, 20.0, 30.0).Shape(), STEPControl_AsIs)
+    >>> _ = writer.Write(str(folder / "box.step"))
+    >>> model = read_cad(folder / "box.step", isolated=False)
+    >>> model.face_count, model.unit, sorted({face.kind for face in model.faces})
+    (6, 'mm', ['plane'])
+    >>> (model.bounds[1] - model.bounds[0]).round(9).tolist()
+    [10.0, 20.0, 30.0]
+    >>> shutil.rmtree(folder)
     """
     path = Path(path)
     reader = CAD_EXTENSIONS.get(path.suffix.lower())

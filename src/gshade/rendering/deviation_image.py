@@ -120,7 +120,31 @@ def deviation_image(
     """Scene ``a`` rendered (with ``overrides``, as :func:`gshade.rendering.render`) and
     coloured by its signed deviation from ``b`` (a scene's surfaces, a mesh or a cloud:
     :mod:`gshade.rendering.deviation_references`) within ``tolerance`` (see the module),
-    and the numbers."""
+    and the numbers.
+
+    Examples
+    --------
+    The unit sphere measured against one of radius 1.01, on a 16 x 12 picture: every
+    covered pixel's point lies 0.01 from B, beyond the tolerance 0.001, on the side away
+    from A's normal (the sphere's p_u x p_v points inward): d = -0.01.
+
+    >>> from gshade.rendering.deviation_references import SurfaceReference
+    >>> from gshade.scene import parse_scene
+    >>> a = parse_scene('''[[surface]]
+    ... type = "sphere"
+    ... [render]
+    ... width = 16
+    ... height = 12
+    ... spp = 1''')
+    >>> b = SurfaceReference(parse_scene('''[[surface]]
+    ... type = "sphere"
+    ... radius = 1.01'''))
+    >>> image, numbers = deviation_image(a, b, 0.001)
+    >>> image.channels["f"].shape, round(numbers["min"], 12), round(numbers["max"], 12)
+    ((12, 16), -0.01, -0.01)
+    >>> numbers["within"], numbers["beyond"]
+    (0.0, 0)
+    """
     from .pipeline import render
 
     image = render(a, **overrides)

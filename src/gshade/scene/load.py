@@ -230,6 +230,30 @@ def load_scene(
     ------
     GshadeError
         One line naming the file, the table and key, what was expected and what was found.
+
+    Examples
+    --------
+    A scene of one bilinear Bézier patch (z = uv), written to a temporary folder, and read
+    as it is and with the shape function overridden:
+
+    >>> import shutil, tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "saddle.toml").write_text('''
+    ... [[surface]]
+    ... type = "bezier"
+    ... points = [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 1]]]
+    ... [shape]
+    ... function = "mean"
+    ... ''')
+    >>> scene = load_scene(folder / "saddle.toml")
+    >>> scene.name, scene.surfaces[0].kind, len(scene.patches), scene.shape.function
+    ('saddle', 'bezier', 1, 'mean')
+    >>> scene.render.width, scene.render.height, scene.camera.origin  # defaults; framed later
+    (1024, 768, None)
+    >>> load_scene(folder / "saddle.toml", {"shape.function": "gaussian"}).shape.function
+    'gaussian'
+    >>> shutil.rmtree(folder)
     """
     from ..cad import CAD_EXTENSIONS
     from ..io.files import require_regular_file

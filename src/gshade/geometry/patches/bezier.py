@@ -49,6 +49,18 @@ class BezierCurve(BasisCurve):
         Positive weights; the curve is rational if given.
     domain : (float, float)
         Parameter interval, default (0, 1).
+
+    Examples
+    --------
+    A quarter of the unit circle: a rational quadratic with weights 1, cos 45°, 1.
+
+    >>> import numpy as np
+    >>> from gshade.geometry import BezierCurve
+    >>> quarter = BezierCurve([[1, 0], [1, 1], [0, 1]], weights=[1, np.sqrt(0.5), 1])
+    >>> np.round(quarter([0.0, 0.5, 1.0]), 12).tolist()
+    [[1.0, 0.0], [0.707106781187, 0.707106781187], [0.0, 1.0]]
+    >>> np.round(np.linalg.norm(quarter(np.linspace(0.0, 1.0, 5)), axis=-1), 12).tolist()
+    [1.0, 1.0, 1.0, 1.0, 1.0]
     """
 
     def __init__(
@@ -87,6 +99,20 @@ class BezierPatch(TensorProductPatch):
         Positive weights; the patch is rational if given.
     domain : ((u0, u1), (v0, v1))
         Parameter rectangle, default the unit square.
+
+    Examples
+    --------
+    The bilinear patch z = uv: its point and first derivatives at (0.5, 0.5).
+
+    >>> from gshade.geometry import BezierPatch
+    >>> saddle = BezierPatch([[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 1]]])
+    >>> saddle(0.5, 0.5).tolist()
+    [0.5, 0.5, 0.25]
+    >>> d = saddle.derivatives(0.5, 0.5, order=1)  # d[i, j]: d^(i+j)p / du^i dv^j
+    >>> d[1, 0].tolist(), d[0, 1].tolist()
+    ([1.0, 0.0, 0.5], [0.0, 1.0, 0.5])
+    >>> saddle.elevated((3, 2)).points.shape  # the same surface, a finer net
+    (4, 3, 3)
     """
 
     def __init__(

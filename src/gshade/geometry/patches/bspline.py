@@ -166,6 +166,19 @@ class BSplineCurve(BasisCurve):
     knots : array_like, length n + p + 2
         Non-decreasing; clamped or not; the domain is [U_p, U_{n+1}].
     weights : array_like, shape (n + 1,), optional
+
+    Examples
+    --------
+    A quadratic of two spans; inserting a knot (Boehm) adds a control point, not a change:
+
+    >>> from gshade.geometry import BSplineCurve
+    >>> curve = BSplineCurve([[0, 0], [1, 2], [3, 2], [4, 0]], 2, [0, 0, 0, 0.5, 1, 1, 1])
+    >>> curve(0.5).tolist()  # at the knot: the middle of P1 P2
+    [2.0, 2.0]
+    >>> curve.insert_knot(0.25).points.tolist()
+    [[0.0, 0.0], [0.5, 1.0], [1.5, 2.0], [3.0, 2.0], [4.0, 0.0]]
+    >>> [segment.domain for segment in curve.bezier_segments()]
+    [(0.0, 0.5), (0.5, 1.0)]
     """
 
     def __init__(
@@ -211,6 +224,26 @@ class BSplinePatch(TensorProductPatch):
     knots : (array_like, array_like)
         (U, V) with len(U) = nu + p + 1 and len(V) = nv + q + 1.
     weights : array_like, shape (nu, nv), optional
+
+    Examples
+    --------
+    A NURBS quarter cylinder of radius 1 and height 2 (rational quadratic in u with the
+    weights 1, cos 45°, 1; linear in v): every point lies on the radius.
+
+    >>> import numpy as np
+    >>> from gshade.geometry import BSplinePatch
+    >>> net = [[[1, 0, 0], [1, 0, 2]], [[1, 1, 0], [1, 1, 2]], [[0, 1, 0], [0, 1, 2]]]
+    >>> w = np.sqrt(0.5)
+    >>> knots = ([0, 0, 0, 1, 1, 1], [0, 0, 1, 1])
+    >>> quarter = BSplinePatch(net, (2, 1), knots, weights=[[1, 1], [w, w], [1, 1]])
+    >>> np.round(quarter(0.5, 0.5), 12).tolist()
+    [0.707106781187, 0.707106781187, 1.0]
+    >>> ring = quarter(np.linspace(0.0, 1.0, 5), 0.25)
+    >>> np.round(np.hypot(ring[:, 0], ring[:, 1]), 12).tolist()
+    [1.0, 1.0, 1.0, 1.0, 1.0]
+    >>> d = quarter.derivatives(0.5, 0.5, order=1)  # p_u along the circle, p_v up
+    >>> np.round(d[1, 0], 12).tolist(), np.round(d[0, 1], 12).tolist()
+    ([-1.171572875254, 1.171572875254, 0.0], [0.0, 0.0, 2.0])
     """
 
     def __init__(
@@ -238,7 +271,20 @@ class BSplinePatch(TensorProductPatch):
         super().__init__(BSplineBasis(self.degree[0], U), BSplineBasis(self.degree[1], V), P, w)
 
     def insert_knot(self, direction: str, t: float, times: int = 1) -> BSplinePatch:
-        """The same patch with the knot ``t`` inserted ``times`` times in 'u' or 'v'."""
+        """The same patch with the knot ``t`` inserted ``times`` times in 'u' or 'v'.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from gshade.geometry import cylinder
+        >>> tube = cylinder(radius=2.0, height=3.0)
+        >>> finer = tube.insert_knot("v", 0.125)
+        >>> tube.points.shape, finer.points.shape
+        ((2, 9, 3), (2, 10, 3))
+        >>> u, v = np.random.default_rng(0).random((2, 100))
+        >>> bool(np.allclose(finer(u, v), tube(u, v), rtol=0.0, atol=1e-13))  # unchanged
+        True
+        """
         if direction not in ("u", "v"):
             raise GshadeError(f"direction: expected 'u' or 'v', got {direction!r}")
         p, q = self.degree

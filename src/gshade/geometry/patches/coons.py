@@ -74,6 +74,23 @@ class CoonsPatch(Patch):
     GshadeError
         If the curves are not 3-D curves, only some cross derivatives are given, or the data
         disagree at a corner (points, and for bicubic blending tangents and twists).
+
+    Examples
+    --------
+    Four parabolic arcs, each rising to z = 1/2 at its middle, blended bilinearly: the two
+    ruled surfaces added, the bilinear patch of the corners taken away.
+
+    >>> from gshade.geometry import BezierCurve, CoonsPatch
+    >>> v0 = BezierCurve([[0, 0, 0], [0.5, 0, 1], [1, 0, 0]])
+    >>> v1 = BezierCurve([[0, 1, 0], [0.5, 1, 1], [1, 1, 0]])
+    >>> u0 = BezierCurve([[0, 0, 0], [0, 0.5, 1], [0, 1, 0]])
+    >>> u1 = BezierCurve([[1, 0, 0], [1, 0.5, 1], [1, 1, 0]])
+    >>> patch = CoonsPatch(v0, v1, u0, u1)
+    >>> patch(0.5, 0.0).tolist(), patch(0.5, 0.5).tolist()
+    ([0.5, 0.0, 0.5], [0.5, 0.5, 1.0])
+    >>> bezier = patch.to_bezier()
+    >>> bezier.degree, bezier(0.5, 0.5).tolist()
+    ((2, 2), [0.5, 0.5, 1.0])
     """
 
     domain = ((0.0, 1.0), (0.0, 1.0))

@@ -81,6 +81,13 @@ def arc_parameters(angle: ArrayLike, a0: float, a1: float) -> NDArray[np.float64
     c = cos(Delta/2) reaches angle b + phi at the local parameter
     tau = t / (s + t (1 - c)), t = tan(phi / 2), s = sin(Delta/2) (its angle obeys
     tan(phi/2) = tau s / ((1 - tau) + tau c)); the parameter is b + tau Delta.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = arc_parameters(np.pi / 6, 0.0, np.pi / 2)  # where the quarter arc is at 30°
+    >>> np.round(arc(0.0, np.pi / 2)(t), 12).tolist()
+    [0.866025403784, 0.5]
     """
     angle = np.asarray(angle, dtype=np.float64)
     count, delta = _arc_segments(a0, a1)
@@ -96,6 +103,20 @@ def revolve(profile: BSplineCurve) -> BSplinePatch:
 
     u runs along the profile, v around the axis (v = 0 in the xz plane, counter-clockwise
     seen from +z).  The profile may be rational; rho = 0 gives a collapsed edge (a pole).
+
+    Examples
+    --------
+    A cone: the segment from (rho, z) = (1, 0) to (0, 1), revolved; halfway up, a circle of
+    radius 1/2.
+
+    >>> import numpy as np
+    >>> from gshade.geometry import BSplineCurve, revolve
+    >>> cone = revolve(BSplineCurve([[1, 0], [0, 1]], 1, [0, 0, 1, 1]))
+    >>> ring = cone(0.5, [0.1, 0.2, 0.6, 0.9])
+    >>> np.round(np.hypot(ring[:, 0], ring[:, 1]), 12).tolist()
+    [0.5, 0.5, 0.5, 0.5]
+    >>> np.round(ring[:, 2], 12).tolist()
+    [0.5, 0.5, 0.5, 0.5]
     """
     if profile.dim != 2:
         raise GshadeError(f"profile: expected a planar curve (rho, z), got dimension {profile.dim}")
@@ -111,7 +132,15 @@ def revolve(profile: BSplineCurve) -> BSplinePatch:
 
 
 def sphere(radius: float = 1.0) -> BSplinePatch:
-    """The sphere of the given radius about the origin; u from the south to the north pole."""
+    """The sphere of the given radius about the origin; u from the south to the north pole.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> u, v = np.random.default_rng(0).random((2, 4))
+    >>> np.round(np.linalg.norm(sphere(2.0)(u, v), axis=-1), 12).tolist()
+    [2.0, 2.0, 2.0, 2.0]
+    """
     profile = BSplineCurve(
         radius * np.array([[0, -1], [1, -1], [1, 0], [1, 1], [0, 1]], dtype=float),
         2,
