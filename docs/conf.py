@@ -4,9 +4,9 @@ Tools, chosen for what the libraries gshade's users know do (scikit-image, PyVis
 Mitsuba 3): numpydoc for the API reference from the docstrings, sphinx-gallery for the
 examples (each a script run at build time, its pictures the real output, downloadable as a
 script or a Jupyter notebook), MyST-NB for the tutorial notebook (executed at build time),
-sphinx-argparse for the command-line reference from gshade's own parser, and the PyData
-theme.  ``_ext/gshade_reference.py`` writes the scene-key and shape-function references
-from gshade's registries, as ``gshade keys`` and ``gshade shapes`` print them.
+and the PyData theme.  ``_ext/gshade_reference.py`` writes the command-line, scene-key and
+shape-function references from gshade's parser and registries, as ``gshade --help``,
+``gshade keys`` and ``gshade shapes`` print them.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ extensions = [
     "numpydoc",
     "sphinx_gallery.gen_gallery",
     "myst_nb",
-    "sphinxarg.ext",
     "gshade_reference",
 ]
 
@@ -41,7 +40,13 @@ extensions = [
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 source_suffix = {".rst": "restructuredtext", ".ipynb": "myst-nb"}
-exclude_patterns = ["_build", "**.ipynb_checkpoints", "examples/README.txt"]
+# sphinx-gallery writes a notebook beside each example page: a download, not a source
+exclude_patterns = [
+    "_build",
+    "**.ipynb_checkpoints",
+    "examples/README.txt",
+    "auto_examples/**.ipynb",
+]
 templates_path: list[str] = []
 
 autosummary_generate = True
@@ -50,6 +55,10 @@ autodoc_default_options = {"members": False}
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_validation_checks: set[str] = set()
+
+# -n: every cross-reference must resolve, but a docstring's module-local name (an undotted
+# target such as ``:data:`CAD_LIGHT```) names what its own module holds and is left there
+nitpick_ignore_regex = [(r"py:.*", r"[A-Za-z_][A-Za-z0-9_]*")]
 
 # no network at build time: intersphinx only from inventories kept beside the docs, if any
 intersphinx_mapping: dict[str, tuple[str, str | None]] = {}

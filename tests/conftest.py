@@ -1,7 +1,8 @@
 """The test session's settings: Dr.Jit pointed at gshade's libLLVM (the tests import drjit
 and mitsuba themselves), hypothesis's profile under CI, gshade's caches in a folder of the
 session's, and the fixtures of tests/support/browser.py.  The ``slow`` marker is pyproject's
-(``-m "not slow"``: the quick loop; the README's test command runs everything)."""
+(``-m "not slow"``: the quick loop; the test command of README.md and
+docs/getting_started.rst runs everything)."""
 
 from __future__ import annotations
 

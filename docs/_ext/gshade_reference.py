@@ -1,7 +1,8 @@
 """A Sphinx extension that writes gshade's references from its registries at build time:
 ``reference/generated/keys.rst`` (every scene table and key: what it accepts, its default
-and meaning, as ``gshade keys``) and ``reference/generated/shape_functions.rst`` (every
-shape function: order, eye dependence, parameters, as ``gshade shapes``).  Nothing is
+and meaning, as ``gshade keys``), ``reference/generated/shape_functions.rst`` (every
+shape function: order, eye dependence, parameters, as ``gshade shapes``) and
+``reference/generated/cli.rst`` (every command's ``--help``, from the argument parser).  Nothing is
 written by hand: a key or function added to a registry appears at the next build."""
 
 from __future__ import annotations
@@ -13,9 +14,11 @@ from sphinx.application import Sphinx
 
 
 def _cell(text: str) -> str:
-    """Text for a list-table cell: literal where it is code-like, escaped otherwise."""
+    """Text for a list-table cell: one line, reST's special characters escaped."""
     text = " ".join(str(text).split())
-    return text.replace("\\", "\\\\").replace("*", "\\*").replace("|", "\\|").replace("`", "\\`") or " "
+    for special in ("\\", "*", "|", "`", "_"):
+        text = text.replace(special, "\\" + special)
+    return text or " "
 
 
 def _table(rows: list[tuple[str, ...]], header: tuple[str, ...], widths: str) -> list[str]:
@@ -24,7 +27,7 @@ def _table(rows: list[tuple[str, ...]], header: tuple[str, ...], widths: str) ->
         first, *rest = row
         out.append(f"   * - {first}")
         out += [f"     - {cell}" for cell in rest]
-    return out + [""]
+    return [*out, ""]
 
 
 def keys_page() -> str:
@@ -89,10 +92,47 @@ def shape_functions_page() -> str:
     return "\n".join(lines)
 
 
+def commands_page() -> str:
+    """The command-line reference as reStructuredText: each command's help as the terminal
+    shows it (``gshade COMMAND --help``), from gshade's own parser."""
+    import argparse
+
+    from gshade.app.cli import build_parser
+
+    parser = build_parser()
+    lines = [
+        ".. _cli:",
+        "",
+        "Command line",
+        "============",
+        "",
+        "Generated from gshade's argument parser: ``gshade --help`` and every command's",
+        "``--help``, as the terminal shows them.  The exit statuses are listed in",
+        ":ref:`exit-statuses`.",
+        "",
+        "::",
+        "",
+    ]
+    lines += ["   " + line for line in parser.format_help().splitlines()]
+    lines.append("")
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, command in commands.choices.items():
+        title = f"gshade {name}"
+        lines += [f".. _cli-{name}:", "", title, "-" * len(title), "", "::", ""]
+        lines += ["   " + line for line in command.format_help().splitlines()]
+        lines.append("")
+    return "\n".join(line.rstrip() for line in lines)
+
+
 def _write(app: Sphinx) -> None:
     folder = Path(app.srcdir) / "reference" / "generated"
     folder.mkdir(parents=True, exist_ok=True)
-    for name, page in (("keys", keys_page()), ("shape_functions", shape_functions_page())):
+    pages = (
+        ("keys", keys_page()),
+        ("shape_functions", shape_functions_page()),
+        ("cli", commands_page()),
+    )
+    for name, page in pages:
         path = folder / f"{name}.rst"
         if not path.exists() or path.read_text(encoding="utf-8") != page:
             path.write_text(page, encoding="utf-8")

@@ -1,8 +1,10 @@
 """gshade: pictures and numbers of the shape quality of parametric surfaces.
 
 The public API mirrors the command line: ``gshade.load_scene(path)``,
-``gshade.render(scene, **overrides)`` (an image with the EXR channels, ``.write_exr`` and
-``.write_png``) and ``gshade.compare(test, reference, ...)`` (metrics and an idiff verdict).
+``gshade.render(scene_or_path, function=..., width=..., camera=..., set=...)`` (a
+:class:`RenderedImage`: the EXR channels, ``.f .P .N .rgb .srgb``, ``.write_exr`` and
+``.write_png``; Jupyter shows it) and ``gshade.compare(test, reference, ...)`` (metrics and
+an idiff verdict).
 The packages follow the pipeline, data flowing one way: ``gshade.scene`` (scene files) →
 ``gshade.geometry`` (exact patches and their differential geometry) → ``gshade.shape`` (shape
 functions) → ``gshade.display`` (stripes, colour maps) → ``gshade.rendering`` (tessellation,
@@ -20,29 +22,37 @@ from __future__ import annotations
 
 __version__ = "0.11.0"
 
-from typing import TYPE_CHECKING
+import sys
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
 
 from .errors import GshadeError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
-    from typing import Any
+    from .regression.comparison import compare
+    from .rendering.pipeline import render
+    from .rendering.rendered_image import RenderedImage
+    from .scene import load_scene
 
-__all__ = ["GshadeError", "__version__", "compare", "load_scene", "render"]
+__all__ = ["GshadeError", "RenderedImage", "__version__", "compare", "load_scene", "render"]
+
+#: The names imported when first used (importing gshade stays cheap: Mitsuba and the kernels
+#: load with them), and the module that defines each.
+_LAZY = {
+    "RenderedImage": ".rendering.rendered_image",
+    "compare": ".regression.comparison",
+    "load_scene": ".scene",
+    "render": ".rendering.pipeline",
+}
 
 
-def __getattr__(name: str) -> Callable[..., Any]:
-    # lazy: importing gshade stays cheap; Mitsuba and the kernels load when first used
-    if name == "render":
-        from .rendering import render
-
-        return render
-    if name == "compare":
-        from .regression.comparison import compare
-
-        return compare
-    if name == "load_scene":
-        from .scene import load_scene
-
-        return load_scene
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name], __name__), name)
     raise AttributeError(f"module 'gshade' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """The public names, and the subpackages imported so far (``gshade.scene`` ...)."""
+    loaded = (n for n in globals() if not n.startswith("_") and f"{__name__}.{n}" in sys.modules)
+    return sorted({*__all__, *loaded})

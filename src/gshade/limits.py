@@ -2,7 +2,8 @@
 
 Scene files arrive from pull requests and overnight batches; every size a file can ask for
 is bounded here, so that a hostile or mistaken file is refused with one line before it
-costs minutes of time or gigabytes of memory.  The README lists the same values.
+costs minutes of time or gigabytes of memory.  The docs list the same values
+(docs/how_to/untrusted.rst).
 
 The render's memory is estimated from its sizes (:func:`render_memory`) and refused above
 :func:`memory_limit`: ``GSHADE_MEMORY_LIMIT`` (e.g. ``8G``) or 3/4 of this machine's memory,

@@ -1,5 +1,6 @@
 """gshade's pytest plugin (the gshade_check fixture, --gshade-update, --gshade-report), run
-with pytester on the README's example, and `gshade check --junit` read back by junitparser."""
+with pytester on the documentation's example (docs/how_to/ci.rst, "The pytest plugin"), and
+`gshade check --junit` read back by junitparser."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import importlib.metadata
 import re
 import subprocess
 import sys
+import textwrap
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -20,19 +22,33 @@ pytestmark = pytest.mark.slow  # whole pytest sessions (pytester)
 
 pytest_plugins = ["pytester"]
 
+#: The page that shows the example, and the markers (reST comments there) around it.
+DOCS_PAGE = ROOT / "docs" / "how_to" / "ci.rst"
 MARKERS = ("<!-- pytest-example -->", "<!-- /pytest-example -->")
+DIRECTIVE = ".. code-block:: python\n"
 #: A scene that does not load.
 BROKEN = "[[surface]]\ntype = 'sphere'\nradius = -1\n"
 
 
-def readme_example() -> str:
-    """The example as README.md shows it (its ```python block between the markers)."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    assert MARKERS[0] in text and MARKERS[1] in text, "README.md: the pytest example is gone"
+def docs_example() -> str:
+    """The example as the docs page shows it: the ``.. code-block:: python`` between the
+    markers, unindented."""
+    text = DOCS_PAGE.read_text(encoding="utf-8")
+    page = DOCS_PAGE.relative_to(ROOT)
+    assert MARKERS[0] in text and MARKERS[1] in text, f"{page}: the pytest example is gone"
     block = text.split(MARKERS[0], 1)[1].split(MARKERS[1], 1)[0]
-    match = re.search(r"```python\n(.*?)```", block, re.S)
-    assert match, "README.md: the pytest example's markers hold no ```python block"
-    return match.group(1)
+    assert DIRECTIVE in block, f"{page}: the pytest example's markers hold no python block"
+    lines = block.split(DIRECTIVE, 1)[1].splitlines()
+    while lines and (not lines[0].strip() or lines[0].lstrip().startswith(":")):
+        lines.pop(0)  # the blank line and any options of the directive
+    body = []
+    for line in lines:
+        if line.strip() and not line[0].isspace():
+            break  # the block ends at the first unindented line (the closing marker's)
+        body.append(line)
+    code = textwrap.dedent("\n".join(body)).strip("\n") + "\n"
+    assert "def test_" in code, f"{page}: the pytest example holds no test"
+    return code
 
 
 def sphere_scene(period: float = 0.1, check: str = "", name: str = "sphere") -> str:
@@ -46,10 +62,10 @@ def sphere_scene(period: float = 0.1, check: str = "", name: str = "sphere") -> 
 
 @pytest.fixture
 def project(pytester):
-    """A project with the README's example test and its scene, no references yet."""
+    """A project with the documentation's example test and its scene, no references yet."""
     (pytester.path / "scenes").mkdir()
     (pytester.path / "scenes" / "sphere.toml").write_text(sphere_scene())
-    pytester.makepyfile(test_shape=readme_example())
+    pytester.makepyfile(test_shape=docs_example())
     return pytester
 
 

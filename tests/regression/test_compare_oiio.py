@@ -2,11 +2,12 @@
 
 Each case writes a pair of small EXRs, runs both tools with the same thresholds and asserts
 the same verdict (exit status), largest error, its pixel (and channel), failing-pixel count,
-and idiff's mean and RMS error (gshade's ``all_values``).  Left out, as the README says: NaN
-and infinity (idiff lets NaN match NaN), channels that differ by name (idiff matches them by
-position), warnings with no pixel over ``--fail`` (idiff ignores ``--warn`` then), display
-windows that differ (idiff pads), ties at one pixel (idiff names the channel first in the
-file, gshade the first compared), and values within float32 rounding of a threshold.
+and idiff's mean and RMS error (gshade's ``all_values``).  Left out, as
+docs/reference/comparison.rst says: NaN and infinity (idiff lets NaN match NaN), channels
+that differ by name (idiff matches them by position), warnings with no pixel over ``--fail``
+(idiff ignores ``--warn`` then), display windows that differ (idiff pads), ties at one pixel
+(idiff names the channel first in the file, gshade the first compared), and values within
+float32 rounding of a threshold.
 """
 
 import json

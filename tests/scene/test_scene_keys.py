@@ -1,11 +1,14 @@
-"""The scene-key reference (``gshade keys``) and the README's scene file agree: every
-declared key is in the README's "Scene files" block, and every key there is declared."""
+"""The scene-key reference (``gshade keys``) and the documentation's annotated scene file
+agree: every declared key is in the annotated scene file of docs/reference/scene_files.rst
+(the ``.. code-block:: toml`` after the label ``annotated-scene-file``), and every key there
+is declared."""
 
 from __future__ import annotations
 
 import json
 import math
 import re
+import textwrap
 
 from gshade.app.cli import main
 from gshade.scene import SURFACE_TYPES, parse_scene
@@ -21,14 +24,33 @@ KEYS_IN_TEXT = re.compile(r"(?<![\w.])([a-z]\w*)\s*=(?!=)")
 SURFACE_TYPE_LINE = re.compile(r"^#\s*(\w+):\s")
 
 
-def readme_block() -> str:
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = text.split("\n## Scene files\n", 1)[1].split("\n## ", 1)[0]
-    return section.split("```toml\n", 1)[1].split("```", 1)[0]
+DOCS_PAGE = ROOT / "docs" / "reference" / "scene_files.rst"
+LABEL = ".. _annotated-scene-file:"
+DIRECTIVE = ".. code-block:: toml\n"
 
 
-def readme_keys() -> dict[str, set[str]]:
-    """Table heading (as the reference writes it) -> the key names the README block shows.
+def docs_block() -> str:
+    """The annotated scene file as the docs page shows it: the body of the first
+    ``.. code-block:: toml`` after the label, unindented."""
+    text = DOCS_PAGE.read_text(encoding="utf-8")
+    assert LABEL in text, f"{DOCS_PAGE}: the label {LABEL!r} is gone"
+    after = text.split(LABEL, 1)[1]
+    assert DIRECTIVE in after, f"{DOCS_PAGE}: no ``{DIRECTIVE.strip()}`` after {LABEL!r}"
+    lines = after.split(DIRECTIVE, 1)[1].splitlines()
+    while lines and (not lines[0].strip() or lines[0].lstrip().startswith(":")):
+        lines.pop(0)  # the blank line and any options of the directive
+    body = []
+    for line in lines:
+        if line.strip() and not line[0].isspace():
+            break  # the block ends at the first unindented line
+        body.append(line)
+    block = textwrap.dedent("\n".join(body)).strip("\n") + "\n"
+    assert block.strip(), f"{DOCS_PAGE}: the annotated scene file is empty"
+    return block
+
+
+def docs_keys() -> dict[str, set[str]]:
+    """Table heading (as the reference writes it) -> the key names the docs block shows.
 
     A key is a name before ``=`` at a line's start, written or commented out (``# key =``);
     in ``[[surface]]``, a line ``# TYPE: …`` and the comment lines after it (starting in
@@ -37,7 +59,7 @@ def readme_keys() -> dict[str, set[str]]:
     lines, are prose."""
     found: dict[str, set[str]] = {"(top level)": set()}
     table, kind = "(top level)", None
-    for line in readme_block().splitlines():
+    for line in docs_block().splitlines():
         header = HEADER.match(line)
         if header:
             table = "[[surface]]" if header[1] == "[[" else f"[{header[2]}]"
@@ -68,24 +90,25 @@ def declared_keys() -> dict[str, set[str]]:
     return {table.heading: set(table.keys) for table in key_tables()}
 
 
-def test_every_declared_key_is_in_the_readme_and_every_readme_key_is_declared():
-    readme, declared = readme_keys(), declared_keys()
-    # the top level's tables are the README's headers, not keys
+def test_every_declared_key_is_in_the_docs_and_every_docs_key_is_declared():
+    shown, declared = docs_keys(), declared_keys()
+    # the top level's tables are the block's headers, not keys
     tables = {name for name in declared["(top level)"] if name != "name"}
     declared["(top level)"] -= tables
-    assert {h.strip("[]") for h in readme if h.startswith("[") and " " not in h} == tables
+    assert {h.strip("[]") for h in shown if h.startswith("[") and " " not in h} == tables
     parameters = {p for fn in SHAPE_FUNCTIONS.values() for p in fn.parameters}
-    readme["[shape]"] -= parameters - set(SHAPE_KEYS)  # "the function's parameters, by name"
-    assert set(readme) == set(declared)
+    shown["[shape]"] -= parameters - set(SHAPE_KEYS)  # "the function's parameters, by name"
+    assert set(shown) == set(declared)
     for heading in declared:
-        missing = declared[heading] - readme[heading]
-        unknown = readme[heading] - declared[heading]
-        assert not missing, f"README's scene file lacks {heading} {sorted(missing)}"
-        assert not unknown, f"README's scene file shows undeclared {heading} {sorted(unknown)}"
+        missing = declared[heading] - shown[heading]
+        unknown = shown[heading] - declared[heading]
+        page = DOCS_PAGE.relative_to(ROOT)
+        assert not missing, f"{page}'s scene file lacks {heading} {sorted(missing)}"
+        assert not unknown, f"{page}'s scene file shows undeclared {heading} {sorted(unknown)}"
 
 
-def test_the_readme_block_is_a_valid_scene():
-    scene = parse_scene(readme_block(), base=ROOT / "scenes")
+def test_the_docs_block_is_a_valid_scene():
+    scene = parse_scene(docs_block(), base=ROOT / "scenes")
     assert scene.name == "teapot-isophotes" and scene.check == {} and scene.sweep == {}
 
 

@@ -1,11 +1,11 @@
 """The bounds of the scene's numbers, at their edges: just inside accepted, just outside refused
 with one GshadeError naming the table and key.
 
-The bounds are the README's contract (*Scene files* and *Untrusted scenes: limits and
-guarantees*), written out here rather than read from gshade, so that loosening or dropping a
-check in the parser turns a row red.  Open bounds are tested at the bound itself (refused)
-and at the next float inside it (accepted); closed ones at the bound (accepted) and at the
-next float or integer outside it (refused).
+The bounds are the documented contract (docs/reference/scene_files.rst and the table
+"Numbers and sizes" of docs/how_to/untrusted.rst), written out here rather than read from
+gshade, so that loosening or dropping a check in the parser turns a row red.  Open bounds are
+tested at the bound itself (refused) and at the next float inside it (accepted); closed ones
+at the bound (accepted) and at the next float or integer outside it (refused).
 """
 
 from __future__ import annotations

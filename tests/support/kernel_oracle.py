@@ -284,8 +284,8 @@ def diagonal_of(shape) -> float:
 
 
 def tolerances_for(diagonal: float) -> dict:
-    """gshade's default tolerances for a model of this size (its README): gap, angle
-    (degrees), curvature jump, curvature-gradient jump."""
+    """gshade's default tolerances for a model of this size (docs/concepts/continuity.rst):
+    gap, angle (degrees), curvature jump, curvature-gradient jump."""
     d = diagonal or 1.0
     return {"g0": 1e-7 * d, "g1": 1e-3, "g2": 1e-5 / d, "g3": 1e-4 / d**2}
 

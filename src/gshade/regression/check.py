@@ -57,7 +57,7 @@ __all__ = [
 
 #: Settings of a check render unless the scene's ``[check]`` table says otherwise.
 CHECK_DEFAULTS = {"width": 160, "height": 120, "spp": 4, "channels": ("R", "G", "B", "A", "f")}
-#: Thresholds unless the scene's ``[check]`` table says otherwise (see the README for the
+#: Thresholds unless the scene's ``[check]`` table says otherwise (docs/how_to/ci.rst gives the
 #: measurements behind them).
 DEFAULT_THRESHOLDS = Thresholds(
     fail=0.02, failpercent=0.05, hardfail=float("inf"), warn=1e-3, warnpercent=0.0

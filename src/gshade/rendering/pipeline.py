@@ -31,7 +31,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, replace
 from typing import TYPE_CHECKING, Any
@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 from .. import __version__
 from ..errors import GshadeError
 from ..limits import MAX_SAMPLES
+from ..scene.changes import scene_with_settings
 from ..scene.model import Scene
 from ..shape import get_shape_function
 from .atlas import Atlas
@@ -87,15 +88,85 @@ class _Laps:
         self.clock = now
 
 
-def render(scene: Scene | str | os.PathLike, **overrides: Any) -> RenderedImage:
-    """Render a scene (a :class:`gshade.scene.Scene` or a path) to an image.
+def render(
+    scene_or_path: Scene | str | os.PathLike[str],
+    *,
+    function: str | None = None,
+    display: str | None = None,
+    width: int | None = None,
+    height: int | None = None,
+    spp: int | None = None,
+    camera: Mapping[str, Any] | None = None,
+    set: Mapping[str, Any] | None = None,
+    **render_settings: Any,
+) -> RenderedImage:
+    r"""Render a scene to an image: its EXR channels, header, legend and writers.
 
-    Keyword overrides replace ``[render]`` settings (width, height, spp, lighting, sampling,
-    variant, seed, tessellation, chord_tolerance, texture_resolution, junctions, aovs); with
-    a path, ``set`` may hold dotted scene keys (``{"shape.period": 0.05}``) applied before
-    validation.
+    Every keyword is checked as the scene file's key is (``gshade keys`` lists them); None,
+    the default, leaves the scene's value.
+
+    Parameters
+    ----------
+    scene_or_path : Scene or path-like
+        A loaded :class:`gshade.scene.Scene`, or a scene file (or CAD file) to load
+        (:func:`gshade.load_scene`).
+    function : str, optional
+        ``shape.function``: the shape function (``gshade shapes`` lists them).
+    display : str, optional
+        ``shape.display``: ``"stripes"``, ``"colormap"``, ``"both"`` or ``"bands"``.
+    width, height, spp : int, optional
+        ``render.width``, ``render.height`` (pixels) and ``render.spp`` (samples per pixel).
+    camera : mapping, optional
+        ``[camera]`` keys: ``{"origin": [x, y, z], "target": [x, y, z], "type":
+        "orthographic", "width": 2.5}`` (also ``up``, ``fov``).
+    set : mapping, optional
+        Dotted scene keys, ``{"shape.period": 0.05, "camera.fov": 20}``, as ``gshade
+        render --set``.  With a path they are applied before the file is validated and may
+        name any key (``surface.1.radius``); with a loaded Scene, keys of ``[shape]``,
+        ``[camera]`` and ``[render]``.  The keywords above win over ``set``.
+    **render_settings
+        Other ``[render]`` keys: ``lighting``, ``sampling``, ``variant``, ``seed``,
+        ``tessellation``, ``chord_tolerance``, ``texture_resolution``, ``junctions``,
+        ``aovs``, ``parabolic``, ``combs``, ``comb_curvature``, ``comb_lines``,
+        ``comb_scale``, ``comb_sections``, ``comb_section_direction``.
+
+    Returns
+    -------
+    RenderedImage
+        The channels (``.f``, ``.P``, ``.N``, ``.rgb``, ``.srgb``, ``image["u"]`` ...), the header
+        metadata, the legend, ``.write_exr`` and ``.write_png``.
+
+    Raises
+    ------
+    GshadeError
+        One line: an unknown keyword, with the likeliest meant (``render: unknown setting
+        'widht'; did you mean "width"?``); a value the scene file would refuse, naming the
+        file (``render()`` for a loaded Scene), the key, what was expected and what was
+        given (``render(): [render] width: expected an integer from 1 to 16384, got
+        "wide"``).
+
+    Examples
+    --------
+    >>> import gshade
+    >>> from gshade.scene import parse_scene
+    >>> sphere = parse_scene('[[surface]]\ntype = "sphere"\nradius = 1\n')
+    >>> image = gshade.render(sphere, function="mean", width=32, height=24, spp=1)
+    >>> image.shape, image.P.shape, image.rgb.dtype
+    ((24, 32), (24, 32, 3), dtype('float32'))
+    >>> image.metadata["legend"].startswith("mean")
+    True
     """
-    scene = _with_overrides(scene, overrides)
+    keywords = {
+        "function": function,
+        "display": display,
+        "width": width,
+        "height": height,
+        "spp": spp,
+        "camera": camera,
+        "set": set,
+        **render_settings,
+    }
+    scene = scene_with_settings(scene_or_path, keywords)
     lap = _Laps()
     settings, where = _settings(scene)
     variant = use_variant(settings.variant)
@@ -218,7 +289,7 @@ def shape_statistics(scene: Scene | str | os.PathLike, **overrides: Any) -> dict
     """The numbers of a scene's shape function over its whole surface, without rendering
     (``gshade info --stats``): as a render's header gives them (its ``statistics``), less
     the visible surface's.  ``overrides`` as for :func:`render`."""
-    scene = _with_overrides(scene, overrides)
+    scene = scene_with_settings(scene, overrides)
     settings, where = _settings(scene)
     framing = frame(scene, settings, where)
     resolution = mesh_resolution(scene, settings, framing)
@@ -263,27 +334,6 @@ def _supersample(
     if pixels.size and settings.spp > 1:
         picture = render_pixels_of(mitsuba, view, settings, pixels)[:, : len(PICTURE)]
         film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
-
-
-def _with_overrides(scene: Scene | str | os.PathLike, overrides: dict) -> Scene:
-    """The scene (loaded from a path, with ``set``'s dotted keys) with the ``[render]``
-    overrides applied and checked."""
-    dotted = overrides.pop("set", None) or {}
-    if isinstance(scene, (str, os.PathLike)):
-        from ..scene import load_scene
-
-        scene = load_scene(scene, dotted)
-    elif dotted:
-        raise GshadeError("set: dotted overrides need a scene path, not a loaded Scene")
-    if overrides:
-        from ..scene import validate_render_settings
-
-        try:
-            settings = replace(scene.render, **overrides)
-        except TypeError as exc:
-            raise GshadeError(f"render: unknown setting ({exc})") from None
-        scene = replace(scene, render=validate_render_settings(settings, "render()"))
-    return scene
 
 
 def _settings(scene: Scene) -> tuple[RenderSettings, str]:

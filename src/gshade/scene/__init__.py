@@ -2,7 +2,7 @@
 
 ``gshade keys`` (:func:`~gshade.scene.keys.scene_keys`) lists every table and key, what it
 accepts, its default and its meaning, from the same declarations the parsers use; the
-README's "Scene files" shows them as a commented file.
+docs/reference/scene_files.rst shows them as a commented file.
 
 Every error is a :class:`~gshade.errors.GshadeError` whose one-line message names the
 file, the table and key, what was expected and what was found, e.g.

@@ -21,7 +21,7 @@ from .sections import parse_camera, parse_check, parse_render, parse_shape, pars
 from .surfaces import SURFACE_TYPES, build_surface
 from .tables import REQUIRED, Key, Table, declare_keys, parse_toml, read_toml
 
-__all__ = ["TOP_KEYS", "load_scene", "parse_scene"]
+__all__ = ["TOP_KEYS", "load_scene", "parse_scene", "validate_values"]
 
 _TABLE = "its keys' defaults"
 TOP_KEYS = declare_keys(
@@ -56,7 +56,7 @@ def _location(parts: Sequence[str | int], raw: dict[str, Any]) -> str:
     return (head + text).strip().rstrip(":") or "(top level)"
 
 
-def _validate_values(file: str, raw: dict[str, Any]) -> None:
+def validate_values(file: str, raw: dict[str, Any]) -> None:
     """Bounds every scene value must meet whatever its key: numbers finite and within
     ±MAX_MAGNITUDE (integers too: no overflow when they become floats), strings of at
     most MAX_STRING characters, keys short and printable, nesting at most MAX_NESTING
@@ -134,10 +134,10 @@ def _build(
 ) -> Scene:
     from ..io.outputs import output_name
 
-    _validate_values(file, raw)
+    validate_values(file, raw)
     if overrides:
         raw = apply_overrides(file, raw, dict(overrides))
-        _validate_values(file, raw)
+        validate_values(file, raw)
     if strict:
         raw = _strict(raw)
     top = Table(file, "", raw, TOP_KEYS)

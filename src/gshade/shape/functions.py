@@ -24,8 +24,8 @@ table, parameter checking, :func:`~gshade.shape.registry.evaluate`):
 4. ``register("mine", order, summary, _mine, _pack_mine, light=Parameter(...), ...)``.
 
 Nothing is placed by offset: ``Layout.pack`` builds the vector and ``Layout.read`` gives the
-formula each field by name; Dr.Jit still receives each number as an opaque value.  The README's
-list of functions is documentation to update by hand.
+formula each field by name; Dr.Jit still receives each number as an opaque value.  The docs'
+list of functions (docs/reference/generated/shape_functions.rst) is made from the registry.
 """
 
 from __future__ import annotations
