@@ -91,7 +91,7 @@ class Curve(ABC):
         return np.moveaxis(out, 1, -1).reshape((order + 1, *t.shape, self.dim))
 
     def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Points c(t), shape (*t.shape, dim)."""
+        """Points c(t), shape ``(*t.shape, dim)``."""
         return self.derivatives(t, 0)[0]
 
     @abstractmethod
@@ -170,7 +170,7 @@ class Patch(ABC):
         return self.derivatives(u, v, order)
 
     def __call__(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-        """Points p(u, v), shape (*broadcast(u, v).shape, 3)."""
+        """Points p(u, v), shape ``(*broadcast(u, v).shape, 3)``."""
         return self.derivatives(u, v, 0)[0, 0]
 
     def parameter_grid(self, n_u: int, n_v: int) -> tuple[NDArray, NDArray]:
