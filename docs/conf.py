@@ -81,6 +81,9 @@ sphinx_gallery_conf = {
 nb_execution_mode = "force"  # the tutorial runs at every build
 nb_execution_timeout = 600
 nb_execution_raise_on_error = True
+# a rendered image shows itself in Jupyter as the inspection page (an iframe, every channel
+# embedded); the static site shows its PNG, a fraction of the size
+nb_mime_priority_overrides = [("html", "image/png", 0)]
 myst_enable_extensions = ["dollarmath"]
 
 html_theme = "pydata_sphinx_theme"
