@@ -24,13 +24,39 @@ MOST_SAMPLES = 129
 BLOCK = 8
 
 
-def _lattice(patch: Patch, grid: int) -> tuple[int, int]:
-    """The samples along u and along v of a patch's ``grid`` x ``grid`` budget, in the
-    ratio of its lengths across (a long, thin face gets its samples along its length)."""
+class _Points:
+    """Points of many patches at once: lists of (patch, u, v) arrays evaluated in one batch
+    (:class:`~gshade.geometry.evaluation.patch_cells.ManyPatches`), split back by list."""
+
+    def __init__(self, patches: Sequence[Patch]) -> None:
+        from ..geometry.evaluation.patch_cells import ManyPatches
+
+        self.many = ManyPatches(patches, drjit=False)
+
+    def __call__(self, asked: list[tuple[int, NDArray, NDArray]]) -> list[NDArray[np.float64]]:
+        if not asked:
+            return []
+        sizes = [u.size for _, u, _ in asked]
+        index = np.repeat([k for k, _, _ in asked], sizes)
+        u = np.concatenate([u.ravel() for _, u, _ in asked])
+        v = np.concatenate([v.ravel() for _, _, v in asked])
+        points = self.many.derivatives(index, u, v, 0)[0, 0]
+        return np.split(points, np.cumsum(sizes)[:-1])
+
+
+def _lattice_parameters(patch: Patch) -> tuple[NDArray, NDArray]:
+    """5 x 5 parameters over a patch's domain, for :func:`_lattice`."""
     t = np.linspace(0.0, 1.0, 5)
     (u0, u1), (v0, v1) = patch.domain
     u, v = np.meshgrid(u0 + (u1 - u0) * t, v0 + (v1 - v0) * t, indexing="ij")
-    p = np.asarray(patch(u.ravel(), v.ravel()), dtype=np.float64).reshape(5, 5, 3)
+    return u.ravel(), v.ravel()
+
+
+def _lattice(points: NDArray, grid: int) -> tuple[int, int]:
+    """The samples along u and along v of a patch's ``grid`` x ``grid`` budget, in the
+    ratio of its lengths across (a long, thin face gets its samples along its length),
+    from its ``points`` (25, 3) at :func:`_lattice_parameters`."""
+    p = points.reshape(5, 5, 3)
     along_u = np.linalg.norm(np.diff(p, axis=0), axis=-1).sum(axis=0).max()
     along_v = np.linalg.norm(np.diff(p, axis=1), axis=-1).sum(axis=1).max()
     if not (along_u > 0 and along_v > 0):
@@ -39,12 +65,10 @@ def _lattice(patch: Patch, grid: int) -> tuple[int, int]:
     return nu, max(3, (grid * grid) // nu)
 
 
-def _axis_samples(patch: Patch, axis: int, n: int, spacing: float) -> NDArray[np.float64]:
-    """A patch's sample parameters along ``axis``: the middles of n cells of equal length
-    (arc length, the longest of three lines across; a B-spline's speed measured in each
-    knot span, so that a parametrisation that crowds its shape into a few spans has its
-    samples there), more where the length needs them ``spacing`` apart (> 0), at most
-    :data:`MOST_SAMPLES`."""
+def _axis_parameters(patch: Patch, axis: int) -> tuple[NDArray, NDArray, NDArray]:
+    """The parameters along ``axis`` at which :func:`_axis_samples` measures a patch's
+    length (eight a knot span, at most :data:`MOST_SAMPLES` spans), and the (u, v) of
+    three lines across through them."""
     lo, hi = patch.domain[axis]
     breaks = np.array([lo, hi])
     knots = getattr(patch, "knots", None)
@@ -59,7 +83,19 @@ def _axis_samples(patch: Patch, axis: int, n: int, spacing: float) -> NDArray[np
     other = (v0 + (v1 - v0) * across) if axis == 0 else (u0 + (u1 - u0) * across)
     t, o = np.meshgrid(fine, other, indexing="ij")
     u, v = (t, o) if axis == 0 else (o, t)
-    at = np.asarray(patch(u.ravel(), v.ravel()), dtype=np.float64).reshape(len(fine), 3, 3)
+    return fine, u.ravel(), v.ravel()
+
+
+def _axis_samples(
+    patch: Patch, axis: int, n: int, spacing: float, fine: NDArray, points: NDArray
+) -> NDArray[np.float64]:
+    """A patch's sample parameters along ``axis``: the middles of n cells of equal length
+    (arc length, the longest of three lines across, measured at ``points`` (3 len(fine),
+    3) at the parameters ``fine``: a B-spline's speed in each knot span, so that a
+    parametrisation that crowds its shape into a few spans has its samples there), more
+    where the length needs them ``spacing`` apart (> 0), at most :data:`MOST_SAMPLES`."""
+    lo, hi = patch.domain[axis]
+    at = points.reshape(len(fine), 3, 3)
     step = np.linalg.norm(np.diff(at, axis=0), axis=-1).max(axis=1)
     length = np.concatenate([[0.0], np.cumsum(step)])
     if spacing > 0:
@@ -90,21 +126,31 @@ def _samples(
     lengths (:func:`_lattice`), at the middles of its cells (none on a side: the samples
     of a pole or a seam would be many at one point, each a poor start): points (m, 3),
     their patch (m,) and (u, v), each patch's spacing in its domain (k, 2) and the blocks
-    (:class:`Blocks`)."""
+    (:class:`Blocks`).  Each stage's points of all patches in one batch (:class:`_Points`)."""
+    evaluate = _Points(patches)
+    ks = range(len(patches))
+    lattice = evaluate([(k, *_lattice_parameters(patches[k])) for k in ks])
+    sizes = [_lattice(p, grid) for p in lattice]
+    axes = [[_axis_parameters(patches[k], axis) for axis in (0, 1)] for k in ks]
+    measured = evaluate([(k, u, v) for k in ks for _, u, v in axes[k]])
+    su, sv = [], []
+    for k, patch in enumerate(patches):
+        (fu, _, _), (fv, _, _) = axes[k]
+        su.append(_axis_samples(patch, 0, sizes[k][0], spacing, fu, measured[2 * k]))
+        sv.append(_axis_samples(patch, 1, sizes[k][1], spacing, fv, measured[2 * k + 1]))
+    grids = [np.meshgrid(su[k], sv[k], indexing="ij") for k in ks]
+    lattices = evaluate([(k, uu.ravel(), vv.ravel()) for k, (uu, vv) in enumerate(grids)])
     points, owner, uv, cells = [], [], [], []
     boxes: list[tuple] = []
     box_patch: list[int] = []
-    for k, patch in enumerate(patches):
-        nu, nv = _lattice(patch, grid)
-        su, sv = _axis_samples(patch, 0, nu, spacing), _axis_samples(patch, 1, nv, spacing)
+    for k in ks:
         # two mean spacings: the starts within that of each other on the patch are one
-        cells.append(tuple(2 * np.ptp(t) / max(len(t) - 1, 1) for t in (su, sv)))
-        uu, vv = np.meshgrid(su, sv, indexing="ij")
-        u, v = uu.ravel(), vv.ravel()
-        at = np.asarray(patch(u, v), dtype=np.float64).reshape(len(su), len(sv), 3)
+        cells.append(tuple(2 * np.ptp(t) / max(len(t) - 1, 1) for t in (su[k], sv[k])))
+        u, v = grids[k][0].ravel(), grids[k][1].ravel()
+        at = lattices[k].reshape(len(su[k]), len(sv[k]), 3)
         one = np.linalg.norm(at[1:, 1:] - at[:-1, :-1], axis=-1).max(initial=0.0)
         other = np.linalg.norm(at[1:, :-1] - at[:-1, 1:], axis=-1).max(initial=0.0)
-        mine = _blocks(at, su, sv, max(float(one), float(other)))
+        mine = _blocks(at, su[k], sv[k], max(float(one), float(other)))
         boxes += mine
         box_patch += [k] * len(mine)
         points.append(at.reshape(-1, 3))
