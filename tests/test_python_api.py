@@ -176,6 +176,7 @@ def test_srgb_is_what_the_png_shows(image, tmp_path):
         written = np.asarray(png.convert("RGBA"), dtype=np.float64) / 255
     assert ((image.alpha > 0) & (image.alpha < 1)).any()  # straight colour there, as the PNG's
     np.testing.assert_allclose(image.srgb, written[..., :3], atol=1 / 255 + 1e-7)
+    np.testing.assert_array_equal(image.srgba, np.round(written * 255).astype(np.uint8))
     on = image.alpha > 0.5  # sRGB-encoded, not linear: mid-greys are brighter
     assert (image.srgb[on] >= image.rgb[on] - 1e-6).all()
     assert (image.srgb[on] > image.rgb[on] + 0.05).any()

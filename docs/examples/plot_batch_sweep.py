@@ -20,7 +20,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 import gshade
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
@@ -28,11 +27,6 @@ ROOT = HERE.resolve().parents[1]
 SCENE = ROOT / "scenes" / "gammaspline-mean.toml"
 SIZE = {"width": 240, "height": 180, "spp": 4}
 GAMMAS = (1.0, 0.6, 0.3, 0.15)
-
-
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
 
 
 # %%
@@ -52,7 +46,7 @@ for ax, gamma in zip(axes, GAMMAS, strict=True):
         **SIZE,
         set={"surface.1.gamma_u": [1.0, gamma, 1.0], "shape.range": [-1.5, 1.5]},
     )
-    ax.imshow(picture(image))
+    ax.imshow(image.srgba)
     ax.set_title(f"γ = {gamma:g} on the middle knot line", fontsize=9)
     ax.axis("off")
 fig.suptitle(

@@ -25,7 +25,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 import gshade
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
@@ -65,11 +64,6 @@ COLUMNS = {
 }
 
 
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
-
-
 # %%
 # Twelve small renders: one scene per row, the shape function per column given as
 # overrides of the scene file.
@@ -80,7 +74,7 @@ for row, continuity in enumerate(("G0", "G1", "G2", "G3")):
     for col, (label, overrides) in enumerate(COLUMNS.items()):
         image = gshade.render(scene, **SIZE, set={**CAMERA, **overrides})
         ax = axes[row, col]
-        ax.imshow(picture(image))
+        ax.imshow(image.srgba)
         ax.set_xticks([])
         ax.set_yticks([])
         for side in ax.spines.values():

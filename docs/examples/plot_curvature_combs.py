@@ -27,18 +27,12 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 import gshade
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
 ROOT = HERE.resolve().parents[1]
 SCENES = ROOT / "scenes"
 SIZE = {"width": 320, "height": 240, "spp": 4}
-
-
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
 
 
 # %%
@@ -63,7 +57,7 @@ for ax, image, title in zip(
     ("bracket: edges and sections, mean curvature", "NURBS: boundaries and knot lines"),
     strict=True,
 ):
-    ax.imshow(picture(image))
+    ax.imshow(image.srgba)
     ax.set_title(title, fontsize=10)
     ax.axis("off")
 plt.show()

@@ -22,15 +22,9 @@ and the larger sphere lies outside, against it.
 
 import matplotlib.pyplot as plt
 
-from gshade.io.image import srgb8, straight_rgb
 from gshade.rendering.deviation_image import deviation_image
 from gshade.rendering.deviation_references import SurfaceReference
 from gshade.scene import parse_scene
-
-
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
 
 
 def bezier(raised: float) -> str:
@@ -88,7 +82,7 @@ print(f"spheres: every d within {error:.2g} of -0.003 (double precision)")
 
 fig, axes = plt.subplots(1, 2, figsize=(8, 3.2), layout="compressed")
 for ax, (label, (image, _, _)) in zip(axes, results.items(), strict=True):
-    ax.imshow(picture(image))
+    ax.imshow(image.srgba)
     ax.set_title(label, fontsize=10)
     ax.axis("off")
 plt.show()

@@ -21,7 +21,6 @@ from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 
 import gshade
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
@@ -39,11 +38,6 @@ MEAN = {
 MESHES = {"pentadrum (valence 3 and 5)": "valence", "hexadrum (valence 3 and 6)": "hexadrum"}
 
 
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
-
-
 # %%
 # Four renders: each mesh filled G1 and G2, mean curvature on one colour scale.
 
@@ -52,7 +46,7 @@ for row, (label, mesh) in enumerate(MESHES.items()):
     for col, continuity in enumerate(("g1", "g2")):
         image = gshade.render(SCENES / f"hole-{mesh}-mean-{continuity}.toml", **SIZE, set=MEAN)
         ax = axes[row, col]
-        ax.imshow(picture(image))
+        ax.imshow(image.srgba)
         ax.set_title(f"{label}, {continuity.upper()} filling", fontsize=9)
         ax.axis("off")
 legend = image.legend

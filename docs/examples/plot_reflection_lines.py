@@ -25,7 +25,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 import gshade
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
@@ -40,11 +39,6 @@ FUNCTIONS = {
 }
 
 
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
-
-
 # %%
 # One render per scene, at one size; the legend says the function and its stripe period.
 # Purple is where a function is undefined: there the reflected ray misses the light plane.
@@ -52,7 +46,7 @@ def picture(image):
 fig, axes = plt.subplots(1, 3, figsize=(10, 2.9), layout="compressed")
 for ax, (label, (scene, period)) in zip(axes, FUNCTIONS.items(), strict=True):
     image = gshade.render(SCENES / scene, **SIZE, set={"shape.period": period} if period else None)
-    ax.imshow(picture(image))
+    ax.imshow(image.srgba)
     ax.set_title(f"{label} (order 1)", fontsize=10)
     ax.axis("off")
     print(f"{label}: {image.legend.text()}")

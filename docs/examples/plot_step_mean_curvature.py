@@ -24,17 +24,11 @@ from matplotlib.colors import Normalize
 
 import gshade
 from gshade.analysis.scene_junctions import scene_continuity
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
 ROOT = HERE.resolve().parents[1]
 PART = ROOT / "scenes" / "data" / "bracket.step"
-
-
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
 
 
 # %%
@@ -49,7 +43,7 @@ image = gshade.render(scene, width=400, height=300, spp=4, junctions=True)
 
 legend = image.legend
 fig, ax = plt.subplots(figsize=(5, 3.6), layout="compressed")
-ax.imshow(picture(image))
+ax.imshow(image.srgba)
 ax.set_title("mean curvature; edges G0 red, G1 orange", fontsize=10)
 ax.axis("off")
 fig.colorbar(

@@ -21,18 +21,12 @@ import matplotlib.pyplot as plt
 
 import gshade
 from gshade.analysis.scene_junctions import scene_continuity
-from gshade.io.image import srgb8, straight_rgb
 
 # the checkout: sphinx-gallery runs the script in its own folder, without __file__
 HERE = Path(__file__).parent if "__file__" in globals() else Path.cwd()
 ROOT = HERE.resolve().parents[1]
 SCENE = ROOT / "scenes" / "teapot-isophotes.toml"
 SIZE = {"width": 400, "height": 300, "spp": 4}
-
-
-def picture(image):
-    """The picture as gshade's PNG writer encodes it: 8-bit sRGB with alpha."""
-    return srgb8(straight_rgb(image.channels), image.channels["A"])
 
 
 # %%
@@ -54,7 +48,7 @@ fig, axes = plt.subplots(1, 2, figsize=(8, 3.2), layout="compressed")
 for ax, image, title in zip(
     axes, (isophotes, zebra), ("isophotes (order 1)", "zebra stripes (order 1)"), strict=True
 ):
-    ax.imshow(picture(image))
+    ax.imshow(image.srgba)
     ax.set_title(title, fontsize=10)
     ax.axis("off")
 plt.show()
@@ -84,7 +78,7 @@ for ax, image, title in zip(
     ("junctions: G1 orange, G2 green", "zebra at the rim's G1 seam, close up"),
     strict=True,
 ):
-    ax.imshow(picture(image))
+    ax.imshow(image.srgba)
     ax.set_title(title, fontsize=10)
     ax.axis("off")
 plt.show()

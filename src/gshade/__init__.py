@@ -2,7 +2,7 @@
 
 The public API mirrors the command line: ``gshade.load_scene(path)``,
 ``gshade.render(scene_or_path, function=..., width=..., camera=..., set=...)`` (a
-:class:`RenderedImage`: the EXR channels, ``.f .P .N .rgb .srgb``, ``.write_exr`` and
+:class:`RenderedImage`: the EXR channels, ``.f .P .N .rgb .srgb .srgba``, ``.write_exr`` and
 ``.write_png``; Jupyter shows it) and ``gshade.compare(test, reference, ...)`` (metrics and
 an idiff verdict).
 The packages follow the pipeline, data flowing one way: ``gshade.scene`` (scene files) →

@@ -133,8 +133,9 @@ def render(
     Returns
     -------
     RenderedImage
-        The channels (``.f``, ``.P``, ``.N``, ``.rgb``, ``.srgb``, ``image["u"]`` ...), the header
-        metadata, the legend, ``.write_exr`` and ``.write_png``.
+        The channels (``.f``, ``.P``, ``.N``, ``.rgb``, ``.srgb``, ``.srgba``,
+        ``image["u"]`` ...), the header metadata, the legend, ``.write_exr`` and
+        ``.write_png``.
 
     Raises
     ------

@@ -52,8 +52,9 @@ class RenderedImage:
     changed) to tell whoever asked for the render.
 
     ``image["u"]`` is a channel; :attr:`f`, :attr:`P`, :attr:`N`, :attr:`rgb` (linear, as
-    the EXR) and :attr:`srgb` (the picture as the PNG shows it) are numpy arrays; Jupyter
-    shows the image as the page ``gshade render --html`` writes (or as the PNG)."""
+    the EXR), :attr:`srgb` and :attr:`srgba` (the picture as the PNG shows it) are numpy
+    arrays; Jupyter shows the image as the page ``gshade render --html`` writes (or as the
+    PNG)."""
 
     channels: dict[str, NDArray[np.float32]]
     metadata: dict[str, str]
@@ -96,15 +97,21 @@ class RenderedImage:
         return np.stack([self.channels[c] for c in "RGB"], -1)
 
     @property
-    def srgb(self) -> NDArray[np.float32]:
-        """The picture as the PNG shows it, shape (height, width, 3): its 8-bit sRGB codes
-        / 255 (:func:`gshade.io.image.srgb8` of :attr:`straight_rgb`), floats in [0, 1],
-        so that ``matplotlib.pyplot.imshow(image.srgb)`` shows what :meth:`write_png`
-        writes.  0 (black) where no surface covers the pixel: the PNG is transparent there
-        (:attr:`alpha`)."""
+    def srgba(self) -> NDArray[np.uint8]:
+        """The PNG's pixels, shape (height, width, 4): 8-bit sRGB colour, not premultiplied
+        (:func:`gshade.io.image.srgb8` of :attr:`straight_rgb`), and the coverage
+        :attr:`alpha` linearly, as :meth:`write_png` writes them:
+        ``matplotlib.pyplot.imshow(image.srgba)`` shows the picture on the page."""
         from ..io.image import srgb8  # OpenEXR loads with io.image: when first needed
 
-        return (srgb8(self.straight_rgb) / np.float32(255)).astype(np.float32)
+        return srgb8(self.straight_rgb, self.alpha)
+
+    @property
+    def srgb(self) -> NDArray[np.float32]:
+        """The picture's colours as the PNG shows them, shape (height, width, 3): the codes
+        of :attr:`srgba` / 255, floats in [0, 1]; 0 (black) where no surface covers the
+        pixel (the PNG is transparent there)."""
+        return (self.srgba[..., :3] / np.float32(255)).astype(np.float32)
 
     @property
     def alpha(self) -> NDArray[np.float32]:
