@@ -8,7 +8,6 @@ import importlib.metadata
 import re
 import subprocess
 import sys
-import textwrap
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -16,6 +15,7 @@ import pytest
 
 from gshade.app.cli import main
 
+from ..support.docs_pages import code_block
 from ..support.paths import ROOT
 
 pytestmark = pytest.mark.slow  # whole pytest sessions (pytester)
@@ -38,15 +38,7 @@ def docs_example() -> str:
     assert MARKERS[0] in text and MARKERS[1] in text, f"{page}: the pytest example is gone"
     block = text.split(MARKERS[0], 1)[1].split(MARKERS[1], 1)[0]
     assert DIRECTIVE in block, f"{page}: the pytest example's markers hold no python block"
-    lines = block.split(DIRECTIVE, 1)[1].splitlines()
-    while lines and (not lines[0].strip() or lines[0].lstrip().startswith(":")):
-        lines.pop(0)  # the blank line and any options of the directive
-    body = []
-    for line in lines:
-        if line.strip() and not line[0].isspace():
-            break  # the block ends at the first unindented line (the closing marker's)
-        body.append(line)
-    code = textwrap.dedent("\n".join(body)).strip("\n") + "\n"
+    code = code_block(block, DIRECTIVE, str(page))
     assert "def test_" in code, f"{page}: the pytest example holds no test"
     return code
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import textwrap
 
 from gshade.app.cli import main
 from gshade.scene import SURFACE_TYPES, parse_scene
@@ -16,6 +15,7 @@ from gshade.scene.keys import key_tables, scene_keys
 from gshade.scene.sections import CHECK_KEYS, SHAPE_KEYS
 from gshade.shape import SHAPE_FUNCTIONS
 
+from ..support.docs_pages import code_block
 from ..support.paths import ROOT
 
 HEADER = re.compile(r"^(\[\[?)(\w+)\]\]?")
@@ -35,16 +35,7 @@ def docs_block() -> str:
     text = DOCS_PAGE.read_text(encoding="utf-8")
     assert LABEL in text, f"{DOCS_PAGE}: the label {LABEL!r} is gone"
     after = text.split(LABEL, 1)[1]
-    assert DIRECTIVE in after, f"{DOCS_PAGE}: no ``{DIRECTIVE.strip()}`` after {LABEL!r}"
-    lines = after.split(DIRECTIVE, 1)[1].splitlines()
-    while lines and (not lines[0].strip() or lines[0].lstrip().startswith(":")):
-        lines.pop(0)  # the blank line and any options of the directive
-    body = []
-    for line in lines:
-        if line.strip() and not line[0].isspace():
-            break  # the block ends at the first unindented line
-        body.append(line)
-    block = textwrap.dedent("\n".join(body)).strip("\n") + "\n"
+    block = code_block(after, DIRECTIVE, f"{DOCS_PAGE} after {LABEL!r}")
     assert block.strip(), f"{DOCS_PAGE}: the annotated scene file is empty"
     return block
 
