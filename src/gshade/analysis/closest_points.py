@@ -176,11 +176,7 @@ def _block_round(
     for size in (4, TILE):  # tiles wider than their queries' sample spacing split in 4
         label = _split(label, order, q, spacing, size)
     first = np.flatnonzero(np.r_[True, label[1:] != label[:-1]])
-    count = np.diff(np.r_[first, order.size])
-    tile = np.repeat(np.arange(first.size), count)
-    centre = np.add.reduceat(q[order], first) / count[:, None]
-    apart = np.linalg.norm(q[order] - centre[tile], axis=-1)
-    radius = np.maximum.reduceat(apart, first)
+    count, centre, apart, radius = _balls(q[order], first)
     tiles, block = _near_blocks(blocks, centre, np.maximum.reduceat(reach[order], first) + radius)
     patch = blocks.patch[block]
     feet, distance = foot_parameters(surfaces, patch, centre[tiles], blocks.uv[block])
@@ -205,11 +201,19 @@ def _split(label: NDArray, order: NDArray, q: NDArray, spacing: NDArray, size: i
     largest ``spacing`` of their centre, else ``label`` (a tile a query: its own)."""
     tile = np.arange(order.size) // size
     first = np.arange(0, order.size, size)
-    count = np.diff(np.r_[first, order.size])
-    centre = np.add.reduceat(q[order], first) / count[:, None]
-    radius = np.maximum.reduceat(np.linalg.norm(q[order] - centre[tile], axis=-1), first)
+    radius = _balls(q[order], first)[3]
     small = radius <= TILE_SPREAD * np.maximum.reduceat(spacing[order], first)
     return np.where(small[tile], (size + 1) * order.size + tile, label)
+
+
+def _balls(points: NDArray, first: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The groups of consecutive points (n, 3) starting at ``first`` as balls: each
+    group's count and centre (its points' mean), each point's distance from its group's
+    centre, and each group's radius (the largest of those)."""
+    count = np.diff(np.r_[first, len(points)])
+    centre = np.add.reduceat(points, first) / count[:, None]
+    apart = np.linalg.norm(points - centre[np.repeat(np.arange(first.size), count)], axis=-1)
+    return count, centre, apart, np.maximum.reduceat(apart, first)
 
 
 def _morton(points: NDArray) -> NDArray[np.uint64]:
@@ -234,10 +238,7 @@ def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, N
     pairs = None
     for size, larger in zip(GROUPS, (0, *GROUPS[:-1]), strict=True):
         first = np.arange(0, len(q), size)
-        count = np.diff(np.r_[first, len(q)])
-        member = np.repeat(np.arange(first.size), count)
-        centre = np.add.reduceat(q, first) / count[:, None]
-        radius = np.maximum.reduceat(np.linalg.norm(q - centre[member], axis=-1), first)
+        _, centre, _, radius = _balls(q, first)
         within = np.maximum.reduceat(reach, first) + radius
         if pairs is None:  # every box for the largest groups
             group = np.repeat(np.arange(first.size), len(blocks.lo))

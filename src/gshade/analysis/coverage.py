@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["NORMAL_COSINE", "free_edges", "segment_distances", "uncovered"]
+__all__ = ["NORMAL_COSINE", "Segments", "free_edges", "segment_distances", "uncovered"]
 
 #: |cos| of the angle between p - c and B's normal above which c is a foot point proper
 #: (an angle within 1 degree).
@@ -55,37 +55,60 @@ def free_edges(positions: ArrayLike, faces: ArrayLike, weld: float) -> NDArray[n
     return p[first[lone]]
 
 
+class Segments:
+    """Segments (m, 2, 3) with their middles in a k-d tree, for the distances of many
+    points to them (:meth:`distances`, :meth:`middles_within`)."""
+
+    def __init__(self, segments: NDArray) -> None:
+        from scipy.spatial import cKDTree
+
+        self.a, self.b = segments[:, 0], segments[:, 1]
+        #: half the longest segment: a point within r of a segment is within r + half of
+        #: its middle
+        self.half = 0.5 * float(np.linalg.norm(self.b - self.a, axis=-1).max(initial=0.0))
+        self.tree = cKDTree(0.5 * (self.a + self.b)) if len(segments) else None
+
+    def middles_within(self, points: NDArray, reach: float) -> NDArray[np.float64]:
+        """Each point's distance (n,) to the nearest middle if within ``reach``, else inf."""
+        if self.tree is None:
+            return np.full(len(points), np.inf)
+        return np.asarray(self.tree.query(points, k=1, distance_upper_bound=reach)[0])
+
+    def distances(self, points: ArrayLike, candidates: int = 8) -> NDArray:
+        """The distance (n,) of each point (n, 3) to the nearest segment, exactly; inf
+        without a segment.  The ``candidates`` segments whose middles are nearest first; a
+        segment farther than the k-th middle less the longest half segment cannot be
+        nearer, and where that does not settle it, every segment whose middle lies within
+        the distance found plus the longest half segment."""
+        q = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if self.tree is None or not len(q):
+            return np.full(len(q), np.inf)
+        a, b = self.a, self.b
+        k = min(candidates, len(a))
+        apart, near = self.tree.query(q, k=k)
+        near = np.asarray(near).reshape(len(q), k)
+        found = _to_segments(q[:, None], a[near], b[near]).min(axis=1)
+        unsure = np.flatnonzero(found > np.asarray(apart).reshape(len(q), k)[:, -1] - self.half)
+        if unsure.size and k < len(a):
+            lists = self.tree.query_ball_point(q[unsure], found[unsure] + self.half)
+            who = np.repeat(unsure, [len(x) for x in lists])
+            which = np.concatenate([np.asarray(x, dtype=np.int64) for x in lists])
+            np.minimum.at(found, who, _to_segments(q[who], a[which], b[which]))
+        return found
+
+
 def segment_distances(points: ArrayLike, segments: NDArray, candidates: int = 8) -> NDArray:
     """The distance (n,) of each point (n, 3) to the nearest of ``segments`` (m, 2, 3),
-    exactly; inf without a segment.  The ``candidates`` segments whose middles are nearest
-    first (a k-d tree); a segment farther than the k-th middle less the longest half
-    segment cannot be nearer, and where that does not settle it, every segment whose
-    middle lies within the distance found plus the longest half segment.
+    exactly; inf without a segment (:meth:`Segments.distances`).
 
     Examples
     --------
     >>> segment_distances([[0.5, 1.0, 0.0], [2.0, 0.0, 0.0]], np.array([[[0, 0, 0], [1, 0, 0]]]))
     array([1., 1.])
     """
-    from scipy.spatial import cKDTree
-
-    q = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if not len(segments) or not len(q):
-        return np.full(len(q), np.inf)
-    a, b = segments[:, 0], segments[:, 1]
-    half = 0.5 * float(np.linalg.norm(b - a, axis=-1).max())
-    tree = cKDTree(0.5 * (a + b))
-    k = min(candidates, len(segments))
-    apart, near = tree.query(q, k=k)
-    near = np.asarray(near).reshape(len(q), k)
-    found = _to_segments(q[:, None], a[near], b[near]).min(axis=1)
-    unsure = np.flatnonzero(found > np.asarray(apart).reshape(len(q), k)[:, -1] - half)
-    if unsure.size and k < len(segments):
-        lists = tree.query_ball_point(q[unsure], found[unsure] + half)
-        who = np.repeat(unsure, [len(x) for x in lists])
-        which = np.concatenate([np.asarray(x, dtype=np.int64) for x in lists])
-        np.minimum.at(found, who, _to_segments(q[who], a[which], b[which]))
-    return found
+    return Segments(np.asarray(segments, dtype=np.float64).reshape(-1, 2, 3)).distances(
+        points, candidates
+    )
 
 
 def _to_segments(q: NDArray, a: NDArray, b: NDArray) -> NDArray:

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .closest_points import ClosestPoints
-from .coverage import segment_distances
+from .coverage import Segments
 from .knot_lines import inside_loops
 
 if TYPE_CHECKING:
@@ -111,13 +111,11 @@ def trim_test(scene: Scene) -> TrimTest | None:
 
 class _TrimBand:
     """The points within ``reach`` of a face's loops (closed polylines in (u, v)): their
-    sides cut in pieces at most 4 ``reach`` long (at most :data:`BAND_PIECES` of them), the
-    pieces' middles in a k-d tree; a point with a middle within ``reach`` is near, one
-    with none within ``reach`` plus half a piece is not, the others measured."""
+    sides cut in pieces at most 4 ``reach`` long (at most :data:`BAND_PIECES` of them); a
+    point with a piece's middle within ``reach`` is near, one with none within ``reach``
+    plus half a piece is not, the others measured (:class:`~gshade.analysis.coverage.Segments`)."""
 
     def __init__(self, loops: list[NDArray], reach: float) -> None:
-        from scipy.spatial import cKDTree
-
         ends = []
         for loop in loops:
             ring = np.asarray(loop, dtype=np.float64).reshape(-1, 2)
@@ -132,20 +130,16 @@ class _TrimBand:
         a, b = sides[side, 0], sides[side, 1] - sides[side, 0]
         lo, hi = (t / cuts[side])[:, None], ((t + 1) / cuts[side])[:, None]
         pieces = np.stack([a + lo * b, a + hi * b], axis=1)
-        self.pieces = np.concatenate([pieces, np.zeros((len(pieces), 2, 1))], axis=-1)
+        self.pieces = Segments(np.concatenate([pieces, np.zeros((len(pieces), 2, 1))], axis=-1))
         self.reach = reach
-        self.tree = cKDTree(self.pieces.mean(axis=1)) if len(self.pieces) else None
 
     def near(self, uv: NDArray) -> NDArray[np.bool_]:
         """Whether each point (n, 2) lies within the band's reach of the loops."""
-        out = np.zeros(len(uv), dtype=bool)
-        if self.tree is None:
-            return out
         flat = np.c_[uv, np.zeros(len(uv))]
-        apart, _ = self.tree.query(flat, k=1, distance_upper_bound=self.reach + self.piece / 2)
-        out[apart <= self.reach] = True
-        ask = np.flatnonzero(np.isfinite(apart) & (apart > self.reach))
-        out[ask] = segment_distances(flat[ask], self.pieces) <= self.reach
+        apart = self.pieces.middles_within(flat, self.reach + self.piece / 2)
+        out = apart <= self.reach
+        ask = np.flatnonzero(np.isfinite(apart) & ~out)
+        out[ask] = self.pieces.distances(flat[ask]) <= self.reach
         return out
 
 
