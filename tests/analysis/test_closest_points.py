@@ -103,3 +103,16 @@ def test_a_patch_whose_samples_are_all_farther_is_asked_by_its_blocks():
     found = closest_points([small, wide], np.vstack([tile, alone]))
     assert (found.patch == 1).all()
     np.testing.assert_allclose(found.distance, np.r_[np.full(len(tile), 0.5), 0.5, 0.3], rtol=1e-12)
+
+
+def test_every_box_of_a_patch_as_near_as_its_nearest_is_a_start():
+    """A query inside two boxes of one patch (which block's middle leads Newton's method to
+    the patch's nearest point is not known): both are starts; a farther box of that patch
+    is not, the nearest box of another patch within reach is."""
+    from gshade.analysis.closest_points import _near_blocks
+    from gshade.analysis.surface_samples import Blocks
+
+    lo = np.array([[-1.0, -1, -1], [-0.5, -0.5, -0.5], [0.8, 0.8, 0.8], [1.0, -1, -1], [2, -1, -1]])
+    blocks = Blocks(lo, lo + 1.5, np.array([0, 0, 0, 1, 1]), np.zeros((5, 2)))
+    who, block = _near_blocks(blocks, np.zeros((1, 3)), np.array([1.5]))
+    assert sorted(block.tolist()) == [0, 1, 3] and (who == 0).all()

@@ -163,7 +163,7 @@ def _block_round(
     """The starts of the last round: (query, patch, (u, v)) for the queries ``unsure``.
 
     The queries in tiles of :data:`TILE` along a Morton curve (near each other in space),
-    each tile a ball (its centre c, radius rho); the nearest block of each patch whose box
+    each tile a ball (its centre c, radius rho); the nearest blocks of each patch whose box
     comes within the tile's largest ``reach`` + rho of c (:func:`_near_blocks`) Newton's
     method from its middle for c, its foot f at distance D; a patch farther than that from
     c is at least D - |q - c| from a query q of the tile (the distance is 1-Lipschitz), so
@@ -231,10 +231,11 @@ def _morton(points: NDArray) -> NDArray[np.uint64]:
 
 def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, NDArray]:
     """The (query, block) pairs whose box comes within ``reach`` (n,) of the query ``q``
-    (n, 3), the nearest box of each patch.  The queries (in Morton order: consecutive
-    ones near each other) in groups of :data:`GROUPS` sizes, each group a ball; the boxes
-    within a group's largest reach of its ball, then those of them within each of its
-    smaller groups' reach, down to the queries'."""
+    (n, 3), the nearest box of each patch (all of the nearest where several tie).  The
+    queries (in Morton order: consecutive ones near each other) in groups of
+    :data:`GROUPS` sizes, each group a ball; the boxes within a group's largest reach of
+    its ball, then those of them within each of its smaller groups' reach, down to the
+    queries'."""
     pairs = None
     for size, larger in zip(GROUPS, (0, *GROUPS[:-1]), strict=True):
         first = np.arange(0, len(q), size)
@@ -255,11 +256,15 @@ def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, N
     assert pairs is not None
     who, block = pairs
     apart = _box_distances(blocks, block, q[who])
-    # one block a patch for each query: the nearest box
+    # for each query the nearest box of each patch, every one of them where several are
+    # as near (a query inside several boxes of a patch: which one's middle leads Newton's
+    # method to the patch's nearest point is not known)
     order = np.lexsort((apart, blocks.patch[block], who))
     key = who[order] * (blocks.patch.max(initial=0) + 1) + blocks.patch[block[order]]
-    lead = order[np.r_[True, key[1:] != key[:-1]]]
-    return who[lead], block[lead]
+    lead = np.r_[True, key[1:] != key[:-1]]
+    nearest = np.maximum.accumulate(np.where(lead, np.arange(order.size), 0))
+    kept = order[apart[order] <= apart[order[nearest]]]
+    return who[kept], block[kept]
 
 
 def _box_distances(blocks: Blocks, block: NDArray, points: NDArray) -> NDArray[np.float64]:
