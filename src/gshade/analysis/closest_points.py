@@ -263,8 +263,8 @@ def _near_blocks(blocks: Blocks, q: NDArray, reach: NDArray) -> tuple[NDArray, N
     key = who[order] * (blocks.patch.max(initial=0) + 1) + blocks.patch[block[order]]
     lead = np.r_[True, key[1:] != key[:-1]]
     nearest = np.maximum.accumulate(np.where(lead, np.arange(order.size), 0))
-    kept = order[apart[order] <= apart[order[nearest]]]
-    return who[kept], block[kept]
+    chosen = order[apart[order] <= apart[order[nearest]]]
+    return who[chosen], block[chosen]
 
 
 def _box_distances(blocks: Blocks, block: NDArray, points: NDArray) -> NDArray[np.float64]:
