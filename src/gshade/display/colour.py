@@ -455,7 +455,7 @@ class Legend:
 
     function: str
     order: int
-    display: str  # 'stripes' | 'colormap' | 'both' | 'bands'
+    display: str  # 'stripes' | 'colormap' | 'both' | 'bands' | 'reflection'
     value_range: tuple[float, float] | None = None
     colormap: str | None = None
     period: float | None = None

@@ -21,19 +21,24 @@ stripes, and :func:`gshade.rendering.environment_files.read_environment_map` rea
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..display.colour import DARK, LIGHT
 from ..errors import GshadeError, show
+from ..runtime.backend import NUMPY, ArrayOps
 
 __all__ = [
     "MAX_MAP_WIDTH",
     "SummedArea",
     "direction_to_map",
     "lightbox",
+    "map_position",
     "map_to_direction",
     "stripe_map",
+    "table_integral",
 ]
 
 #: Widest map kept: wider maps read from files are box-filtered down to this width.
@@ -75,10 +80,21 @@ def direction_to_map(
     [0.0]
     """
     v = np.asarray(d, dtype=np.float64)
-    phi = np.mod(np.arctan2(v[..., 1], v[..., 0]) - np.radians(rotation), _TWO_PI)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    return map_position(x, y, z, width, height, float(np.radians(rotation)), NUMPY)
+
+
+def map_position(
+    x: Any, y: Any, z: Any, width: int, height: int, rotation: float, ops: ArrayOps
+) -> tuple[Any, Any]:
+    """:func:`direction_to_map` of the direction (x, y, z), ``rotation`` in radians: written
+    once for numpy and for the renderer's Dr.Jit arrays (``ops``)."""
+    phi = ops.atan2(y, x) - rotation
+    phi = phi - _TWO_PI * ops.floor(phi / _TWO_PI)
     column = phi / _TWO_PI * width
-    column = np.where(column >= width, column - width, column)  # phi rounded up to 2 pi
-    return column, np.arctan2(np.hypot(v[..., 0], v[..., 1]), v[..., 2]) / np.pi * height
+    column = ops.select(column >= width, column - width, column)  # phi rounded up to 2 pi
+    column = ops.select(column < 0, column * 0, column)
+    return column, ops.atan2(ops.sqrt(x * x + y * y), z) / np.pi * height
 
 
 def map_to_direction(
@@ -119,6 +135,40 @@ def _turns(c: NDArray, w: int) -> tuple[NDArray, NDArray]:
     return turns, np.where(rest < 0, rest + w, rest)
 
 
+def table_integral(
+    tables: list[Any], width: int, height: int, c: Any, r: Any, ops: ArrayOps
+) -> list[Any]:
+    """F(c, r), the integral of a map over [0, c) x [0, r) in texel coordinates, per channel:
+    bilinear interpolation of its summed-area tables (each flat, row-major (H + 1, W + 1),
+    see :class:`SummedArea`), columns wrapping (``F(c + k W, r) = F(c, r) + k F(W, r)``),
+    r in [0, H].  Written once for numpy and for the renderer's Dr.Jit arrays (``ops``,
+    :class:`gshade.runtime.backend.ArrayOps`; c and r of the tables' precision, float64).
+
+    Examples
+    --------
+    >>> m = np.arange(6.0).reshape(2, 3)
+    >>> sat = SummedArea(m)
+    >>> [float(x) for x in table_integral([sat.table[..., 0].ravel()], 3, 2, 4.0, 2.0, NUMPY)]
+    [18.0]
+    """
+    turns = ops.floor(c / width)
+    c = c - turns * width
+    turns = ops.select(c < 0, turns - 1, turns)  # c / w rounded up past a whole turn
+    c = ops.select(c < 0, c + width, c)
+    i = ops.minimum(ops.floor(c), width - 1.0)
+    j = ops.minimum(ops.floor(r), height - 1.0)
+    a, b = c - i, r - j
+    row = width + 1.0
+    k00, k_end = j * row + i, j * row + width
+    out = []
+    for t in tables:
+        top = ops.gather(t, k00) * (1 - a) + ops.gather(t, k00 + 1) * a
+        bottom = ops.gather(t, k00 + row) * (1 - a) + ops.gather(t, k00 + row + 1) * a
+        whole = ops.gather(t, k_end) * (1 - b) + ops.gather(t, k_end + row) * b
+        out.append(top * (1 - b) + bottom * b + turns * whole)
+    return out
+
+
 class SummedArea:
     """Exact box filtering of a piecewise-constant map (H, W) or (H, W, C).
 
@@ -156,19 +206,9 @@ class SummedArea:
 
     def _integral(self, c: NDArray, r: NDArray) -> NDArray:
         """F(c, r) for any column c (wrapping) and r in [0, H]."""
-        w, h = self.width, self.height
-        turns, c = _turns(c, w)
-        i = np.minimum(np.floor(c).astype(np.intp), w - 1)
-        j = np.minimum(np.floor(r).astype(np.intp), h - 1)
-        a, b = (c - i)[..., None], (r - j)[..., None]
-        t = self.table
-        inside = (
-            t[j, i] * (1 - a) * (1 - b)
-            + t[j, i + 1] * a * (1 - b)
-            + t[j + 1, i] * (1 - a) * b
-            + t[j + 1, i + 1] * a * b
-        )
-        return inside + turns[..., None] * (t[j, w] * (1 - b) + t[j + 1, w] * b)
+        channels = [self.table[..., k].ravel() for k in range(self.table.shape[2])]
+        values = table_integral(channels, self.width, self.height, c, r, NUMPY)
+        return np.stack(values, axis=-1)
 
     def box_mean(self, c0: ArrayLike, c1: ArrayLike, r0: ArrayLike, r1: ArrayLike) -> NDArray:
         """Mean of the map over [c0, c1) x [r0, r1) in texel coordinates (broadcast).

@@ -22,6 +22,7 @@ from .atlas import Atlas
 from .camera import View
 from .integrator import IntegratorSettings, make_integrator
 from .pixel_sensor import pixel_list_sensor
+from .reflections import Environment
 from .style import DisplayStyle
 from .tessellate import TriangleMesh
 from .textures import ShapeTextures
@@ -37,10 +38,13 @@ __all__ = [
 
 @dataclass(frozen=True)
 class MitsubaScene:
-    """A loaded Mitsuba scene (mesh, camera with its ``spp`` sampler, integrator)."""
+    """A loaded Mitsuba scene (mesh, camera with its ``spp`` sampler, integrator);
+    ``glossy``: whether its picture is a glossy reflection's (random: see
+    :mod:`gshade.rendering.glossy`)."""
 
     scene: Any
     sampler: dict
+    glossy: bool = False
 
 
 def _mesh(mi: Any, mesh: TriangleMesh, atlas: Atlas) -> Any:
@@ -69,6 +73,7 @@ def mitsuba_scene(
     view: View,
     settings: RenderSettings,
     shape: Shape,
+    environment: Environment | None = None,
 ) -> MitsubaScene:
     """The scene of the mesh seen by the view's sensor, with both integrators configured
     from the textures and the display style (``settings``: ``[render]``, ``shape``:
@@ -76,7 +81,7 @@ def mitsuba_scene(
     mi = mitsuba()
 
     integrator_settings = IntegratorSettings(
-        display=shape.display,
+        display=shape.display if environment is None else "reflection",
         lighting=settings.lighting,
         period=float(style.period),
         duty=shape.duty,
@@ -86,22 +91,25 @@ def mitsuba_scene(
         key_light=view.key_light(),
         bands=style.bands,
         parabolic=settings.parabolic,
+        environment=environment,
     )
-    sensor = view.sensor(
-        mi, settings.spp, settings.seed, "jittered" if settings.lighting == "soft" else "symmetric"
-    )
+    random = settings.lighting == "soft" or (environment is not None and environment.roughness > 0)
+    sensor = view.sensor(mi, settings.spp, settings.seed, "jittered" if random else "symmetric")
     scene = mi.load_dict(
         {
             "type": "scene",
             "integrator": make_integrator(integrator_settings, tex, style.lut),
             # sample symmetrically (strata centres, no random numbers) so that f's pixel mean
             # is exact for f linear across the pixel and flat and lit pictures are the same
-            # in every variant; soft light jitters (it needs random samples anyway)
+            # in every variant; soft light and a glossy reflection jitter (they need random
+            # samples anyway)
             "sensor": sensor,
             "surface": _mesh(mi, mesh, atlas),
         }
     )
-    return MitsubaScene(scene, sensor["sampler"])
+    return MitsubaScene(
+        scene, sensor["sampler"], environment is not None and environment.roughness > 0
+    )
 
 
 def render_centres(

@@ -44,13 +44,15 @@ from ..errors import GshadeError
 from ..limits import MAX_SAMPLES
 from ..scene.changes import scene_with_settings
 from ..scene.model import Scene
-from ..shape import get_shape_function
+from ..shape import checked_parameters, get_shape_function
 from .atlas import Atlas
 from .camera import View
 from .channels import PICTURE, centre_hits, exact_channels, refuse_non_finite
+from .glossy import Convergence, converged_picture
 from .integrator import SHAPE_FILM
 from .mitsuba_scene import mitsuba_scene, render_centres, render_pixels_of, render_uniform
 from .plugins import use_variant
+from .reflections import Environment, environment, reflection_channels
 from .rendered_image import RenderedImage
 from .sizing import chord_tolerance, frame, mesh_resolution, tile_sizes, validate_memory
 from .statistics import min_radius_summary, surface_statistics, visible_statistics, widened
@@ -171,6 +173,7 @@ def render(
     lap = _Laps()
     settings, where = _settings(scene)
     variant = use_variant(settings.variant)
+    env = _environment(scene, where)
     lap("setup")
 
     framing = frame(scene, settings, where)
@@ -189,19 +192,22 @@ def render(
     tex, region = _textures(scene, mesh, atlas, functions + parabolic)
     style = display_style(scene.shape, mapped, tex, region)
     lap("textures")
-    surface = surface_statistics(tex, region, scene.patches, *functions[0], _numbers(scene))
+    surface = None
+    if env is None:  # a reflection has no values over the surface without a view
+        surface = surface_statistics(tex, region, scene.patches, *functions[0], _numbers(scene))
     lap("statistics")
 
     view = framing.view
-    mitsuba = mitsuba_scene(mesh, atlas, tex, style, view, settings, scene.shape)
-    uniform = settings.sampling == "uniform" or settings.lighting == "soft"
+    mitsuba = mitsuba_scene(mesh, atlas, tex, style, view, settings, scene.shape, env)
+    glossy = env is not None and env.roughness > 0
+    uniform = settings.sampling == "uniform" or settings.lighting == "soft" or glossy
     silhouettes = None if uniform else silhouette_pixels(mesh, view)
     del mesh, tex, region  # Mitsuba holds its own copies: free ours before rendering
     lap("scene")
     film = render_centres(mitsuba, view, settings)
     lap("render")
     hit = film[..., SHAPE_FILM.index("A")] > 0.5  # where the centre rays meet the surface
-    exact = _exact_functions(scene, settings, functions)
+    exact = _exact_functions(scene, settings, [] if env is not None else functions)
     # the supersampling pass (Mitsuba's threads) while numpy finds the exact centre hits
     # (they read the centre pass's coordinates, the pass writes the picture's channels)
     with ThreadPoolExecutor(max_workers=1) as pool:
@@ -209,10 +215,12 @@ def render(
             _supersample, film, mitsuba, view, settings, silhouettes, atlas, style, scene.shape
         )
         hits = centre_hits(film, hit, atlas, scene.patches, view, exact)
-        supersampled.result()
+        convergence = supersampled.result()
     lap("supersample")
 
     channels = exact_channels(film, hit, atlas, scene.patches, view, exact, hits)
+    if env is not None:
+        channels = reflection_channels(channels, view, env)
     lap("exact_channels")
     refuse_non_finite(where, channels)
     if junctions is not None:
@@ -245,10 +253,13 @@ def render(
     numbers = _statistics(scene, visible_statistics(channels), surface)
     if umbilics is not None:
         numbers.update(_umbilic_numbers(scene, *umbilics))
-    shown = replace(
-        legend(scene.shape, style, _length_unit(scene)),
-        notes=_legend_notes(numbers, combs, _length_unit(scene), settings.parabolic),
-    )
+    legend_notes = _legend_notes(numbers, combs, _length_unit(scene), settings.parabolic)
+    if env is not None:
+        said_env = (
+            (env.describe(),) if convergence is None else (env.describe(), convergence.describe())
+        )
+        legend_notes = (*said_env, *legend_notes)
+    shown = replace(legend(scene.shape, style, _length_unit(scene)), notes=legend_notes)
     metadata = _metadata(scene, settings, variant, view, resolution, atlas, shown.text())
     metadata["statistics"] = json.dumps(numbers, allow_nan=False)
     if combs is not None:
@@ -303,6 +314,18 @@ def shape_statistics(scene: Scene | str | os.PathLike, **overrides: Any) -> dict
     return numbers
 
 
+def _environment(scene: Scene, where: str) -> Environment | None:
+    """The environment a reflection reflects (None for other functions), read before
+    anything is rendered: a bad map file fails first."""
+    fn = get_shape_function(scene.shape.function)
+    if not fn.reflection:
+        return None
+    try:
+        return environment(checked_parameters(fn, scene.shape.params_for(fn.name)))
+    except GshadeError as exc:
+        raise GshadeError(f"{where}: [shape] map: {exc}") from None
+
+
 def _supersample(
     film: NDArray,
     mitsuba: MitsubaScene,
@@ -312,13 +335,18 @@ def _supersample(
     atlas: Atlas,
     style: DisplayStyle,
     shape: Shape,
-) -> None:
+) -> Convergence | None:
     """Replace the centre pass's picture (:data:`PICTURE`) in ``film`` by ``spp`` samples'
     at the silhouettes' pixels and where the picture jumps (everywhere if ``silhouettes`` is
-    None: uniform sampling)."""
+    None: uniform sampling); a glossy reflection's until two seeds agree
+    (:func:`gshade.rendering.glossy.converged_picture`), and how far they do."""
+    if mitsuba.glossy:
+        picture, convergence = converged_picture(mitsuba, view, settings)
+        film[..., : len(PICTURE)] = picture
+        return convergence
     if silhouettes is None:
         film[..., : len(PICTURE)] = render_uniform(mitsuba, settings)[..., : len(PICTURE)]
-        return
+        return None
     # a jump of f this small does not show: a thousandth of a stripe or of the colours
     scale = style.value_range[1] - style.value_range[0]
     if style.bands is not None:  # a thousandth of the levels' span (or of the largest)
@@ -330,11 +358,14 @@ def _supersample(
         if shape.display in ("colormap", "bands")
         else (float(style.period), shape.phase, shape.duty)
     )
+    if get_shape_function(shape.function).reflection:  # the map is box-filtered per sample:
+        unseen, stripes = np.inf, None  # more samples only at edges (occlusion's included)
     marked = discontinuous_pixels(film, atlas, unseen, stripes, style.bands)
     pixels = np.flatnonzero(silhouettes | marked)
     if pixels.size and settings.spp > 1:
         picture = render_pixels_of(mitsuba, view, settings, pixels)[:, : len(PICTURE)]
         film.reshape(-1, film.shape[-1])[pixels, : len(PICTURE)] = picture
+    return None
 
 
 def _settings(scene: Scene) -> tuple[RenderSettings, str]:
@@ -360,10 +391,11 @@ def _exact_functions(
 ) -> dict:
     """The functions evaluated exactly at the pixel centres, by channel: ``f`` the striped
     (or only) one, ``f2`` the colour-mapped one of ``display = "both"``, and each
-    ``render.aovs`` name with the scene's parameters for it."""
+    ``render.aovs`` name with the scene's parameters for it (``functions`` empty: a
+    reflection, whose f :func:`gshade.rendering.reflections.reflection_channels` gives)."""
     from ..shape import get_shape_function
 
-    out = {"f": functions[0]}
+    out = {"f": functions[0]} if functions else {}
     if len(functions) > 1:
         out["f2"] = functions[1]
     for name in settings.aovs:

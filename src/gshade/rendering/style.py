@@ -23,6 +23,7 @@ from ..display.colour_maps import colour_map_table
 from ..scene.model import Shape
 from ..shape import SHAPE_FUNCTIONS, Bands, ShapeFunction, function_bands, get_shape_function
 from .atlas import Atlas
+from .reflections import normal_functions
 from .textures import ShapeTextures, texel_areas
 
 __all__ = [
@@ -58,7 +59,11 @@ def _units(function: str, params: dict) -> str:
 
 def shape_functions(shape: Shape) -> tuple[list[tuple[ShapeFunction, dict]], str]:
     """The functions to evaluate with their parameters (the striped or primary one first,
-    then for ``display = "both"`` the colour-mapped one) and the colour-mapped one's name."""
+    then for ``display = "both"`` the colour-mapped one) and the colour-mapped one's name;
+    for a reflection, the unit normal's components it is drawn from
+    (:func:`gshade.rendering.reflections.normal_functions`)."""
+    if get_shape_function(shape.function).reflection:
+        return normal_functions(), shape.function
     functions = [(get_shape_function(shape.function), shape.params_for(shape.function))]
     mapped = shape.function
     if shape.display == "both":
@@ -108,6 +113,8 @@ def display_style(
     with CAD faces), the range and the stripes' span are percentiles by surface area (1–99 %
     and 0.5–99.5 %; see :func:`_area_element`); otherwise the colour range is the 1–99 %
     percentiles of the texels and the stripes' span their whole range."""
+    if get_shape_function(shape.function).reflection:  # it draws the map: no range, stripes
+        return DisplayStyle(mapped, False, (0.0, 1.0), 1.0, None, None)
     valid = [v > 0 if region is None else (v > 0) & region for v in tex.valid]
     shown = 1 if shape.display == "both" else 0  # the colour-mapped function's textures
     cvals, cvalid = tex.values[shown][..., 0], valid[shown]
@@ -223,6 +230,9 @@ def legend(shape: Shape, style: DisplayStyle, length: str = "length") -> Legend:
     """The legend of a render: the function, its colour map and range, its stripes; the
     units in terms of ``length``, the scene's length unit (e.g. ``"mm"``: 1/mm), where one
     is known."""
+    fn = get_shape_function(shape.function)
+    if fn.reflection:
+        return Legend(function=fn.name, order=fn.order, display="reflection")
     units = _units(style.mapped, shape.params_for(style.mapped)).replace("length", length)
     striped = shape.display in ("stripes", "both")
     return Legend(

@@ -10,11 +10,13 @@ import json
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..errors import GshadeError, show, suggest
+from .data_files import DataFiles, data_roots
 from .load import load_scene, validate_values
 from .model import Camera, Scene, Shape
 from .overrides import apply_overrides
@@ -131,8 +133,12 @@ def _changed(scene: Scene, changes: Mapping[str, Any]) -> Scene:
     }
     raw = apply_overrides(source, tables, dict(changes))
     validate_values(source, raw)
+    # the paths [shape] names: relative to the scene's file (already found: absolute), or to
+    # the working folder for a scene built in Python; within that folder or GSHADE_DATA_PATH
+    base = Path(scene.path).parent if scene.path is not None else Path.cwd()
+    files = DataFiles(base, data_roots(base, None))
     parsers: dict[str, Callable[[str, dict[str, Any]], Any]] = {
-        "shape": parse_shape,
+        "shape": lambda source, raw: parse_shape(source, raw, files),
         "camera": parse_camera,
         "render": parse_render,
     }

@@ -156,10 +156,10 @@ def _build(
             f"got {show(tables)}"
         )
     # The small tables first, so that their mistakes show before surface data are read.
-    shape = parse_shape(file, _table(file, raw, "shape"))
+    roots = data_roots(base, data_path)
+    shape = parse_shape(file, _table(file, raw, "shape"), DataFiles(base, roots))
     camera = parse_camera(file, _table(file, raw, "camera"))
     render = parse_render(file, _table(file, raw, "render"))
-    roots = data_roots(base, data_path)
     check = parse_check(file, _table(file, raw, "check"), DataFiles(base, roots))
     sweep = parse_sweep(file, _table(file, raw, "sweep"))
     surfaces, data_files = [], []

@@ -231,8 +231,10 @@ def shape_keys(shape: dict[str, Any]) -> tuple[str, ...]:
     return (*SHAPE_KEYS, *dict.fromkeys(params))
 
 
-def _parameter(t: Table, fn: str, name: str) -> Any:
-    """A shape-function parameter: its TOML type checked here, its value by the registry."""
+def _parameter(t: Table, fn: str, name: str, files: DataFiles) -> Any:
+    """A shape-function parameter: its TOML type checked here, its value by the registry; a
+    ``file`` parameter's path found by ``files`` (relative to the scene file, within its
+    folder or one in ``GSHADE_DATA_PATH``) and kept as that path."""
     spec = SHAPE_FUNCTIONS[fn].parameters[name]
     what = f" (parameter of {fn}: {spec.help})"
     value = t.data[name]
@@ -242,11 +244,19 @@ def _parameter(t: Table, fn: str, name: str) -> Any:
         value = t.number(name, expected=f"a number{what}")
     with t.reported():
         validate_parameter(fn, name, t.data[name])
+    if spec.kind == "file" and value not in spec.choices:
+        value = str(files.find(t, value, name))
     return value
 
 
-def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
+def parse_shape(file: str, raw: dict[str, Any], files: DataFiles | None = None) -> Shape:
+    """The ``[shape]`` table of the scene ``file``; ``files``: where the paths its
+    parameters name may lie (default: relative to ``file``'s folder, within it or a folder
+    in ``GSHADE_DATA_PATH``)."""
     t = Table(file, "[shape] ", raw, SHAPE_KEYS)
+    if files is None:
+        base = Path(file).parent
+        files = DataFiles(base, data_roots(base, None))
     function = t.choice("function", tuple(SHAPE_FUNCTIONS))
     colour_function = t.choice("colour_function", tuple(SHAPE_FUNCTIONS))
     functions = [function] + ([colour_function] if colour_function else [])
@@ -260,13 +270,25 @@ def parse_shape(file: str, raw: dict[str, Any]) -> Shape:
         if key not in SHAPE_KEYS:
             for fn in functions:
                 if key in SHAPE_FUNCTIONS[fn].parameters:
-                    params[key] = _parameter(t, fn, key)
+                    params[key] = _parameter(t, fn, key, files)
     for fn in functions:  # the rules between parameters (axis not along reference ...)
         with t.reported():
             checked_parameters(
                 fn, {k: v for k, v in params.items() if k in SHAPE_FUNCTIONS[fn].parameters}
             )
     display = t.choice("display", DISPLAYS)
+    if SHAPE_FUNCTIONS[function].reflection and display != SHAPE_KEYS["display"].default:
+        raise t.error(
+            "display",
+            f"expected no display with {function} (it draws the reflected map itself), "
+            f"got {show(display)}",
+        )
+    if colour_function and SHAPE_FUNCTIONS[colour_function].reflection:
+        raise t.error(
+            "colour_function",
+            f"expected a function with values to colour-map, got {show(colour_function)} "
+            "(a reflection the renderer draws)",
+        )
     if display == "bands":
         with t.reported():
             function_bands(function, params)
@@ -383,12 +405,12 @@ def _aovs(t: Table) -> tuple[str, ...]:
     names = t.raw("aovs")
     if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
         raise t.error("aovs", f"expected a list of shape function names, got {show(names)}")
+    valued = tuple(name for name, fn in SHAPE_FUNCTIONS.items() if not fn.reflection)
     for name in names:
-        if name not in SHAPE_FUNCTIONS:
+        if name not in valued:
             raise t.error(
                 "aovs",
-                f"expected names of {one_of(tuple(SHAPE_FUNCTIONS))}, got {show(name)}"
-                + suggest(name, tuple(SHAPE_FUNCTIONS)),
+                f"expected names of {one_of(valued)}, got {show(name)}" + suggest(name, valued),
             )
     if len(set(names)) != len(names):
         raise t.error("aovs", f"expected each name once, got {show(names)}")

@@ -475,3 +475,63 @@ register(
     bands=_radius_bands,
     limit=Parameter("number", 1.0, "the radius limit (model length units): a tool radius"),
 )
+
+# --------------------------------------------------------------------------- environment
+
+_NO_LAYOUT = Layout()
+
+#: The built-in environment's name (gshade's studio, :func:`gshade.rendering.lightbox`).
+LIGHTBOX = "lightbox"
+#: The lightbox's strips (fewest, most) and their width's bounds in degrees (open).
+LIGHTBOX_STRIPS, LIGHTBOX_STRIP_WIDTH = (1, 64), (0.0, 90.0)
+#: The glossy conductor's roughness (GGX alpha): 0 is a mirror.
+MAX_ROUGHNESS = 1.0
+
+
+def _pack_environment(fn: str, kw: dict[str, Any]) -> Packed:
+    """The environment's parameters checked (it has no formula: the renderer draws it)."""
+    strips = kw["strips"]
+    lo, hi = LIGHTBOX_STRIPS
+    if not (float(strips).is_integer() and lo <= strips <= hi):
+        raise GshadeError(f"{fn}: strips: expected an integer in [{lo}, {hi}], got {show(strips)}")
+    lo_w, hi_w = LIGHTBOX_STRIP_WIDTH
+    if not lo_w < kw["strip_width"] < hi_w:
+        raise GshadeError(
+            f"{fn}: strip_width: expected degrees in ({lo_w:g}, {hi_w:g}), "
+            f"got {show(kw['strip_width'])}"
+        )
+    if not np.isfinite(kw["rotation"]):
+        raise GshadeError(f"{fn}: rotation: expected finite degrees, got {show(kw['rotation'])}")
+    if not 0.0 <= kw["roughness"] <= MAX_ROUGHNESS:
+        raise GshadeError(
+            f"{fn}: roughness: expected a number in [0, {MAX_ROUGHNESS:g}] (0: a mirror), "
+            f"got {show(kw['roughness'])}"
+        )
+    return "", _NO_LAYOUT, {}
+
+
+register(
+    "environment",
+    1,
+    "the surface as a mirror (roughness > 0: a glossy conductor) reflecting an environment "
+    "map seen from the camera: r = v - 2 <v, n> n (v the view ray, n the exact unit normal) "
+    "reads the map at column atan2(r_y, r_x) / 2 pi W and row acos(r_z) / pi H; f = the "
+    "luminance reflected",
+    None,
+    _pack_environment,
+    eye=True,
+    map=Parameter(
+        "file",
+        LIGHTBOX,
+        'the environment: "lightbox" (gshade\'s studio of strip lights over a soft floor) or '
+        "a latitude-longitude map, OpenEXR or Radiance HDR (its path relative to the scene "
+        "file)",
+        (LIGHTBOX,),
+    ),
+    rotation=Parameter("number", 0.0, "degrees the map is turned about world +z (up)"),
+    roughness=Parameter(
+        "number", 0.0, "0: a mirror; up to 1: a glossy conductor of this GGX roughness alpha"
+    ),
+    strips=Parameter("number", 5, "lightbox: the number of strip lights overhead (1 to 64)"),
+    strip_width=Parameter("number", 8.0, "lightbox: each strip's width in degrees"),
+)

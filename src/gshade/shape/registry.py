@@ -54,7 +54,12 @@ class ShapeValues(NamedTuple):
 
 @dataclass(frozen=True)
 class Parameter:
-    """A shape function's parameter: its kind ('vector', 'choice', 'number') and default."""
+    """A shape function's parameter: its kind and default.
+
+    Kinds: ``choice`` (one of ``choices``), ``number``, ``point``, ``vector``,
+    ``direction`` (3 numbers) and ``file`` (one of the names ``choices`` or the path of a
+    data file, found relative to the scene file as a surface's ``file`` is).
+    """
 
     kind: str
     default: Any
@@ -120,6 +125,11 @@ class ShapeFunction:
     #: checked parameters -> the bands of ``display = "bands"`` (None: it has none)
     bands: Callable[[dict[str, Any]], Bands] | None = field(default=None, repr=False)
 
+    @property
+    def reflection(self) -> bool:
+        """Whether the renderer draws it from the unit normal and the view (no formula)."""
+        return self.formula is None
+
     def __call__(self, d: ArrayLike, *, gradient: bool = True, **params: Any) -> ShapeValues:
         return evaluate(self, d, gradient=gradient, **params)
 
@@ -145,6 +155,25 @@ def _unknown(fn: ShapeFunction, name: Any) -> GshadeError:
     return GshadeError(f"{fn.name}: unknown parameter {name!r}; expected one of: {known}")
 
 
+#: The longest ``file`` parameter accepted (a path), in characters.
+MAX_PATH_CHARS = 4096
+
+
+def _file(name: str, x: Any, choices: tuple[str, ...]) -> str:
+    if (
+        not isinstance(x, str)
+        or not x
+        or len(x) > MAX_PATH_CHARS
+        or any(ord(c) < 32 or ord(c) == 127 for c in x)
+    ):
+        hint = f"{one_of(choices)} or " if choices else ""
+        raise GshadeError(
+            f"{name}: expected {hint}a file's path (at most {MAX_PATH_CHARS} printable "
+            f"characters), got {show(x)}"
+        )
+    return x
+
+
 def _vector(name: str, x: Any, *, nonzero: bool, unit: bool) -> NDArray:
     try:
         v = np.asarray(x, dtype=np.float64)
@@ -165,7 +194,9 @@ def validate_parameter(function: str | ShapeFunction, name: str, value: Any) -> 
     its rule is written): a choice among its ``choices``; a ``point``: 3 finite numbers; a
     ``vector`` or ``direction``: 3 finite numbers of length at least
     :data:`gshade.limits.MIN_DIRECTION` (a direction is returned normalised); a
-    ``number``: a number.  None stands for a vector left out (a default of None).
+    ``number``: a number; a ``file``: one of its ``choices`` or a path (a non-empty string of
+    printable characters; where it lies is the scene reader's to check).  None stands for a
+    vector left out (a default of None).
 
     Raises
     ------
@@ -192,6 +223,8 @@ def validate_parameter(function: str | ShapeFunction, name: str, value: Any) -> 
             return float(value)
         except (TypeError, ValueError):
             raise GshadeError(f"{name}: expected a number, got {show(value)}") from None
+    if spec.kind == "file":
+        return _file(name, value, spec.choices)
     return value
 
 
@@ -224,7 +257,7 @@ def register(
     name: str,
     order: int,
     summary: str,
-    formula: Formula,
+    formula: Formula | None,
     pack: Callable[[str, dict[str, Any]], Packed] | None = None,
     *,
     eye: bool = False,
@@ -233,7 +266,8 @@ def register(
     **parameters: Parameter,
 ) -> None:
     """Declare a shape function: the one place its name, order, summary, formula, parameters,
-    properties and bands are given."""
+    properties and bands are given (``formula`` None: a reflection, drawn by the
+    renderer; see :attr:`ShapeFunction.reflection`)."""
     SHAPE_FUNCTIONS[name] = ShapeFunction(
         name,
         order,
@@ -344,7 +378,10 @@ def evaluate(
     if fn.order >= 1:  # irregular points (|p_u x p_v| ~ 0) are flagged, as in geometry
         values = {**values, "irregular": IRREGULAR_TOL * _derivative_scale(flat) ** 2}
     if fn.formula is None:
-        raise GshadeError(f"{fn.name}: has no formula")
+        raise GshadeError(
+            f"{fn.name}: has no value at a point without a view (a reflection the renderer "
+            "draws); expected a function with a formula"
+        )
     f, grad, valid, eye, fuv = kernels.run(
         fn.formula,
         form,
