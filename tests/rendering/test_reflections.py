@@ -156,9 +156,7 @@ def test_stripe_edges_lie_where_reflection_lines_puts_them(stripes: Path) -> Non
     from scipy.ndimage import binary_erosion
 
     size = (320, 240)
-    env = gshade.render(
-        _scene(stripes, 'function = "environment"\nmap = "stripes.exr"', size=size)
-    )
+    env = gshade.render(_scene(stripes, 'function = "environment"\nmap = "stripes.exr"', size=size))
     zebra = gshade.render(
         _scene(
             stripes,
@@ -227,9 +225,7 @@ def test_glossy_two_seeds_agree_within_one_percent(stripes: Path) -> None:
     seeds s and s + 1 differ by < 1 % of white, as the legend states; the glossy picture
     blurs the stripes (less contrast than the mirror's)."""
     shape = 'function = "environment"\nmap = "stripes.exr"'
-    glossy = gshade.render(
-        _scene(stripes, shape + "\nroughness = 0.3", size=(64, 48), spp=16)
-    )
+    glossy = gshade.render(_scene(stripes, shape + "\nroughness = 0.3", size=(64, 48), spp=16))
     legend = glossy.metadata["legend"]
     assert "glossy conductor (GGX alpha 0.3)" in legend
     assert "differ by < 1% of white at every pixel" in legend, legend
@@ -302,3 +298,44 @@ def test_a_map_path_is_relative_to_the_scene_file(tmp_path: Path) -> None:
     hit = image["patch"] >= 0
     np.testing.assert_allclose(image["f"][hit], 0.5, atol=1e-6)
     assert "mirror reflecting grey.exr" in image.metadata["legend"]
+
+
+# ------------------------------------------------------------------ gshade lightbox
+
+
+def test_gshade_lightbox_writes_the_map_the_scenes_reflect(tmp_path: Path, capsys) -> None:
+    """``gshade lightbox -o`` writes the studio as an EXR; a render reflecting that file is
+    the render reflecting ``map = "lightbox"``, pixel for pixel."""
+    from gshade.app.cli import main
+
+    assert main(["lightbox", "-o", str(tmp_path / "box.exr"), "--strips", "3"]) == 0
+    assert "1024x512 lat-long map, lightbox: 3 strips" in capsys.readouterr().out
+    built_in = gshade.render(
+        _scene(tmp_path, 'function = "environment"\nstrips = 3', size=(80, 60))
+    )
+    from_file = gshade.render(
+        _scene(tmp_path, 'function = "environment"\nmap = "box.exr"', size=(80, 60))
+    )
+    assert (built_in["A"] > 0).sum() > 1000
+    np.testing.assert_array_equal(built_in.rgb, from_file.rgb)
+    np.testing.assert_array_equal(built_in["f"], from_file["f"])
+
+
+@pytest.mark.parametrize(
+    ("flags", "words"),
+    [
+        (["-o", "box.png"], "-o: expected a file name ending in .exr"),
+        (["-o", "box.exr", "--strips", "0"], "--strips: expected an integer in [1, 64]"),
+        (["-o", "box.exr", "--strip-width", "95"], "--strip-width: expected degrees"),
+        (["-o", "box.exr", "--width", "63"], "--width: expected an even integer"),
+        (["-o", "."], "cannot write the file: it is a directory"),
+    ],
+)
+def test_gshade_lightbox_refuses_in_one_line(tmp_path: Path, capsys, monkeypatch, flags, words):
+    from gshade.app.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["lightbox", *flags]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and words in err, err
+    assert not list(tmp_path.iterdir())

@@ -173,7 +173,9 @@ def test_every_shape_function_and_its_parameters_are_accepted(tmp_path):
         lines = [f'function = "{name}"']
         given = iter(directions)
         for pname, spec in fn.parameters.items():
-            value = spec.choices[-1] if spec.kind == "choice" else values.get(spec.kind, 1.5)
+            value = (
+                spec.choices[-1] if spec.kind in ("choice", "file") else values.get(spec.kind, 1.0)
+            )
             if spec.kind == "direction":
                 value = next(given)
             lines.append(f"{pname} = {value!r}".replace("'", '"'))

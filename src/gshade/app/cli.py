@@ -298,6 +298,25 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
     bat.set_defaults(run=commands.batch)
 
 
+def _add_lightbox(sub: argparse._SubParsersAction) -> None:
+    """The ``lightbox`` subcommand's arguments."""
+    box = sub.add_parser(
+        "lightbox",
+        help="write gshade's studio environment (strip lights over a soft floor) as an EXR",
+        description='Write the lat-long map that [shape] map = "lightbox" reflects: R, G, B '
+        "linear; column = azimuth atan2(y, x) from +x towards +y, row = polar angle from +z.",
+    )
+    box.add_argument("-o", "--output", required=True, help="OUT.exr")
+    box.add_argument("--strips", type=int, default=5, help="strip lights overhead (1 to 64)")
+    box.add_argument(
+        "--strip-width", type=float, default=8.0, help="each strip's width in degrees (0 to 90)"
+    )
+    box.add_argument(
+        "--width", type=int, default=1024, help="columns (even, 64 to 8192; rows: half)"
+    )
+    box.set_defaults(run=commands.lightbox)
+
+
 def _add_figure(sub: argparse._SubParsersAction) -> None:
     """The ``figure`` subcommand's arguments."""
     fig = sub.add_parser("figure", help="a multi-panel figure from a figure spec")
@@ -362,6 +381,7 @@ SUBCOMMANDS = (
     _add_check,
     _add_batch,
     _add_figure,
+    _add_lightbox,
     _add_continuity,
     _add_info,
 )

@@ -18,7 +18,8 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import GshadeError
+from .. import __version__
+from ..errors import GshadeError, show
 from .flags import in_flags, parameter
 from .terminal import printable, say
 
@@ -533,6 +534,33 @@ def view(args: argparse.Namespace) -> int:
         f"{output}: {len(args.images)} image{'s' if len(args.images) > 1 else ''}, "
         f"{output.stat().st_size} bytes"
     )
+    return 0
+
+
+def lightbox(args: argparse.Namespace) -> int:
+    """``gshade lightbox``: write the built-in studio map as an OpenEXR file."""
+    from ..io.image import write_exr
+    from ..io.outputs import check_target
+    from ..rendering.environment_maps import lightbox as make_lightbox
+
+    target = check_target(args.output)
+    if target.suffix.lower() != ".exr":
+        raise GshadeError(f"-o: expected a file name ending in .exr, got {show(str(target))}")
+    try:
+        rgb = make_lightbox(args.strips, args.strip_width, args.width)
+    except GshadeError as exc:  # the library names its parameters; here they are flags
+        text = str(exc)
+        for name in ("strip_width", "strips", "width"):
+            if text.startswith(f"{name}:"):
+                raise GshadeError(f"--{name.replace('_', '-')}{text[len(name) :]}") from None
+        raise
+    header = {
+        "gshade_version": __version__,
+        "environment": f"lightbox: {args.strips} strips, {args.strip_width:g} deg wide",
+        "convention": "column = atan2(y, x) / 2 pi W from +x towards +y; row = acos(z) / pi H",
+    }
+    path = write_exr(target, {c: rgb[..., k] for k, c in enumerate("RGB")}, header)
+    say(f"{path}: {rgb.shape[1]}x{rgb.shape[0]} lat-long map, {header['environment']}")
     return 0
 
 
