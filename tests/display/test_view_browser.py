@@ -220,3 +220,43 @@ def test_zoomed_screenshot(browser, pages, shots):
     assert page.inner_text('td[data-role="pixel"][data-image="0"]') == "60, 40"
     page.screenshot(path=str(shots / "view-zoomed.png"))
     page.close()
+
+
+def test_an_environment_render_shows_the_reflection_direction(browser, tmp_path, shots):
+    """An environment render's page: refl.X/Y/Z under the cursor, as the EXR holds them,
+    after N; a "refl as RGB" view of its own (no false-colour view of each component)."""
+    exr = tmp_path / "mirror.exr"
+    result = gshade(
+        "render",
+        VIEW_SCENE,
+        "-o",
+        exr,
+        "--html",
+        tmp_path / "mirror.html",
+        "--width",
+        W,
+        "--height",
+        H,
+        "--spp",
+        1,
+        "--set",
+        "shape.function=environment",
+    )
+    assert result.returncode == 0, result.stderr
+    channels, _ = read_exr(exr)
+    page = open_page(browser, tmp_path / "mirror.html")
+    views = page.evaluate("gshadeView.views()")
+    assert "refl" in views and not {"refl.X", "refl.Y", "refl.Z"} & set(views)
+    rows = page.eval_on_selector_all("tr[data-channel]", "rs => rs.map(r => r.dataset.channel)")
+    assert rows.index("N.Z") + 1 == rows.index("refl.X") < rows.index("refl.Z")
+    for x, y in sample_pixels(channels["patch"]):
+        hover(page, x, y)
+        for name in ("refl.X", "refl.Y", "refl.Z", "f"):
+            text = cell(page, name)
+            assert np.float32(float(text)) == channels[name][y, x], (name, x, y, text)
+    before = canvas_digest(page)
+    page.select_option("[data-role=channel]", "refl")
+    assert canvas_digest(page) != before
+    hover(page, 80, 60)
+    page.screenshot(path=str(shots / "view-refl-as-rgb.png"))
+    page.close()

@@ -72,7 +72,10 @@ MAX_CHANNEL_NAME = 1024
 MAX_VALUES = 1 << 29
 #: The channels' order in the readout (the others follow in the file's order).
 _ORDER = ("f", "f.mean", "f2")
-_TAIL = ("P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "u", "v", "patch", "R", "G", "B", "A")
+_TAIL = (
+    *("P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "refl.X", "refl.Y", "refl.Z"),
+    *("u", "v", "patch", "R", "G", "B", "A"),
+)
 
 
 @dataclass(frozen=True)

@@ -155,7 +155,12 @@ def colour_table(name: str) -> str:
 
 #: Channels whose false colours use their whole range (not a shape function's robust
 #: one), in the order of their views.
-_DATA_ORDER = ("u", "v", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z", "R", "G", "B", "A")
+_DATA_ORDER = (
+    *("u", "v", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z"),
+    *("refl.X", "refl.Y", "refl.Z", "R", "G", "B", "A"),
+)
+#: Unit vectors the page shows as RGB (no false-colour view of their own).
+_VECTORS = (("N.X", "N.Y", "N.Z"), ("refl.X", "refl.Y", "refl.Z"))
 _FIRST = ("f", "f.mean", "f2")
 
 
@@ -191,9 +196,10 @@ def scalar_scales(
     for channels in images:
         seen.update(dict.fromkeys(channels))
     picture = any(all(c in channels for c in "RGB") for channels in images)
-    normal = any(all(c in channels for c in ("N.X", "N.Y", "N.Z")) for channels in images)
     shown = {"patch"} | (set(PICTURE_CHANNELS) if picture else set())
-    shown |= {"N.X", "N.Y", "N.Z"} if normal else set()
+    for vector in _VECTORS:
+        if any(all(c in channels for c in vector) for channels in images):
+            shown |= set(vector)
     first = [n for n in _FIRST if n in seen]
     first += [n for n in seen if n not in first and not _is_data(n) and n not in shown]
     data = [n for n in _DATA_ORDER if n in seen and n not in shown]

@@ -31,12 +31,18 @@
     const gap = Math.max(2, Math.round(W / 40));
     const has = (name) => images.some((im) => im.channels.has(name));
     const patchLabel = images[0].meta.cad ? "face" : "patch";
-    const NORMAL = ["N.X", "N.Y", "N.Z"];
+    // unit vectors shown as RGB (x, y, z from [-1, 1] to [0, 255]): the normal and the
+    // reflection direction of an environment render
+    const VECTORS = [
+      { id: "N", label: "N as RGB", names: ["N.X", "N.Y", "N.Z"] },
+      { id: "refl", label: "refl as RGB", names: ["refl.X", "refl.Y", "refl.Z"] },
+    ];
 
     // views of the channels: the picture, every channel no other view shows in false
-    // colour (data.scales), N as RGB, the patch ids; ids unique whatever the channels' names
+    // colour (data.scales), N (and refl) as RGB, the patch ids; ids unique whatever the
+    // channels' names
     const views = [];
-    const ids = new Set(["picture", "N", "patch"]);
+    const ids = new Set(["picture", "N", "refl", "patch"]);
     if (images.some((im) => im.picture)) views.push({ id: "picture", label: "picture", names: ["R", "G", "B", "A"] });
     for (const [name, scale] of Object.entries(data.scales)) {
       let id = name;
@@ -44,7 +50,9 @@
       ids.add(id);
       views.push({ id, label: name + " (false colour)", names: [name], scale });
     }
-    if (images.some((im) => NORMAL.every((c) => im.channels.has(c)))) views.push({ id: "N", label: "N as RGB", names: NORMAL });
+    for (const vector of VECTORS) {
+      if (images.some((im) => vector.names.every((c) => im.channels.has(c)))) views.push({ ...vector, vector: true });
+    }
     if (has("patch")) views.push({ id: "patch", label: patchLabel + " ids", names: ["patch"] });
     if (!views.length) throw new Error("no channel to show");
     const state = {
@@ -171,7 +179,7 @@
       const ch = im.channels, patch = ch.get("patch");
       const on = (i) => (patch ? patch[i] >= 0 : true);
       if (view.id === "picture") { if (im.picture) px.set(im.picture); return; }
-      if (view.id === "N") {
+      if (view.vector) {
         const [x, y, z] = view.names.map((c) => ch.get(c));
         if (!x || !y || !z) return;
         for (let i = 0; i < W * H; i++) {
