@@ -20,7 +20,7 @@ when it first imports Dr.Jit or Mitsuba itself; a program that imports ``drjit``
 
 from __future__ import annotations
 
-__version__ = "0.11.0"
+__version__ = "0.12.0"
 
 import sys
 from importlib import import_module
