@@ -177,6 +177,7 @@ def test_the_order_ladder_spec_loads():
         "planar_sections",
         "isophotes",
         "reflection_lines",
+        "environment",
         "mean",
     ]
 
