@@ -40,12 +40,16 @@ def variant_class(methods: type, base: str, mi: Any) -> type:
     ``ops`` (:func:`gshade.runtime.backend.drjit_ops`) and ``scalar`` (whether the variant
     runs one sample at a time).
 
-    Mitsuba's classes take one base (nanobind), so ``methods`` is copied, not inherited; its
-    methods call no ``super()``.
+    Mitsuba's classes take one base (nanobind), so ``methods`` is copied, not inherited
+    (with the attributes of its own Python bases, e.g. the shape integrator's
+    :class:`gshade.rendering.reflection_sampling.ReflectionSampling`); its methods call no
+    ``super()``.
     """
     scalar = mi.variant().startswith("scalar")
     parts = {"mi": mi, "dr": import_drjit(), "ops": drjit_ops(scalar), "scalar": scalar}
-    own = {k: v for k, v in vars(methods).items() if k not in _CLASS_INTERNALS}
+    own: dict[str, Any] = {}
+    for klass in reversed(methods.__mro__[:-1]):  # its bases' attributes first (not object's)
+        own.update({k: v for k, v in vars(klass).items() if k not in _CLASS_INTERNALS})
     return type(methods.__name__, (getattr(mi, base),), own | parts)
 
 
