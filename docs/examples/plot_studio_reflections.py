@@ -10,7 +10,7 @@ lines (form ``infinity``) are the special case of an environment of stripes at i
 
 This example renders ``scenes/teapot-studio.toml`` as a mirror, the same teapot as a glossy
 conductor (``roughness = 0.05``: Mitsuba's ``roughconductor`` samples the lobe until two
-seeds agree within 1 % of white, as the legend says), and the teapot's zebra
+seeds agree within 1 % in sRGB, as the legend says), and the teapot's zebra
 (``scenes/teapot-zebra.toml``) beside them; then it reads the reflection direction out of
 the mirror's EXR channels and checks it against the exact normal.
 """

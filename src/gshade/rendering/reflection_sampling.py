@@ -19,7 +19,13 @@ from .reflections import LUMINANCE, OCCLUDED
 if TYPE_CHECKING:
     from .reflections import Environment
 
-__all__ = ["ReflectionSampling"]
+__all__ = ["GLOSSY_STRATA", "ReflectionSampling"]
+
+#: A glossy sample reads the map over the solid angle 1 / (GLOSSY_STRATA pdf(wo)) about its
+#: direction: the lobe's share of one of this many strata (a kernel over the sampled
+#: directions, the same at every pixel whatever its samples: a blur that shrank with a
+#: pixel's own count would leave the pixels sampled more sharper than their neighbours)
+GLOSSY_STRATA = 64.0
 
 
 class ReflectionSampling:
@@ -87,13 +93,25 @@ class ReflectionSampling:
         defined = parts[0][2] & parts[1][2] & parts[2][2]
         n = dr.normalize(mi.Vector3f(*(p[0] for p in parts)))
         slopes = [self._screen_slopes(si, p[3], *p[1]) for p in parts]
-        v = ray.d
+        vn = dr.dot(ray.d, n)
+        r = dr.normalize(ray.d - 2.0 * vn * n)
+        half_c, half_r = self._footprint(ray, n, slopes, r)
         if self.glossy is not None:
-            return self._glossy(scene, sampler, si, ray, hit, n, defined)
+            return self._glossy(scene, sampler, si, ray, hit, n, defined, (half_c, half_r))
+        column, row = map_position(r.x, r.y, r.z, self.map_w, self.map_h, self.rotation, ops)
+        colour = self._map_mean(column, row, half_c, half_r)
+        f = dr.dot(mi.Color3f(*LUMINANCE), colour)
+        occluded = self._occluded(scene, si, ray, r, hit & defined)
+        return dr.select(occluded, mi.Color3f(*OCCLUDED), colour), f, defined, occluded
+
+    def _footprint(self, ray: Any, n: Any, slopes: list, r: Any) -> tuple[Any, Any]:
+        """The mirror's footprint about r in map texels: the half-sides of the box whose
+        column and row spreads (variances) are the pixel's (a parallelogram of sides
+        (dc/dx, dr/dx), (dc/dy, dr/dy) spreads its columns as a box of width
+        sqrt(dc/dx^2 + dc/dy^2) does); see :meth:`_reflection`."""
+        mi, dr, ops = self.mi, self.dr, self.ops
+        v, w, h = ray.d, self.map_w, self.map_h
         vn = dr.dot(v, n)
-        r = dr.normalize(v - 2.0 * vn * n)
-        w, h = self.map_w, self.map_h
-        column, row = map_position(r.x, r.y, r.z, w, h, self.rotation, ops)
         spans = []
         for k, d_ray in ((0, ray.d_x), (1, ray.d_y)):
             dv = dr.select(ray.has_differentials, d_ray - v, 0.0)
@@ -104,15 +122,9 @@ class ReflectionSampling:
             d_phi = (r.x * d_r.y - r.y * d_r.x) / rho2
             d_theta = r.z * (r.x * d_r.x + r.y * d_r.y) / rho - rho * d_r.z
             spans.append((d_phi * (w / (2 * np.pi)), d_theta * (h / np.pi)))
-        # the box whose column and row spreads (variances) are the footprint's: a
-        # parallelogram of sides (dc/dx, dr/dx), (dc/dy, dr/dy) spreads its columns as a
-        # box of width sqrt(dc/dx^2 + dc/dy^2) does
         half_c = 0.5 * dr.sqrt(spans[0][0] * spans[0][0] + spans[1][0] * spans[1][0])
         half_r = 0.5 * dr.sqrt(spans[0][1] * spans[0][1] + spans[1][1] * spans[1][1])
-        colour = self._map_mean(column, row, half_c, half_r)
-        f = dr.dot(mi.Color3f(*LUMINANCE), colour)
-        occluded = self._occluded(scene, si, ray, r, hit & defined)
-        return dr.select(occluded, mi.Color3f(*OCCLUDED), colour), f, defined, occluded
+        return half_c, half_r
 
     def _occluded(self, scene: Any, si: Any, ray: Any, r: Any, active: Any) -> Any:
         """Whether the ray along r from the sample meets the surface; a direction that
@@ -124,7 +136,15 @@ class ReflectionSampling:
         return leaves & scene.ray_test(si.spawn_ray(r), leaves)
 
     def _glossy(
-        self, scene: Any, sampler: Any, si: Any, ray: Any, hit: Any, n: Any, defined: Any
+        self,
+        scene: Any,
+        sampler: Any,
+        si: Any,
+        ray: Any,
+        hit: Any,
+        n: Any,
+        defined: Any,
+        footprint: tuple[Any, Any],
     ) -> tuple:
         """A glossy conductor: one direction wo sampled by Mitsuba's ``roughconductor`` in
         the frame of the exact normal (turned towards the viewer), weighted by the BSDF's
@@ -143,11 +163,14 @@ class ReflectionSampling:
         sampled = active & (bs.pdf > 0)
         w, h = self.map_w, self.map_h
         column, row = map_position(wo.x, wo.y, wo.z, w, h, self.rotation, ops)
-        count = float(sampler.sample_count())
-        half = 0.5 * dr.sqrt(1.0 / (count * ops.maximum(bs.pdf, 1e-12)))  # radians
+        half = 0.5 * dr.sqrt(1.0 / (GLOSSY_STRATA * ops.maximum(bs.pdf, 1e-12)))  # radians
         sin_theta = ops.maximum(dr.sqrt(wo.x * wo.x + wo.y * wo.y), 1e-6)
-        half_c = half / sin_theta * (w / (2 * np.pi))
-        colour = self._map_mean(column, row, half_c, half * (h / np.pi)) * weight
+        lobe_c, lobe_r = half / sin_theta * (w / (2 * np.pi)), half * (h / np.pi)
+        # and the pixel's own footprint (the mirror's, about wo): the directions a sample
+        # stands for across the pixel as well as across the lobe
+        half_c = dr.sqrt(lobe_c * lobe_c + footprint[0] * footprint[0])
+        half_r = dr.sqrt(lobe_r * lobe_r + footprint[1] * footprint[1])
+        colour = self._map_mean(column, row, half_c, half_r) * weight
         colour = dr.select(sampled, colour, mi.Color3f(0.0))
         f = dr.dot(mi.Color3f(*LUMINANCE), colour)
         occluded = self._occluded(scene, si, ray, wo, sampled)
