@@ -27,9 +27,6 @@ coordinates after the Newton step, a close start for gshade's own exact Newton s
 is shadowed; ``f_x``, ``f_y``, the derivatives of f along the image's columns and rows, per
 pixel.  From one sample at each pixel centre,
 these tell where the picture is discontinuous (:mod:`gshade.rendering.supersampling`).
-``Y_sq``: the square of the colour's luminance Y (:data:`gshade.rendering.reflections.LUMINANCE`),
-whose pixel mean, with the mean colour's, gives the samples' variance (how far a glossy
-picture's pixel is from converged: :mod:`gshade.rendering.glossy`).
 
 Traced into one kernel in the ``llvm_ad_rgb`` variant (as fast as Mitsuba's own plugins);
 run per sample in ``scalar_rgb``.
@@ -62,7 +59,6 @@ from ..runtime.variant import mitsuba
 from .atlas import GEOMETRY, SHAPE, Atlas, bilinear, cell_centre, hermite, locate_cell, tile_bounds
 from .newton import newton_step
 from .reflection_sampling import ReflectionSampling
-from .reflections import LUMINANCE
 from .textures import ShapeTextures
 
 if TYPE_CHECKING:
@@ -89,7 +85,7 @@ DISPLAY_CODES = {
 #: the Mitsuba plugin name of the integrator
 SHAPE_PLUGIN = "gshade_shape"
 #: the film channels a render gives: R G B A, then the integrator's AOVs
-SHAPE_FILM = ("R", "G", "B", "A", "f", "x", "y", "flags", "f_x", "f_y", "Y_sq")
+SHAPE_FILM = ("R", "G", "B", "A", "f", "x", "y", "flags", "f_x", "f_y")
 #: ``flags``: f (and the colour function) defined; the key light shadowed (a reflection: the
 #: reflected ray meets the surface itself)
 DEFINED, SHADOWED = 1, 2
@@ -354,7 +350,7 @@ class ShapeIntegrator(ReflectionSampling):
         self, scene: Any, sampler: Any, ray: Any, medium: Any = None, active: Any = True
     ) -> tuple[Any, Any, list[Any]]:
         """Mitsuba's ``SamplingIntegrator.sample``: the colour, whether the ray hit, and the
-        AOVs ``f x y flags f_x f_y Y_sq`` of one sample."""
+        AOVs ``f x y flags f_x f_y`` of one sample."""
         mi, dr, ops = self.mi, self.dr, self.ops
         Float, Float64, Color3f = mi.Float, mi.Float64, mi.Color3f
         si = scene.ray_intersect(ray, active)
@@ -366,7 +362,7 @@ class ShapeIntegrator(ReflectionSampling):
             colour = dr.select(hit, dr.select(defined, colour, Color3f(UNDEFINED)), Color3f(0.0))
             flags = dr.select(defined, 1.0, 0.0) + dr.select(occluded, 2.0, 0.0)
             aovs = [dr.select(hit, x, 0.0) for x in (f, si.uv.x, si.uv.y, flags)]
-            return colour, hit, [*aovs, Float(0.0), Float(0.0), self._luminance_sq(colour)]
+            return colour, hit, [*aovs, Float(0.0), Float(0.0)]
         f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values)
         fx, fy = self._screen_slopes(si, cell, f_s, f_t)
         if self.display == COLORMAP:
@@ -403,11 +399,5 @@ class ShapeIntegrator(ReflectionSampling):
                 dr.select(hit, flags, 0.0),
                 dr.select(hit, fx, 0.0),
                 dr.select(hit, fy, 0.0),
-                self._luminance_sq(colour),
             ],
         )
-
-    def _luminance_sq(self, colour: Any) -> Any:
-        """Y^2 of a colour, Y = <LUMINANCE, colour>."""
-        y = self.dr.dot(self.mi.Color3f(*LUMINANCE), colour)
-        return y * y
