@@ -125,6 +125,9 @@ class IntegratorSettings:
     parabolic: bool = False
     #: display = "reflection": the environment reflected (the textures: n_x, n_y, n_z)
     environment: Environment | None = None
+    #: per function's textures (in order), the period of its values where they are angles
+    #: that wrap (:func:`gshade.shape.function_period`), else None (missing: None)
+    periods: tuple[float | None, ...] = ()
 
 
 def make_integrator(
@@ -206,6 +209,8 @@ class ShapeIntegrator(ReflectionSampling):
         self.display = DISPLAY_CODES[settings.display]
         self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
         self.values = values[0]  # f, f_s, f_t, f_st, valid
+        periods = (*settings.periods, *([None] * len(values)))
+        self.period_of = {id(texture): p for texture, p in zip(values, periods, strict=False)}
         if self.display == BOTH:
             self.colour_values = values[1]
         if lut is not None:
@@ -275,12 +280,29 @@ class ShapeIntegrator(ReflectionSampling):
     def _shape_value(self, si: Any, hit: Any, texture: Any) -> tuple[Any, Any, Any, Any]:
         """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
         defined (bilinear validity > 1/2), from one fetch of the cell's texels; and the
-        cell (its tile's columns and rows)."""
+        cell (its tile's columns and rows).
+
+        Where f's values are angles that wrap (a period P), the corners' values are taken
+        within P / 2 of the first corner's before the interpolation (across the wrap of an
+        atan2 they differ by about P) and f is wrapped into [-P / 2, P / 2) after it."""
         corners, cell = self._cell(si, texture, hit)
         a, b = cell.a, cell.b
+        period = self.period_of.get(id(texture))
+        if period is not None:
+            corners = [self._unwrapped(texel, corners[0][_F[0]], period) for texel in corners]
         f = hermite(corners, a, b, cell.spacing, _F)
+        if period is not None:
+            f = f - period * self.ops.floor(f / period + 0.5)
         slopes = (bilinear(corners, a, b, _F_S), bilinear(corners, a, b, _F_T))
         return f, slopes, bilinear(corners, a, b, _VALID) > 0.5, cell
+
+    def _unwrapped(self, texel: Any, first: Any, period: float) -> list:
+        """A corner texel's channels with its value f moved by whole periods to within
+        period / 2 of ``first``."""
+        channels = list(texel)
+        f = channels[_F[0]]
+        channels[_F[0]] = f - period * self.ops.floor((f - first) / period + 0.5)
+        return channels
 
     def _screen_slopes(self, si: Any, cell: Any, f_s: Any, f_t: Any) -> tuple[Any, Any]:
         """d f / d(screen x, y) = f_s ds/dx + f_t dt/dx (and for y), from the slopes in the

@@ -55,6 +55,7 @@ from .registry import (
     checked_parameters,
     evaluate,
     function_bands,
+    function_period,
     get_shape_function,
     register,
     validate_parameter,
@@ -76,6 +77,7 @@ __all__ = [
     "checked_parameters",
     "evaluate",
     "function_bands",
+    "function_period",
     "get_shape_function",
     "validate_parameter",
     "validate_parameters",
@@ -214,6 +216,7 @@ register(
     _reflection_lines,
     _pack_reflection,
     eye=True,
+    period=lambda kw: 2 * np.pi if kw["form"] == "infinity" else None,
     eye_point=Parameter("point", (0.0, -10.0, 5.0), "eye point e"),
     form=Parameter(
         "choice", "plane", "plane: light lines in a plane; infinity: zebra", ("plane", "infinity")

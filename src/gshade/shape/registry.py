@@ -31,6 +31,7 @@ __all__ = [
     "ShapeValues",
     "evaluate",
     "function_bands",
+    "function_period",
     "get_shape_function",
     "register",
     "validate_parameter",
@@ -124,6 +125,9 @@ class ShapeFunction:
     pack: Callable[[str, dict[str, Any]], Packed] = field(default=_no_parameters, repr=False)
     #: checked parameters -> the bands of ``display = "bands"`` (None: it has none)
     bands: Callable[[dict[str, Any]], Bands] | None = field(default=None, repr=False)
+    #: checked parameters -> the period of f where its values are angles that wrap (an
+    #: atan2 in (-pi, pi]: the renderer interpolates across the wrap), None where they do not
+    period: Callable[[dict[str, Any]], float | None] | None = field(default=None, repr=False)
 
     @property
     def reflection(self) -> bool:
@@ -263,6 +267,7 @@ def register(
     eye: bool = False,
     signed: bool = False,
     bands: Callable[[dict[str, Any]], Bands] | None = None,
+    period: Callable[[dict[str, Any]], float | None] | None = None,
     **parameters: Parameter,
 ) -> None:
     """Declare a shape function: the one place its name, order, summary, formula, parameters,
@@ -278,7 +283,26 @@ def register(
         formula,
         pack or _no_parameters,
         bands,
+        period,
     )
+
+
+def function_period(function: str | ShapeFunction, params: dict[str, Any]) -> float | None:
+    """The period of a function's values for its parameters (checked here) where they are
+    angles that wrap (``reflection_lines`` of form ``infinity``: 2 pi), else None.
+
+    Examples
+    --------
+    >>> import gshade.shape
+    >>> round(function_period("reflection_lines", {"form": "infinity"}), 6)
+    6.283185
+    >>> function_period("mean", {}) is None
+    True
+    """
+    fn = function if isinstance(function, ShapeFunction) else get_shape_function(function)
+    if fn.period is None:
+        return None
+    return fn.period(checked_parameters(fn, params))
 
 
 def function_bands(function: str | ShapeFunction, params: dict[str, Any]) -> Bands:
