@@ -10,6 +10,7 @@ and a picture's independence of ``spp``.
 
 from __future__ import annotations
 
+import json
 import math
 from collections import defaultdict
 from pathlib import Path
@@ -345,3 +346,18 @@ def test_gshade_lightbox_refuses_in_one_line(tmp_path: Path, capsys, monkeypatch
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and words in err, err
     assert not list(tmp_path.iterdir())
+
+
+def test_the_environment_has_no_numbers_over_the_surface(tmp_path: Path) -> None:
+    """``gshade info --stats`` of an environment scene: no value over the whole surface (not
+    the numbers of the normal's textures it is drawn from); a render's numbers are those of
+    its visible f, the luminance reflected."""
+    from gshade.rendering.pipeline import shape_statistics
+
+    path = _scene(tmp_path, 'function = "environment"', size=(40, 30))
+    numbers = shape_statistics(path)
+    assert numbers["function"] == "environment" and numbers["surface"] is None
+    image = gshade.render(path)
+    visible = json.loads(image.metadata["statistics"])["visible"]
+    hit = image["patch"] >= 0
+    assert visible["max"]["value"] == pytest.approx(float(image["f"][hit].max()), rel=1e-6)

@@ -300,8 +300,13 @@ def _textures(
 def shape_statistics(scene: Scene | str | os.PathLike, **overrides: Any) -> dict[str, Any]:
     """The numbers of a scene's shape function over its whole surface, without rendering
     (``gshade info --stats``): as a render's header gives them (its ``statistics``), less
-    the visible surface's.  ``overrides`` as for :func:`render`."""
+    the visible surface's (none for a reflection: it has no value without a view).
+    ``overrides`` as for :func:`render`."""
     scene = scene_with_settings(scene, overrides)
+    if get_shape_function(scene.shape.function).reflection:
+        numbers = _statistics(scene, None, None)
+        del numbers["visible"]
+        return numbers
     settings, where = _settings(scene)
     framing = frame(scene, settings, where)
     resolution = mesh_resolution(scene, settings, framing)
