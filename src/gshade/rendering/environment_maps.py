@@ -21,6 +21,7 @@ stripes, and :func:`gshade.rendering.environment_files.read_environment_map` rea
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -204,10 +205,19 @@ class SummedArea:
         np.cumsum(inner, axis=1, out=inner)
         self.table = table
 
+    def channel_tables(self) -> list[NDArray[np.float64]]:
+        """The table of each channel, flat (row-major (H + 1, W + 1)): what
+        :func:`table_integral` reads."""
+        table = self.table
+        return [np.ascontiguousarray(table[..., k]).ravel() for k in range(table.shape[2])]
+
+    @cached_property
+    def _channels(self) -> list[NDArray[np.float64]]:
+        return self.channel_tables()
+
     def _integral(self, c: NDArray, r: NDArray) -> NDArray:
         """F(c, r) for any column c (wrapping) and r in [0, H]."""
-        channels = [self.table[..., k].ravel() for k in range(self.table.shape[2])]
-        values = table_integral(channels, self.width, self.height, c, r, NUMPY)
+        values = table_integral(self._channels, self.width, self.height, c, r, NUMPY)
         return np.stack(values, axis=-1)
 
     def box_mean(self, c0: ArrayLike, c1: ArrayLike, r0: ArrayLike, r1: ArrayLike) -> NDArray:

@@ -34,6 +34,7 @@ from ..io.image import linear_to_srgb
 from ..limits import MAX_SAMPLES
 from ..scene.model import RenderSettings
 from .camera import View
+from .channels import PICTURE
 from .mitsuba_scene import MitsubaScene, render_pixels_of, render_uniform
 
 __all__ = [
@@ -53,8 +54,6 @@ MAX_GLOSSY_SPP = 65536
 #: a bright strip in a pixel's lobe alike (measured: at 16, a teapot at roughness 0.05 had
 #: dots 5 % darker or brighter than their neighbours; at 256 none to see)
 MIN_GLOSSY_SPP = 256
-#: The film's channels kept: the picture's (R, G, B, A, f).
-KEPT = tuple(range(5))
 #: The side, in pixels, of the square over which the seeds' differences are pooled.
 POOL = 5
 #: A pixel is converged when the seeds' difference there, sqrt(2) times a seed's spread,
@@ -101,9 +100,13 @@ def spread(a: NDArray, b: NDArray, samples: NDArray, covered: NDArray) -> NDArra
     >>> spread(a, b, np.full(9, 4), np.ones((3, 3), bool)).round(3)[:2]
     array([0.343, 0.343])
     """
+    return _spread(_differences(a, b), samples, covered)
+
+
+def _spread(d: NDArray, samples: NDArray, covered: NDArray) -> NDArray[np.float64]:
+    """:func:`spread` of the seeds' differences d (n,)."""
     from scipy.ndimage import uniform_filter
 
-    d = _differences(a, b)
     weight = covered.astype(np.float64)
     v = (d * d * samples / 2).reshape(covered.shape) * weight
     pooled = uniform_filter(v, POOL, mode="constant") / np.maximum(
@@ -112,10 +115,11 @@ def spread(a: NDArray, b: NDArray, samples: NDArray, covered: NDArray) -> NDArra
     return np.sqrt(np.maximum(pooled.ravel(), 0.0) / samples)
 
 
-def _unsettled(a: NDArray, b: NDArray, samples: NDArray, covered: NDArray) -> NDArray:
-    """The covered pixels not yet converged (see the module's docstring)."""
-    far = SIGMAS * np.sqrt(2) * spread(a, b, samples, covered) >= TOLERANCE
-    return covered.ravel() & ((_differences(a, b) >= TOLERANCE) | far)
+def _unsettled(d: NDArray, samples: NDArray, covered: NDArray) -> NDArray:
+    """The covered pixels not yet converged (see the module's docstring), from the seeds'
+    differences d."""
+    far = SIGMAS * np.sqrt(2) * _spread(d, samples, covered) >= TOLERANCE
+    return covered.ravel() & ((d >= TOLERANCE) | far)
 
 
 def converged_picture(
@@ -132,27 +136,26 @@ def converged_picture(
     while base < MIN_GLOSSY_SPP and 2 * pixels * base * 4 <= MAX_SAMPLES:
         base *= 4
     settings = replace(settings, spp=base)
-    films = [render_uniform(scene, replace(settings, seed=s))[..., KEPT].copy() for s in seeds]
-    flat = [f.reshape(-1, len(KEPT)) for f in films]
+    kept = len(PICTURE)
+    films = [render_uniform(scene, replace(settings, seed=s))[..., :kept].copy() for s in seeds]
+    flat = [f.reshape(-1, kept) for f in films]
     spp = np.full(flat[0].shape[0], base, np.int64)
     count = base
     covered = flat[0][:, 3] + flat[1][:, 3] > 0
     while True:
-        todo = np.flatnonzero(
-            _unsettled(flat[0], flat[1], spp, covered.reshape(films[0].shape[:2]))
-        )
+        differences = _differences(flat[0], flat[1])
+        todo = np.flatnonzero(_unsettled(differences, spp, covered.reshape(films[0].shape[:2])))
         count *= 4
         if not todo.size or count > MAX_GLOSSY_SPP or todo.size * count > MAX_SAMPLES:
             break
         more = replace(settings, spp=count)
         for film, s in zip(flat, seeds, strict=True):
-            film[todo] = render_pixels_of(scene, view, replace(more, seed=s), todo)[:, KEPT]
+            film[todo] = render_pixels_of(scene, view, replace(more, seed=s), todo)[:, :kept]
         spp[todo] = count
-    difference = _differences(*flat)[covered]
+    difference = differences[covered]  # the films' last: the loop ends before rendering
     convergence = Convergence(
         (int(spp[covered].min(initial=base)), int(spp[covered].max(initial=base))),
         float(difference.max(initial=0.0)),
         float(np.mean(difference < TOLERANCE)) if difference.size else 1.0,
     )
-    picture = (films[0] + films[1]) / 2
-    return picture[..., :5], convergence
+    return (films[0] + films[1]) / 2, convergence

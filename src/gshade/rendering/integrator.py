@@ -34,6 +34,7 @@ run per sample in ``scalar_rgb``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -125,9 +126,6 @@ class IntegratorSettings:
     parabolic: bool = False
     #: display = "reflection": the environment reflected (the textures: n_x, n_y, n_z)
     environment: Environment | None = None
-    #: per function's textures (in order), the period of its values where they are angles
-    #: that wrap (:func:`gshade.shape.function_period`), else None (missing: None)
-    periods: tuple[float | None, ...] = ()
 
 
 def make_integrator(
@@ -146,7 +144,7 @@ def make_integrator(
     geometry = _texture(mi, GEOMETRY.pack(textures.geometry()))
     values = [_texture(mi, SHAPE.pack(textures.function(k))) for k in range(len(textures.values))]
     shape = mi.load_dict({"type": SHAPE_PLUGIN})
-    shape.configure(settings, geometry, values, lut)
+    shape.configure(settings, geometry, values, lut, textures.periods)
     return shape
 
 
@@ -196,10 +194,17 @@ class ShapeIntegrator(ReflectionSampling):
         return f"{type(self).__name__}[{self.mi.variant()}]"
 
     def configure(
-        self, settings: IntegratorSettings, geometry: Any, values: list[Any], lut: np.ndarray | None
+        self,
+        settings: IntegratorSettings,
+        geometry: Any,
+        values: list[Any],
+        lut: np.ndarray | None,
+        periods: Sequence[float | None] = (),
     ) -> None:
         """Set what to draw: the settings, the atlas textures of the surface and of the
-        functions (see :func:`make_integrator`) and the colour map's lookup table."""
+        functions (see :func:`make_integrator`), the colour map's lookup table, and the
+        periods of the functions' values where they wrap
+        (:attr:`gshade.rendering.textures.ShapeTextures.periods`)."""
         self.geometry = geometry  # p, p_s, p_t, p_st: 12 channels, fetched at once
         atlas = settings.atlas
         self.atlas_w, self.atlas_h = atlas.width, atlas.height
@@ -209,10 +214,10 @@ class ShapeIntegrator(ReflectionSampling):
         self.display = DISPLAY_CODES[settings.display]
         self.lighting = settings.lighting  # 'flat', 'lit' or 'soft'
         self.values = values[0]  # f, f_s, f_t, f_st, valid
-        periods = (*settings.periods, *([None] * len(values)))
-        self.period_of = {id(texture): p for texture, p in zip(values, periods, strict=False)}
+        periods = (*periods, *([None] * len(values)))  # of the values that wrap
+        self.value_period = periods[0]
         if self.display == BOTH:
-            self.colour_values = values[1]
+            self.colour_values, self.colour_period = values[1], periods[1]
         if lut is not None:
             self.lut = _bitmap(self.mi, lut[None, :, :])
             self.lut_size = lut.shape[0]
@@ -277,17 +282,18 @@ class ShapeIntegrator(ReflectionSampling):
         si.uv = mi.Point2f((t * (self.lut_size - 1) + 0.5) / self.lut_size, 0.5)
         return self.lut.eval(si)
 
-    def _shape_value(self, si: Any, hit: Any, texture: Any) -> tuple[Any, Any, Any, Any]:
+    def _shape_value(
+        self, si: Any, hit: Any, texture: Any, period: float | None = None
+    ) -> tuple[Any, Any, Any, Any]:
         """f (bicubic Hermite), its bilinear slopes (f_s, f_t) and whether it is
         defined (bilinear validity > 1/2), from one fetch of the cell's texels; and the
         cell (its tile's columns and rows).
 
-        Where f's values are angles that wrap (a period P), the corners' values are taken
+        Where f's values are angles that wrap (``period`` P), the corners' values are taken
         within P / 2 of the first corner's before the interpolation (across the wrap of an
         atan2 they differ by about P) and f is wrapped into [-P / 2, P / 2) after it."""
         corners, cell = self._cell(si, texture, hit)
         a, b = cell.a, cell.b
-        period = self.period_of.get(id(texture))
         if period is not None:
             corners = [self._unwrapped(texel, corners[0][_F[0]], period) for texel in corners]
         f = hermite(corners, a, b, cell.spacing, _F)
@@ -385,7 +391,7 @@ class ShapeIntegrator(ReflectionSampling):
             flags = dr.select(defined, 1.0, 0.0) + dr.select(occluded, 2.0, 0.0)
             aovs = [dr.select(hit, x, 0.0) for x in (f, si.uv.x, si.uv.y, flags)]
             return colour, hit, [*aovs, Float(0.0), Float(0.0)]
-        f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values)
+        f, (f_s, f_t), defined, cell = self._shape_value(si, hit, self.values, self.value_period)
         fx, fy = self._screen_slopes(si, cell, f_s, f_t)
         if self.display == COLORMAP:
             colour = self._lookup(f)
@@ -399,7 +405,9 @@ class ShapeIntegrator(ReflectionSampling):
             cov = Float(coverage_formula(s, a, b, self.duty, ops))
             colour = Color3f(DARK) * cov + Color3f(LIGHT) * (1.0 - cov)
             if self.display == BOTH:
-                g, _, colour_defined, _ = self._shape_value(si, hit, self.colour_values)
+                g, _, colour_defined, _ = self._shape_value(
+                    si, hit, self.colour_values, self.colour_period
+                )
                 colour = self._lookup(g) * (1.0 - 0.65 * cov)
                 defined = defined & colour_defined
         colour = dr.select(defined, colour, Color3f(UNDEFINED))

@@ -18,13 +18,12 @@ from numpy.typing import NDArray
 from ..runtime.llvm import import_drjit
 from ..runtime.variant import mitsuba
 from ..scene.model import RenderSettings, Shape
-from ..shape import function_period
 from .atlas import Atlas
 from .camera import View
 from .integrator import IntegratorSettings, make_integrator
 from .pixel_sensor import pixel_list_sensor
 from .reflections import Environment
-from .style import DisplayStyle, shape_functions
+from .style import DisplayStyle
 from .tessellate import TriangleMesh
 from .textures import ShapeTextures
 
@@ -93,7 +92,6 @@ def mitsuba_scene(
         bands=style.bands,
         parabolic=settings.parabolic,
         environment=environment,
-        periods=tuple(function_period(fn, params) for fn, params in shape_functions(shape)[0]),
     )
     random = settings.lighting == "soft" or (environment is not None and environment.roughness > 0)
     sensor = view.sensor(mi, settings.spp, settings.seed, "jittered" if random else "symmetric")

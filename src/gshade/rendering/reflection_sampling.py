@@ -46,7 +46,8 @@ class ReflectionSampling:
         mi = self.mi
         self.normal_values = values[:3]
         self.map_w, self.map_h = env.width, env.height
-        self.map_tables = [t if self.scalar else mi.Float64(t) for t in env.tables()]
+        tables = env.summed.channel_tables()
+        self.map_tables = [t if self.scalar else mi.Float64(t) for t in tables]
         self.rotation = float(np.radians(env.rotation))
         self.glossy: Any = None
         if env.roughness > 0:
@@ -82,12 +83,9 @@ class ReflectionSampling:
     def _reflection(self, scene: Any, sampler: Any, si: Any, ray: Any, hit: Any) -> tuple:
         """The environment reflected at one sample (see :mod:`gshade.rendering.reflections`):
         the colour, f (its luminance, the map's unoccluded), where defined, and whether the
-        reflected ray meets the surface itself.
-
-        The mirror's footprint: dr/dx = dv/dx - 2 (<dv/dx, n> + <v, dn/dx>) n - 2 <v, n>
-        dn/dx, from the ray differentials and n's slopes, into texels by the map's Jacobian
-        (dphi = (x dy - y dx) / rho^2, dtheta = (z (x dx + y dy) / rho - rho dz) with
-        rho^2 = x^2 + y^2, for a unit r)."""
+        reflected ray meets the surface itself: the map's mean over the mirror's footprint
+        (:meth:`_footprint`) about r = v - 2 <v, n> n, or a glossy sample
+        (:meth:`_glossy`)."""
         mi, dr, ops = self.mi, self.dr, self.ops
         parts = [self._shape_value(si, hit, tex) for tex in self.normal_values]
         defined = parts[0][2] & parts[1][2] & parts[2][2]
@@ -105,10 +103,13 @@ class ReflectionSampling:
         return dr.select(occluded, mi.Color3f(*OCCLUDED), colour), f, defined, occluded
 
     def _footprint(self, ray: Any, n: Any, slopes: list, r: Any) -> tuple[Any, Any]:
-        """The mirror's footprint about r in map texels: the half-sides of the box whose
-        column and row spreads (variances) are the pixel's (a parallelogram of sides
-        (dc/dx, dr/dx), (dc/dy, dr/dy) spreads its columns as a box of width
-        sqrt(dc/dx^2 + dc/dy^2) does); see :meth:`_reflection`."""
+        """The mirror's footprint about r in map texels: dr/dx = dv/dx - 2 (<dv/dx, n> +
+        <v, dn/dx>) n - 2 <v, n> dn/dx, from the ray differentials and n's slopes, carried
+        into texels by the map's Jacobian (dphi = (x dy - y dx) / rho^2, dtheta =
+        (z (x dx + y dy) / rho - rho dz) with rho^2 = x^2 + y^2, for a unit r); then the
+        half-sides of the box whose column and row spreads (variances) are the sample's (a
+        parallelogram of sides (dc/dx, dr/dx), (dc/dy, dr/dy) spreads its columns as a box
+        of width sqrt(dc/dx^2 + dc/dy^2) does)."""
         mi, dr, ops = self.mi, self.dr, self.ops
         v, w, h = ray.d, self.map_w, self.map_h
         vn = dr.dot(v, n)
@@ -148,9 +149,10 @@ class ReflectionSampling:
     ) -> tuple:
         """A glossy conductor: one direction wo sampled by Mitsuba's ``roughconductor`` in
         the frame of the exact normal (turned towards the viewer), weighted by the BSDF's
-        weight (f cos / pdf), the map read over the solid angle the sample stands for among
-        the pixel's ``spp`` stratified samples, 1 / (spp pdf(wo)): a square of that area
-        about wo (:meth:`_map_mean`), so that the samples' boxes tile the lobe."""
+        weight (f cos / pdf), the map read over the directions the sample stands for: a
+        square of solid angle 1 / (:data:`GLOSSY_STRATA` pdf(wo)) about wo, its spread
+        widened by the mirror's ``footprint`` (the sample's share of the pixel), averaged
+        by :meth:`_map_mean`."""
         mi, dr, ops = self.mi, self.dr, self.ops
         n = dr.select(dr.dot(n, ray.d) > 0, -n, n)
         si.sh_frame = mi.Frame3f(n)

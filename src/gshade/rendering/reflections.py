@@ -91,12 +91,6 @@ class Environment:
     def height(self) -> int:
         return int(self.map.shape[0])
 
-    def tables(self) -> list[NDArray[np.float64]]:
-        """The summed-area table of each colour channel, flat (row-major (H + 1, W + 1)):
-        what :func:`gshade.rendering.environment_maps.table_integral` reads."""
-        table = self.summed.table
-        return [np.ascontiguousarray(table[..., k]).ravel() for k in range(table.shape[2])]
-
     def radiance(self, r: NDArray) -> NDArray[np.float64]:
         """The map's colour (N, 3) in the directions r (N, 3): its texels bilinearly
         interpolated (a one-texel box)."""

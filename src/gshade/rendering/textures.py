@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from ..geometry import Patch, irregular_mask, regularised_derivatives
 from ..geometry.core.differential import derivative_scales
 from ..geometry.evaluation.patch_groups import domain_spans, grid_derivatives, patch_grid
-from ..shape import ShapeFunction, evaluate
+from ..shape import ShapeFunction, evaluate, function_period
 from .atlas import GEOMETRY, SHAPE, Atlas
 
 __all__ = ["Atlas", "ShapeTextures", "shape_textures", "texel_areas"]
@@ -49,6 +49,9 @@ class ShapeTextures:
     #: (H, W): whether each texel's parametrisation is regular (False on a collapsed edge,
     #: at an extraordinary vertex: its values are limits taken from inside); None: all
     regular: NDArray[np.bool_] | None = None
+    #: per function, the period of its values where they are angles that wrap (the
+    #: renderer interpolates them unwrapped: :func:`gshade.shape.function_period`), else None
+    periods: tuple[float | None, ...] = ()
 
     def geometry(self) -> dict[str, NDArray[np.float32]]:
         """The surface's images by quantity (see :data:`gshade.rendering.atlas.GEOMETRY`)."""
@@ -192,6 +195,16 @@ def shape_textures(
                 twist[j][tile] = f_st[c].T
                 valid[j][tile] = res.valid[c].T
     position, tangent_s, tangent_t, twist_st = geometry
+    periods = tuple(function_period(fn, params) for fn, params in functions)
     return ShapeTextures(
-        atlas, values, twist, valid, position, tangent_s, tangent_t, twist_st, regular_image
+        atlas,
+        values,
+        twist,
+        valid,
+        position,
+        tangent_s,
+        tangent_t,
+        twist_st,
+        regular_image,
+        periods,
     )
