@@ -361,3 +361,24 @@ def test_the_environment_has_no_numbers_over_the_surface(tmp_path: Path) -> None
     visible = json.loads(image.metadata["statistics"])["visible"]
     hit = image["patch"] >= 0
     assert visible["max"]["value"] == pytest.approx(float(image["f"][hit].max()), rel=1e-6)
+
+
+def test_no_output_replaces_the_map(tmp_path: Path, capsys) -> None:
+    """The map is one of the scene's data files: ``-o`` naming it is refused before anything
+    is written, and the scene's hash follows the map's bytes."""
+    from gshade.app.cli import main
+    from gshade.scene.changes import scene_with_settings
+
+    _write_map(tmp_path / "grey.exr", np.full((8, 16, 3), 0.5, np.float32))
+    path = _scene(tmp_path, 'function = "environment"\nmap = "grey.exr"', size=(16, 12))
+    before = (tmp_path / "grey.exr").read_bytes()
+    assert main(["render", str(path), "-o", str(tmp_path / "grey.exr")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "would be replaced" in err, err
+    assert (tmp_path / "grey.exr").read_bytes() == before
+    scene = gshade.load_scene(path)
+    assert scene.data_files == ((tmp_path / "grey.exr").resolve(),)
+    _write_map(tmp_path / "grey.exr", np.full((8, 16, 3), 0.25, np.float32))
+    assert gshade.load_scene(path).text_hash != scene.text_hash
+    lit = scene_with_settings(scene, {"set": {"shape.map": "lightbox"}})
+    assert lit.data_files == ()

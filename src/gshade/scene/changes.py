@@ -144,6 +144,10 @@ def _changed(scene: Scene, changes: Mapping[str, Any]) -> Scene:
     }
     touched = {key.split(".")[0] for key in changes}
     parsed = {name: parsers[name](source, raw[name]) for name in _SCENE_TABLES if name in touched}
+    if "shape" in parsed:  # the files the [shape] names: the new ones for the old
+        old = set(scene.shape.data_files())
+        kept = [f for f in scene.data_files if f not in old]
+        parsed["data_files"] = tuple(dict.fromkeys([*kept, *parsed["shape"].data_files()]))
     return replace(scene, **parsed)
 
 

@@ -117,9 +117,11 @@ def _hash(raw: dict[str, Any], data_files: Sequence[Path]) -> str:
     h = hashlib.sha256(b"gshade-scene-1\0")
     text = json.dumps(raw, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
     h.update(text.encode("utf-8"))
-    for f in data_files:
-        data = f.read_bytes()
-        h.update(b"\0" + len(data).to_bytes(8, "little") + data)
+    for f in data_files:  # in pieces: a map may be large
+        with open(f, "rb") as file:
+            h.update(b"\0" + os.fstat(file.fileno()).st_size.to_bytes(8, "little"))
+            while piece := file.read(1 << 20):
+                h.update(piece)
     return h.hexdigest()
 
 
@@ -179,6 +181,9 @@ def _build(
         if bad is not None:
             which = f" patch {bad[0]}" if len(surface.patches) > 1 else ""
             raise GshadeError(f"{surface.source}:{which} degenerate: {bad[1]}")
+    for data_file in shape.data_files():  # a map: no output may replace it either
+        if data_file not in data_files:
+            data_files.append(data_file)
     return Scene(
         name=name,
         path=path,

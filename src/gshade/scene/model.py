@@ -88,6 +88,19 @@ class Shape:
         names = SHAPE_FUNCTIONS[function].parameters
         return {k: v for k, v in self.params.items() if k in names}
 
+    def data_files(self) -> tuple[Path, ...]:
+        """The files its functions' ``file`` parameters name (an environment's map; not
+        one of the parameter's names, such as ``"lightbox"``), resolved."""
+        found: dict[Path, None] = {}
+        for function in (self.function, self.colour_function):
+            if function is None:
+                continue
+            for name, spec in SHAPE_FUNCTIONS[function].parameters.items():
+                value = self.params.get(name)
+                if spec.kind == "file" and value is not None and value not in spec.choices:
+                    found[Path(value).resolve()] = None
+        return tuple(found)
+
 
 def _point(name: str, value: Any) -> NDArray:
     try:
